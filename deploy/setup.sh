@@ -1,0 +1,101 @@
+#!/usr/bin/env bash
+# Idempotent fresh-machine setup for Waggle.
+#  - Debian packages for headless EGL rendering on Mesa (CPU rasteriser here, vendor drivers on GPU hosts)
+#  - the pinned MuJoCo wheel (libmujoco + C headers + licences)
+#  - the pinned drone-models wheel (Crazyflie 2.x STL meshes + licence metadata)
+# Everything lands in third_party/ (git-ignored). Re-running is cheap: each step checks a stamp.
+set -euo pipefail
+
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+tp="$root/third_party"
+cache="$tp/.downloads"
+mkdir -p "$cache"
+
+MUJOCO_VERSION="3.17.0"
+MUJOCO_WHEEL="mujoco-${MUJOCO_VERSION}-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl"
+MUJOCO_SHA256="d66928d86a2d1b601bbaa4dc11db50214d17d5301bb8afd84721313b67ff0874"
+DRONE_MODELS_VERSION="0.1.0"
+DRONE_MODELS_WHEEL="drone_models-${DRONE_MODELS_VERSION}-py3-none-any.whl"
+DRONE_MODELS_SHA256="e35af621a86ff3ba9570bf1367d11edfc3ccde0eaf239c2d853cc3df11885063"
+
+say() { printf 'setup: %s\n' "$*" >&2; }
+die() { printf 'setup: error: %s\n' "$*" >&2; exit 1; }
+
+# --- Debian packages ------------------------------------------------------------------------
+apt_packages=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgbm1 unzip)
+missing=()
+for p in "${apt_packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  say "installing Debian packages: ${missing[*]}"
+  sudo_cmd=""
+  [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# --- pinned wheels ----------------------------------------------------------------------------
+# fetch_wheel SPEC FILE SHA256 [pip platform args...]
+fetch_wheel() {
+  local spec="$1" file="$2" sha="$3"; shift 3
+  local path="$cache/$file"
+  if [ -f "$path" ] && echo "$sha  $path" | sha256sum --check --status; then
+    return 0
+  fi
+  rm -f "$path"
+  say "downloading $spec"
+  command -v python3 >/dev/null || die "python3 with pip is needed to download $file from PyPI"
+  python3 -m pip download --quiet --no-deps --only-binary=:all: "$@" "$spec" -d "$cache" \
+    || die "could not download $file ($spec) from PyPI"
+  [ -f "$path" ] || die "PyPI did not deliver the expected file $file for $spec"
+  if ! echo "$sha  $path" | sha256sum --check --status; then
+    local got; got="$(sha256sum "$path" | cut -d' ' -f1)"
+    rm -f "$path"
+    die "checksum mismatch for $file: expected $sha, got $got (file removed)"
+  fi
+}
+
+mujoco_stamp="$tp/mujoco/.stamp-$MUJOCO_SHA256"
+if [ ! -f "$mujoco_stamp" ]; then
+  fetch_wheel "mujoco==$MUJOCO_VERSION" "$MUJOCO_WHEEL" "$MUJOCO_SHA256" \
+    --python-version 3.11 --platform manylinux_2_28_x86_64
+  say "unpacking MuJoCo $MUJOCO_VERSION"
+  rm -rf "$tp/mujoco" "$tp/.unpack-mujoco"
+  mkdir -p "$tp/.unpack-mujoco" "$tp/mujoco/lib"
+  unzip -q "$cache/$MUJOCO_WHEEL" 'mujoco/libmujoco.so*' 'mujoco/include/*' \
+    "mujoco-$MUJOCO_VERSION.dist-info/licenses/*" -d "$tp/.unpack-mujoco" \
+    || die "corrupt wheel $cache/$MUJOCO_WHEEL"
+  cp "$tp/.unpack-mujoco/mujoco/libmujoco.so.$MUJOCO_VERSION" "$tp/mujoco/lib/"
+  ln -sf "libmujoco.so.$MUJOCO_VERSION" "$tp/mujoco/lib/libmujoco.so"
+  cp -r "$tp/.unpack-mujoco/mujoco/include" "$tp/mujoco/include"
+  cp "$tp/.unpack-mujoco/mujoco-$MUJOCO_VERSION.dist-info/licenses/"* "$tp/mujoco/"
+  rm -rf "$tp/.unpack-mujoco"
+  touch "$mujoco_stamp"
+fi
+
+drone_stamp="$tp/crazyflie/.stamp-$DRONE_MODELS_SHA256"
+if [ ! -f "$drone_stamp" ]; then
+  fetch_wheel "drone-models==$DRONE_MODELS_VERSION" "$DRONE_MODELS_WHEEL" "$DRONE_MODELS_SHA256"
+  say "unpacking Crazyflie meshes from drone-models $DRONE_MODELS_VERSION"
+  rm -rf "$tp/crazyflie" "$tp/.unpack-drone"
+  mkdir -p "$tp/.unpack-drone" "$tp/crazyflie"
+  unzip -q "$cache/$DRONE_MODELS_WHEEL" 'drone_models/data/assets/cf2x/*' \
+    'drone_models/data/assets/cf21B/cf_led-diffusor.stl' 'drone_models/data/cf2x_L250.xml' \
+    "drone_models-$DRONE_MODELS_VERSION.dist-info/METADATA" -d "$tp/.unpack-drone" \
+    || die "corrupt wheel $cache/$DRONE_MODELS_WHEEL"
+  cp -r "$tp/.unpack-drone/drone_models/data/assets/cf2x" "$tp/crazyflie/cf2x"
+  cp "$tp/.unpack-drone/drone_models/data/cf2x_L250.xml" "$tp/crazyflie/"
+  # The wheel carries no separate licence file; its metadata declares the MIT licence.
+  cp "$tp/.unpack-drone/drone_models-$DRONE_MODELS_VERSION.dist-info/METADATA" "$tp/crazyflie/LICENSE-METADATA"
+  cat > "$tp/crazyflie/LICENSE" <<LIC
+Crazyflie 2.x meshes from the drone-models $DRONE_MODELS_VERSION wheel on PyPI
+(authors: Marcel Rath, Martin Schuck), distributed under the MIT License
+("License :: OSI Approved :: MIT License" in LICENSE-METADATA beside this file).
+Inertial parameters match MuJoCo Menagerie's bitcraze_crazyflie_2 model.
+LIC
+  rm -rf "$tp/.unpack-drone"
+  touch "$drone_stamp"
+fi
+
+say "ready: MuJoCo $MUJOCO_VERSION and Crazyflie meshes in $tp"

@@ -1,0 +1,1 @@
+//! Synthetic event camera: threshold-crossing converter and packetiser.

@@ -1,0 +1,1 @@
+//! Observer: perception state (RGB and event receivers), frame parser, offer cache and allocation.

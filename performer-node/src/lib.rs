@@ -1,0 +1,1 @@
+//! Performer: gesture generation for the motion alphabet (setpoint trajectories, broadcast timelines).

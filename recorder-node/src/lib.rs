@@ -1,0 +1,1 @@
+//! Recorder: session recording into MCAP.

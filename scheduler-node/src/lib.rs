@@ -1,0 +1,1 @@
+//! Scheduler: task state, rounds, reception windows, safety router and navigation.

@@ -1,0 +1,1 @@
+//! MuJoCo physics, scene generation and headless rendering for Waggle.
