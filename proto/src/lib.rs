@@ -6,6 +6,7 @@
 //! messages are rejected with a typed [`DecodeError`].
 
 pub mod codec;
+pub mod scene;
 pub mod sensor;
 
 pub use codec::{DecodeError, FORMAT_VERSION, decode, encode};
