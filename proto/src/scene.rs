@@ -106,24 +106,25 @@ impl LevelCamera {
     }
 }
 
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+/// Euclidean distance between two world points, metres.
+pub fn distance_m(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
 
     #[test]
     fn nominal_arc_puts_o1_o2_nearer_a_and_o3_nearer_b() {
         let h: Vec<_> = (0..3).map(|i| observer_home_m(i, 3)).collect();
         for home in &h {
-            assert!((dist(*home, PERFORMER_HOVER_M) - ARC_RADIUS_M).abs() < 1e-12);
+            assert!((distance_m(*home, PERFORMER_HOVER_M) - ARC_RADIUS_M).abs() < 1e-12);
         }
-        assert!(dist(h[0], SITE_A_M) < dist(h[1], SITE_A_M));
-        assert!(dist(h[1], SITE_A_M) < dist(h[2], SITE_A_M));
-        assert!(dist(h[2], SITE_B_M) < dist(h[1], SITE_B_M));
-        assert!(dist(h[2], SITE_B_M) < dist(h[0], SITE_B_M));
+        assert!(distance_m(h[0], SITE_A_M) < distance_m(h[1], SITE_A_M));
+        assert!(distance_m(h[1], SITE_A_M) < distance_m(h[2], SITE_A_M));
+        assert!(distance_m(h[2], SITE_B_M) < distance_m(h[1], SITE_B_M));
+        assert!(distance_m(h[2], SITE_B_M) < distance_m(h[0], SITE_B_M));
     }
 
     #[test]

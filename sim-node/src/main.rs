@@ -1,0 +1,64 @@
+//! `sim-node`: the physics process of a Waggle session, plus tools that exercise the scene.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use sim_node::render::CameraRenderer;
+use sim_node::world::World;
+
+#[derive(Parser)]
+#[command(name = "sim-node", version, about = "Waggle physics and camera process")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Write each observer's current view as DIR/O<i>.png, then time 200 renders per camera.
+    Snapshot {
+        /// Number of observers (1..=8).
+        #[arg(long, default_value_t = 3)]
+        observers: usize,
+        /// Output directory (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// Renders per camera for the timing.
+        #[arg(long, default_value_t = 200)]
+        frames: usize,
+    },
+}
+
+fn main() -> Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
+        .with_writer(std::io::stderr)
+        .init();
+    match Cli::parse().command {
+        Command::Snapshot { observers, out, frames } => snapshot(observers, &out, frames),
+    }
+}
+
+fn snapshot(observers: usize, out: &std::path::Path, frames: usize) -> Result<()> {
+    let mut world = World::new(observers).context("building the scene")?;
+    let mut renderer = CameraRenderer::new(&world).context("creating the offscreen renderer")?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    for i in 0..observers {
+        let rgb = renderer.render(&mut world, i)?.to_vec();
+        let path = out.join(format!("{}.png", proto::scene::observer_name(i)));
+        sim_node::png_io::write_rgb_png(&path, &rgb, proto::scene::IMAGE_WIDTH_PX, proto::scene::IMAGE_HEIGHT_PX)
+            .with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    let start = Instant::now();
+    for _ in 0..frames {
+        for i in 0..observers {
+            renderer.render(&mut world, i)?;
+        }
+    }
+    let ms = start.elapsed().as_secs_f64() * 1e3 / (frames * observers).max(1) as f64;
+    println!("render_ms_per_frame={ms:.3}");
+    Ok(())
+}

@@ -1,0 +1,208 @@
+//! The physics world: MuJoCo model + data for one performer and N observers, stepped at 500 Hz
+//! on an integer-nanosecond clock, with ideal stabilisation and contact bookkeeping.
+
+use std::rc::Rc;
+
+use mujoco_rs::prelude::*;
+use proto::scene::{PERFORMER_HOVER_M, observer_home_m, observer_home_yaw_rad, observer_name};
+
+use crate::control::{DroneState, Gains, Reference, wrench};
+use crate::mjcf::{DRONE_INERTIA_KGM2, DRONE_MASS_KG, PERFORMER_BODY, PHYSICS_STEP_NS, SceneError, scene_xml};
+
+/// Why the world could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum WorldError {
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error(transparent)]
+    Assets(#[from] crate::assets::AssetError),
+    #[error("MuJoCo rejected the generated scene: {0}")]
+    Model(String),
+    #[error("generated scene lacks {0}")]
+    MissingObject(String),
+}
+
+/// Index of a drone in the world: 0 is the performer, 1..=N are observers O1..ON.
+pub type DroneIndex = usize;
+
+#[derive(Debug, Clone, Copy)]
+struct DroneIds {
+    body: usize,
+    qpos: usize,
+    qvel: usize,
+}
+
+/// Running contact and separation statistics since the world was built.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactStats {
+    /// Physics steps during which at least one drone–drone contact existed.
+    pub contact_steps: u64,
+    /// Minimum body-centre distance over all drone pairs and steps, m.
+    pub min_separation_m: f64,
+}
+
+/// The simulated world.
+pub struct World {
+    data: MjData<Rc<MjModel>>,
+    drones: Vec<DroneIds>,
+    names: Vec<String>,
+    references: Vec<Reference>,
+    gains: Gains,
+    step_index: u64,
+    stats: ContactStats,
+}
+
+impl World {
+    /// Builds the default scene with `observers` observers, every drone hovering at its home.
+    pub fn new(observers: usize) -> Result<Self, WorldError> {
+        let mesh_dir = crate::assets::crazyflie_mesh_dir()?;
+        let xml = scene_xml(observers, &mesh_dir)?;
+        let model = MjModel::from_xml_string(&xml).map_err(|e| WorldError::Model(e.to_string()))?;
+        let model = Rc::new(model);
+        let mut names = vec![PERFORMER_BODY.to_string()];
+        names.extend((0..observers).map(observer_name));
+        let mut drones = Vec::with_capacity(names.len());
+        for name in &names {
+            let body = model
+                .name_to_id(MjtObjBase::mjOBJ_BODY, name)
+                .ok_or_else(|| WorldError::MissingObject(format!("body {name}")))?;
+            let joint = model
+                .name_to_id(MjtObjBase::mjOBJ_JOINT, &format!("{name}_joint"))
+                .ok_or_else(|| WorldError::MissingObject(format!("joint {name}_joint")))?;
+            drones.push(DroneIds {
+                body,
+                qpos: model.jnt_qposadr()[joint] as usize,
+                qvel: model.jnt_dofadr()[joint] as usize,
+            });
+        }
+        let mut references = vec![Reference::hover(PERFORMER_HOVER_M, 0.0)];
+        for i in 0..observers {
+            let home = observer_home_m(i, observers);
+            references.push(Reference::hover(home, observer_home_yaw_rad(home)));
+        }
+        let mut data = MjData::new(model);
+        data.forward();
+        let mut world = Self {
+            data,
+            drones,
+            names,
+            references,
+            gains: Gains::default(),
+            step_index: 0,
+            stats: ContactStats { contact_steps: 0, min_separation_m: f64::INFINITY },
+        };
+        world.update_separation();
+        Ok(world)
+    }
+
+    /// Number of observers.
+    pub fn observers(&self) -> usize {
+        self.drones.len() - 1
+    }
+
+    /// Body names, performer first.
+    pub fn drone_names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Current sim time, ns.
+    pub fn time_ns(&self) -> u64 {
+        self.step_index * PHYSICS_STEP_NS
+    }
+
+    /// Physics steps taken.
+    pub fn step_index(&self) -> u64 {
+        self.step_index
+    }
+
+    /// Sets the reference that drone `i` tracks from the next step on.
+    pub fn set_reference(&mut self, i: DroneIndex, reference: Reference) {
+        self.references[i] = reference;
+    }
+
+    /// The reference drone `i` is tracking.
+    pub fn reference(&self, i: DroneIndex) -> Reference {
+        self.references[i]
+    }
+
+    /// Measured state of drone `i`.
+    pub fn state(&self, i: DroneIndex) -> DroneState {
+        let ids = self.drones[i];
+        let q = &self.data.qpos()[ids.qpos..ids.qpos + 7];
+        let v = &self.data.qvel()[ids.qvel..ids.qvel + 6];
+        DroneState {
+            pos_m: [q[0], q[1], q[2]],
+            vel_mps: [v[0], v[1], v[2]],
+            world_from_body: [q[3], q[4], q[5], q[6]],
+            body_rate_radps: [v[3], v[4], v[5]],
+        }
+    }
+
+    /// World position of drone `i`'s body frame, m.
+    pub fn position_m(&self, i: DroneIndex) -> [f64; 3] {
+        self.data.xpos()[self.drones[i].body]
+    }
+
+    /// Contact and separation statistics so far.
+    pub fn contact_stats(&self) -> ContactStats {
+        self.stats
+    }
+
+    /// Advances one 2 ms physics step.
+    pub fn step(&mut self) {
+        let gravity = -self.data.model().opt().gravity[2];
+        for (i, ids) in self.drones.iter().enumerate() {
+            let state = self.state(i);
+            let w = wrench(&state, &self.references[i], DRONE_MASS_KG, DRONE_INERTIA_KGM2, gravity, &self.gains);
+            self.data.xfrc_applied_mut()[ids.body] = w;
+        }
+        self.data.step();
+        self.step_index += 1;
+        if self.data.ncon() > 0 {
+            self.stats.contact_steps += 1;
+        }
+        self.update_separation();
+    }
+
+    /// Steps until sim time reaches `t_ns` (a multiple of the physics step).
+    pub fn step_until(&mut self, t_ns: u64) {
+        while self.time_ns() < t_ns {
+            self.step();
+        }
+    }
+
+    fn update_separation(&mut self) {
+        let xpos = self.data.xpos();
+        for a in 0..self.drones.len() {
+            for b in a + 1..self.drones.len() {
+                let pa = xpos[self.drones[a].body];
+                let pb = xpos[self.drones[b].body];
+                let d = ((pa[0] - pb[0]).powi(2) + (pa[1] - pb[1]).powi(2) + (pa[2] - pb[2]).powi(2)).sqrt();
+                if d < self.stats.min_separation_m {
+                    self.stats.min_separation_m = d;
+                }
+            }
+        }
+    }
+
+    /// Mutable access to the MuJoCo data, for the renderer.
+    pub(crate) fn data_mut(&mut self) -> &mut MjData<Rc<MjModel>> {
+        &mut self.data
+    }
+
+    /// The MuJoCo model.
+    pub(crate) fn model(&self) -> &MjModel {
+        self.data.model()
+    }
+
+    /// Overwrites drone `i`'s pose (teleport, zero velocity) and recomputes kinematics. For tests
+    /// and tools that need a given state without flying there.
+    pub fn teleport(&mut self, i: DroneIndex, pos_m: [f64; 3], yaw_rad: f64) {
+        let ids = self.drones[i];
+        let (s, c) = (0.5 * yaw_rad).sin_cos();
+        self.data.qpos_mut()[ids.qpos..ids.qpos + 7].copy_from_slice(&[pos_m[0], pos_m[1], pos_m[2], c, 0.0, 0.0, s]);
+        self.data.qvel_mut()[ids.qvel..ids.qvel + 6].fill(0.0);
+        self.references[i] = Reference::hover(pos_m, yaw_rad);
+        self.data.forward();
+    }
+}
