@@ -1,0 +1,214 @@
+//! `waggle link`: the in-process link harness.
+//!
+//! One process steps physics, flies the broadcast, renders each observer's camera at its
+//! modality's rate and feeds each observer's receiver only its own sensor data. It is the fast
+//! bench on which receivers are developed and tested without Zenoh.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, ValueEnum};
+use observer_node::{SegmentToken, SegmenterConfig};
+use performer_node::{GestureConfig, IdealReceiver, Schedule, broadcast};
+use proto::ReleasedFrame;
+use proto::scene::{MAX_OBSERVERS, observer_name};
+use serde::Serialize;
+use sim_node::control::Reference;
+use sim_node::world::World;
+
+/// Sensor modality of the observers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Modality {
+    /// Ground-truth projection (evaluation baseline, no sensor).
+    Ideal,
+    /// 25 Hz RGB camera with the KLT receiver.
+    Rgb,
+    /// 100 Hz renders converted to synthetic events in 40 ms packets.
+    Events,
+}
+
+#[derive(Debug, Args)]
+pub struct LinkArgs {
+    /// Number of observers (1..=8).
+    #[arg(long, default_value_t = 3)]
+    observers: usize,
+    /// Observer sensor modality.
+    #[arg(long, value_enum, default_value_t = Modality::Ideal)]
+    modality: Modality,
+    /// Six-bit payload to broadcast, e.g. 011010; repeat for back-to-back offers.
+    #[arg(long = "payload", required = true, value_parser = parse_bits6)]
+    payloads: Vec<u8>,
+    /// Black out this observer's camera from start-up (e.g. O2); repeatable.
+    #[arg(long)]
+    black: Vec<String>,
+    /// Print machine-readable JSON instead of the table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Parses exactly six characters of '0'/'1' into a number, b1 most significant.
+pub fn parse_bits6(s: &str) -> Result<u8, String> {
+    if s.len() != 6 || !s.bytes().all(|b| b == b'0' || b == b'1') {
+        return Err(format!("payload {s:?} is not six binary digits (e.g. 011010)"));
+    }
+    u8::from_str_radix(s, 2).map_err(|e| e.to_string())
+}
+
+fn bits6(payload: u8) -> String {
+    format!("{payload:06b}")
+}
+
+/// Time after the last scheduled symbol that the harness keeps running, so a late NULL can land.
+const TAIL_NS: u64 = 2_000_000_000;
+/// Hover before the first symbol so physics and receivers settle.
+const LEAD_IN_NS: u64 = 1_000_000_000;
+/// The ideal receiver samples at the RGB rate.
+const IDEAL_PERIOD_NS: u64 = 40_000_000;
+
+#[derive(Debug, Serialize)]
+struct TokenOut {
+    token: String,
+    t_s: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct FrameOut {
+    payload: String,
+    final_null_s: f64,
+}
+
+#[derive(Debug, Serialize)]
+struct ObserverOut {
+    payloads: Vec<String>,
+    frames: Vec<FrameOut>,
+    tokens: Vec<TokenOut>,
+}
+
+#[derive(Debug, Serialize)]
+struct LinkOut {
+    modality: String,
+    observers: BTreeMap<String, ObserverOut>,
+    sim_seconds: f64,
+    wall_seconds: f64,
+    performer_max_tracking_error_m: f64,
+    contact_steps: u64,
+}
+
+fn ns_to_s(ns: u64) -> f64 {
+    ns as f64 * 1e-9
+}
+
+fn observer_out(tokens: &[SegmentToken], frames: &[ReleasedFrame]) -> ObserverOut {
+    ObserverOut {
+        payloads: frames.iter().map(|f| bits6(f.payload)).collect(),
+        frames: frames
+            .iter()
+            .map(|f| FrameOut {
+                payload: bits6(f.payload),
+                final_null_s: ns_to_s(*f.token_stamps_ns.last().unwrap_or(&0)),
+            })
+            .collect(),
+        tokens: tokens
+            .iter()
+            .map(|t| TokenOut { token: format!("{:?}", t.token).to_uppercase(), t_s: ns_to_s(t.stamp_ns) })
+            .collect(),
+    }
+}
+
+/// Flies `schedule` in physics, calling `sample(world)` at every multiple of `period_ns`.
+/// Returns the performer's largest distance from its commanded position.
+fn fly(
+    world: &mut World,
+    schedule: &Schedule,
+    end_ns: u64,
+    period_ns: u64,
+    mut sample: impl FnMut(&mut World) -> Result<()>,
+) -> Result<f64> {
+    let mut max_err_m: f64 = 0.0;
+    while world.time_ns() < end_ns {
+        let t = world.time_ns();
+        let sp = schedule.state_at(t);
+        world.set_reference(0, Reference { pos_m: sp.pos_m, vel_mps: sp.vel_m_s, acc_mps2: sp.acc_m_s2, yaw_rad: 0.0 });
+        world.step();
+        let t = world.time_ns();
+        let want = schedule.setpoint_at(t);
+        let got = world.position_m(0);
+        let err = ((want[0] - got[0]).powi(2) + (want[1] - got[1]).powi(2) + (want[2] - got[2]).powi(2)).sqrt();
+        max_err_m = max_err_m.max(err);
+        if t % period_ns == 0 {
+            sample(world)?;
+        }
+    }
+    Ok(max_err_m)
+}
+
+pub fn run(args: LinkArgs) -> Result<()> {
+    if !(1..=MAX_OBSERVERS).contains(&args.observers) {
+        bail!("--observers {} is outside 1..={MAX_OBSERVERS}", args.observers);
+    }
+    let names: Vec<String> = (0..args.observers).map(observer_name).collect();
+    for b in &args.black {
+        if !names.contains(b) {
+            bail!("--black {b}: no such observer (have {})", names.join(", "));
+        }
+    }
+    let started = Instant::now();
+    let acquisition = args.modality == Modality::Events;
+    let schedule = broadcast(LEAD_IN_NS, &args.payloads, acquisition, &GestureConfig::default())
+        .context("building the broadcast schedule")?;
+    let end_ns = schedule.end_ns() + TAIL_NS;
+    let mut world = World::new(args.observers).context("building the scene")?;
+
+    let (outputs, max_err_m) = match args.modality {
+        Modality::Ideal => {
+            let mut ideal = IdealReceiver::new(args.observers, SegmenterConfig::rgb())?;
+            let black: Vec<usize> = args.black.iter().filter_map(|b| names.iter().position(|n| n == b)).collect();
+            let max_err = fly(&mut world, &schedule, end_ns, IDEAL_PERIOD_NS, |w| {
+                ideal.push(w.time_ns(), w.position_m(0))?;
+                for &i in &black {
+                    ideal.interrupt(i, w.time_ns())?;
+                }
+                Ok(())
+            })?;
+            let outs: Vec<ObserverOut> =
+                ideal.outputs().iter().map(|o| observer_out(&o.tokens, &o.frames)).collect();
+            (outs, max_err)
+        }
+        Modality::Rgb | Modality::Events => {
+            bail!("the {:?} receiver is not built yet: only --modality ideal works so far", args.modality)
+        }
+    };
+
+    let out = LinkOut {
+        modality: format!("{:?}", args.modality).to_lowercase(),
+        observers: names.iter().cloned().zip(outputs).collect(),
+        sim_seconds: ns_to_s(world.time_ns()),
+        wall_seconds: started.elapsed().as_secs_f64(),
+        performer_max_tracking_error_m: max_err_m,
+        contact_steps: world.contact_stats().contact_steps,
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&out)?);
+    } else {
+        print_table(&out);
+    }
+    Ok(())
+}
+
+fn print_table(out: &LinkOut) {
+    println!(
+        "link ({}) — {:.2} s simulated in {:.2} s wall; performer tracking error ≤ {:.2} mm",
+        out.modality,
+        out.sim_seconds,
+        out.wall_seconds,
+        out.performer_max_tracking_error_m * 1e3
+    );
+    for (name, o) in &out.observers {
+        let frames: Vec<String> =
+            o.frames.iter().map(|f| format!("{} @ {:.2} s", f.payload, f.final_null_s)).collect();
+        println!("{name}: {} tokens; released: {}", o.tokens.len(), if frames.is_empty() { "none".into() } else { frames.join(", ") });
+        let toks: Vec<String> = o.tokens.iter().map(|t| format!("{}@{:.2}", t.token, t.t_s)).collect();
+        println!("    {}", toks.join(" "));
+    }
+}
