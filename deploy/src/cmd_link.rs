@@ -50,7 +50,9 @@ pub struct LinkArgs {
 /// Parses exactly six characters of '0'/'1' into a number, b1 most significant.
 pub fn parse_bits6(s: &str) -> Result<u8, String> {
     if s.len() != 6 || !s.bytes().all(|b| b == b'0' || b == b'1') {
-        return Err(format!("payload {s:?} is not six binary digits (e.g. 011010)"));
+        return Err(format!(
+            "payload {s:?} is not six binary digits (e.g. 011010)"
+        ));
     }
     u8::from_str_radix(s, 2).map_err(|e| e.to_string())
 }
@@ -111,7 +113,10 @@ fn observer_out(tokens: &[SegmentToken], frames: &[ReleasedFrame]) -> ObserverOu
             .collect(),
         tokens: tokens
             .iter()
-            .map(|t| TokenOut { token: format!("{:?}", t.token).to_uppercase(), t_s: ns_to_s(t.stamp_ns) })
+            .map(|t| TokenOut {
+                token: format!("{:?}", t.token).to_uppercase(),
+                t_s: ns_to_s(t.stamp_ns),
+            })
             .collect(),
     }
 }
@@ -129,14 +134,24 @@ fn fly(
     while world.time_ns() < end_ns {
         let t = world.time_ns();
         let sp = schedule.state_at(t);
-        world.set_reference(0, Reference { pos_m: sp.pos_m, vel_mps: sp.vel_m_s, acc_mps2: sp.acc_m_s2, yaw_rad: 0.0 });
+        world.set_reference(
+            0,
+            Reference {
+                pos_m: sp.pos_m,
+                vel_mps: sp.vel_m_s,
+                acc_mps2: sp.acc_m_s2,
+                yaw_rad: 0.0,
+            },
+        );
         world.step();
         let t = world.time_ns();
         let want = schedule.setpoint_at(t);
         let got = world.position_m(0);
-        let err = ((want[0] - got[0]).powi(2) + (want[1] - got[1]).powi(2) + (want[2] - got[2]).powi(2)).sqrt();
+        let err =
+            ((want[0] - got[0]).powi(2) + (want[1] - got[1]).powi(2) + (want[2] - got[2]).powi(2))
+                .sqrt();
         max_err_m = max_err_m.max(err);
-        if t % period_ns == 0 {
+        if t.is_multiple_of(period_ns) {
             sample(world)?;
         }
     }
@@ -145,7 +160,10 @@ fn fly(
 
 pub fn run(args: LinkArgs) -> Result<()> {
     if !(1..=MAX_OBSERVERS).contains(&args.observers) {
-        bail!("--observers {} is outside 1..={MAX_OBSERVERS}", args.observers);
+        bail!(
+            "--observers {} is outside 1..={MAX_OBSERVERS}",
+            args.observers
+        );
     }
     let names: Vec<String> = (0..args.observers).map(observer_name).collect();
     for b in &args.black {
@@ -155,15 +173,24 @@ pub fn run(args: LinkArgs) -> Result<()> {
     }
     let started = Instant::now();
     let acquisition = args.modality == Modality::Events;
-    let schedule = broadcast(LEAD_IN_NS, &args.payloads, acquisition, &GestureConfig::default())
-        .context("building the broadcast schedule")?;
+    let schedule = broadcast(
+        LEAD_IN_NS,
+        &args.payloads,
+        acquisition,
+        &GestureConfig::default(),
+    )
+    .context("building the broadcast schedule")?;
     let end_ns = schedule.end_ns() + TAIL_NS;
     let mut world = World::new(args.observers).context("building the scene")?;
 
     let (outputs, max_err_m) = match args.modality {
         Modality::Ideal => {
             let mut ideal = IdealReceiver::new(args.observers, SegmenterConfig::rgb())?;
-            let black: Vec<usize> = args.black.iter().filter_map(|b| names.iter().position(|n| n == b)).collect();
+            let black: Vec<usize> = args
+                .black
+                .iter()
+                .filter_map(|b| names.iter().position(|n| n == b))
+                .collect();
             let max_err = fly(&mut world, &schedule, end_ns, IDEAL_PERIOD_NS, |w| {
                 ideal.push(w.time_ns(), w.position_m(0))?;
                 for &i in &black {
@@ -171,12 +198,18 @@ pub fn run(args: LinkArgs) -> Result<()> {
                 }
                 Ok(())
             })?;
-            let outs: Vec<ObserverOut> =
-                ideal.outputs().iter().map(|o| observer_out(&o.tokens, &o.frames)).collect();
+            let outs: Vec<ObserverOut> = ideal
+                .outputs()
+                .iter()
+                .map(|o| observer_out(&o.tokens, &o.frames))
+                .collect();
             (outs, max_err)
         }
         Modality::Rgb | Modality::Events => {
-            bail!("the {:?} receiver is not built yet: only --modality ideal works so far", args.modality)
+            bail!(
+                "the {:?} receiver is not built yet: only --modality ideal works so far",
+                args.modality
+            )
         }
     };
 
@@ -205,10 +238,25 @@ fn print_table(out: &LinkOut) {
         out.performer_max_tracking_error_m * 1e3
     );
     for (name, o) in &out.observers {
-        let frames: Vec<String> =
-            o.frames.iter().map(|f| format!("{} @ {:.2} s", f.payload, f.final_null_s)).collect();
-        println!("{name}: {} tokens; released: {}", o.tokens.len(), if frames.is_empty() { "none".into() } else { frames.join(", ") });
-        let toks: Vec<String> = o.tokens.iter().map(|t| format!("{}@{:.2}", t.token, t.t_s)).collect();
+        let frames: Vec<String> = o
+            .frames
+            .iter()
+            .map(|f| format!("{} @ {:.2} s", f.payload, f.final_null_s))
+            .collect();
+        println!(
+            "{name}: {} tokens; released: {}",
+            o.tokens.len(),
+            if frames.is_empty() {
+                "none".into()
+            } else {
+                frames.join(", ")
+            }
+        );
+        let toks: Vec<String> = o
+            .tokens
+            .iter()
+            .map(|t| format!("{}@{:.2}", t.token, t.t_s))
+            .collect();
         println!("    {}", toks.join(" "));
     }
 }

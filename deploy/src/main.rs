@@ -2,10 +2,33 @@
 
 use clap::Parser;
 
+mod cmd_allocate;
+mod cmd_events;
+mod cmd_link;
+mod cmd_payload;
+
 #[derive(Parser)]
-#[command(name = "waggle", version, about = "Waggle: motion-mediated drone recruitment")]
-enum Cli {}
+#[command(
+    name = "waggle",
+    version,
+    about = "Waggle: motion-mediated drone recruitment"
+)]
+enum Cli {
+    /// Decode or encode a six-bit task offer.
+    Payload(cmd_payload::PayloadArgs),
+    /// Run the local allocation policy on a set of offers.
+    Allocate(cmd_allocate::AllocateArgs),
+    /// Fly a broadcast in one process and decode it with each observer's receiver.
+    Link(cmd_link::LinkArgs),
+    /// Synthetic event camera tools (convert PNG frames into events).
+    Events(cmd_events::EventsArgs),
+}
 
 fn main() -> anyhow::Result<()> {
-    match Cli::parse() {}
+    match Cli::parse() {
+        Cli::Payload(args) => cmd_payload::run(args),
+        Cli::Allocate(args) => cmd_allocate::run(args),
+        Cli::Link(args) => cmd_link::run(args),
+        Cli::Events(args) => cmd_events::run(args),
+    }
 }

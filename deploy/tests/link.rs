@@ -11,7 +11,11 @@ fn link(args: &[&str]) -> Value {
         .arg("--json")
         .output()
         .expect("run waggle");
-    assert!(out.status.success(), "waggle link {args:?} failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "waggle link {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     serde_json::from_slice(&out.stdout).expect("JSON output")
 }
 
@@ -26,11 +30,24 @@ fn payloads(v: &Value, observer: &str) -> Vec<String> {
 
 #[test]
 fn ideal_link_releases_both_nominal_offers_for_every_observer_in_order() {
-    let v = link(&["--observers", "3", "--modality", "ideal", "--payload", "011010", "--payload", "100111"]);
+    let v = link(&[
+        "--observers",
+        "3",
+        "--modality",
+        "ideal",
+        "--payload",
+        "011010",
+        "--payload",
+        "100111",
+    ]);
     for o in ["O1", "O2", "O3"] {
         assert_eq!(payloads(&v, o), ["011010", "100111"], "{o}");
         let tokens = v["observers"][o]["tokens"].as_array().unwrap();
-        assert_eq!(tokens.len(), 33, "{o}: 17 + 16 tokens (the shared hover closes one and opens the next)");
+        assert_eq!(
+            tokens.len(),
+            33,
+            "{o}: 17 + 16 tokens (the shared hover closes one and opens the next)"
+        );
     }
     let err = v["performer_max_tracking_error_m"].as_f64().unwrap();
     assert!(err < 0.01, "performer tracking error {err} m");
@@ -50,9 +67,16 @@ fn link_rejects_malformed_payloads_and_unknown_observers_with_a_message() {
     for (args, needle) in [
         (vec!["--payload", "01101"], "six binary digits"),
         (vec!["--payload", "01102x"], "six binary digits"),
-        (vec!["--payload", "011010", "--black", "O9"], "no such observer"),
+        (
+            vec!["--payload", "011010", "--black", "O9"],
+            "no such observer",
+        ),
     ] {
-        let out = Command::new(env!("CARGO_BIN_EXE_waggle")).arg("link").args(&args).output().unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_waggle"))
+            .arg("link")
+            .args(&args)
+            .output()
+            .unwrap();
         assert!(!out.status.success(), "{args:?} accepted");
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains(needle), "{args:?}: {err}");

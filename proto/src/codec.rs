@@ -54,7 +54,9 @@ pub fn decode<T: DeserializeOwned + Validate>(bytes: &[u8]) -> Result<T, DecodeE
     if version != FORMAT_VERSION {
         return Err(DecodeError::UnknownVersion { found: version });
     }
-    let msg: T = options().deserialize(body).map_err(|e| DecodeError::Malformed(e.to_string()))?;
+    let msg: T = options()
+        .deserialize(body)
+        .map_err(|e| DecodeError::Malformed(e.to_string()))?;
     msg.validate().map_err(DecodeError::Inconsistent)?;
     Ok(msg)
 }

@@ -106,14 +106,14 @@ impl LevelCamera {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
 /// Euclidean distance between two world points, metres.
 pub fn distance_m(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
 
     #[test]
     fn nominal_arc_puts_o1_o2_nearer_a_and_o3_nearer_b() {
@@ -133,7 +133,10 @@ pub fn distance_m(a: [f64; 3], b: [f64; 3]) -> f64 {
             for i in 0..n {
                 let cam = LevelCamera::at_home(i, n);
                 let p = cam.project_px(PERFORMER_HOVER_M).expect("in front");
-                assert!((p[0] - 320.0).abs() < 1e-9 && (p[1] - 240.0).abs() < 1e-9, "{p:?}");
+                assert!(
+                    (p[0] - 320.0).abs() < 1e-9 && (p[1] - 240.0).abs() < 1e-9,
+                    "{p:?}"
+                );
                 let up = [0.0, 0.0, 1.5];
                 let q = cam.project_px(up).expect("in front");
                 assert!(p[1] - q[1] >= 80.0, "0.2 m spans {} px", p[1] - q[1]);

@@ -59,7 +59,11 @@ impl EventPacket {
 
     /// Polarity of event `i`.
     pub fn polarity(&self, i: usize) -> Polarity {
-        if self.on_bits[i / 8] >> (i % 8) & 1 == 1 { Polarity::On } else { Polarity::Off }
+        if self.on_bits[i / 8] >> (i % 8) & 1 == 1 {
+            Polarity::On
+        } else {
+            Polarity::Off
+        }
     }
 
     /// Absolute sim time of event `i`.
@@ -102,13 +106,14 @@ impl Validate for EventPacket {
             ));
         }
         if self.end_ns < self.start_ns {
-            return Err(format!("event packet {}: end watermark before start", self.seq));
+            return Err(format!(
+                "event packet {}: end watermark before start",
+                self.seq
+            ));
         }
         let span = self.end_ns - self.start_ns;
         if let Some(i) = (0..n).find(|&i| {
-            self.xs[i] >= self.width
-                || self.ys[i] >= self.height
-                || u64::from(self.dt_ns[i]) > span
+            self.xs[i] >= self.width || self.ys[i] >= self.height || u64::from(self.dt_ns[i]) > span
         }) {
             return Err(format!(
                 "event packet {}: event {i} at ({}, {}, +{} ns) outside {}x{} / {} ns",

@@ -7,8 +7,16 @@ use sim_node::render::CameraRenderer;
 use sim_node::world::World;
 
 fn main() -> anyhow::Result<()> {
-    let out = std::path::PathBuf::from(std::env::args().nth(1).ok_or_else(|| anyhow::anyhow!("usage: OUT_DIR [FRAMES]"))?);
-    let frames: u64 = std::env::args().nth(2).map(|s| s.parse()).transpose()?.unwrap_or(16);
+    let out = std::path::PathBuf::from(
+        std::env::args()
+            .nth(1)
+            .ok_or_else(|| anyhow::anyhow!("usage: OUT_DIR [FRAMES]"))?,
+    );
+    let frames: u64 = std::env::args()
+        .nth(2)
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(16);
     std::fs::create_dir_all(&out)?;
     let mut world = World::new(3)?;
     let mut renderer = CameraRenderer::new(&world)?;
@@ -17,7 +25,17 @@ fn main() -> anyhow::Result<()> {
         let t_ns = k * 10_000_000;
         world.step_until(t_ns);
         let phase = (t_ns as f64 * 1e-9) * std::f64::consts::TAU;
-        world.set_reference(0, Reference::hover([hover[0] + 0.15 * phase.sin(), hover[1], hover[2] + 0.05 * (2.0 * phase).sin()], 0.0));
+        world.set_reference(
+            0,
+            Reference::hover(
+                [
+                    hover[0] + 0.15 * phase.sin(),
+                    hover[1],
+                    hover[2] + 0.05 * (2.0 * phase).sin(),
+                ],
+                0.0,
+            ),
+        );
         let rgb = renderer.render(&mut world, 0)?.to_vec();
         sim_node::png_io::write_rgb_png(&out.join(format!("frame_{k:04}.png")), &rgb, 640, 480)?;
     }

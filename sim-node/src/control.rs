@@ -17,7 +17,12 @@ pub struct Reference {
 impl Reference {
     /// A stationary hover at `pos_m` with heading `yaw_rad`.
     pub fn hover(pos_m: [f64; 3], yaw_rad: f64) -> Self {
-        Self { pos_m, vel_mps: [0.0; 3], acc_mps2: [0.0; 3], yaw_rad }
+        Self {
+            pos_m,
+            vel_mps: [0.0; 3],
+            acc_mps2: [0.0; 3],
+            yaw_rad,
+        }
     }
 
     /// The reference advanced by `dt_s` under constant acceleration (used between 40 ms ticks).
@@ -41,7 +46,10 @@ pub struct Gains {
 
 impl Default for Gains {
     fn default() -> Self {
-        Self { pos_wn_radps: 8.0, att_wn_radps: 40.0 }
+        Self {
+            pos_wn_radps: 8.0,
+            att_wn_radps: 40.0,
+        }
     }
 }
 
@@ -103,7 +111,10 @@ fn quat_mul(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
 
 /// Rotates vector `v` by unit quaternion `q` (w, x, y, z).
 pub fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
-    let p = quat_mul(quat_mul(q, [0.0, v[0], v[1], v[2]]), [q[0], -q[1], -q[2], -q[3]]);
+    let p = quat_mul(
+        quat_mul(q, [0.0, v[0], v[1], v[2]]),
+        [q[0], -q[1], -q[2], -q[3]],
+    );
     [p[1], p[2], p[3]]
 }
 
@@ -124,7 +135,14 @@ mod tests {
             world_from_body: [1.0, 0.0, 0.0, 0.0],
             body_rate_radps: [0.0; 3],
         };
-        let w = wrench(&state, &Reference::hover([0.0, 0.0, 1.3], 0.0), 0.027, [1.0; 3], 9.81, &Gains::default());
+        let w = wrench(
+            &state,
+            &Reference::hover([0.0, 0.0, 1.3], 0.0),
+            0.027,
+            [1.0; 3],
+            9.81,
+            &Gains::default(),
+        );
         assert_eq!(w, [0.0, 0.0, 0.027 * 9.81, 0.0, 0.0, 0.0]);
     }
 
@@ -137,7 +155,14 @@ mod tests {
             world_from_body: [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()],
             body_rate_radps: [0.0; 3],
         };
-        let w = wrench(&state, &Reference::hover([0.0; 3], 0.0), 0.027, [1.0; 3], 0.0, &Gains::default());
+        let w = wrench(
+            &state,
+            &Reference::hover([0.0; 3], 0.0),
+            0.027,
+            [1.0; 3],
+            0.0,
+            &Gains::default(),
+        );
         assert!(w[5] < 0.0, "torque {w:?}");
         assert!((yaw_of(state.world_from_body) - yaw).abs() < 1e-12);
     }

@@ -9,7 +9,11 @@ use sim_node::render::CameraRenderer;
 use sim_node::world::World;
 
 #[derive(Parser)]
-#[command(name = "sim-node", version, about = "Waggle physics and camera process")]
+#[command(
+    name = "sim-node",
+    version,
+    about = "Waggle physics and camera process"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -37,7 +41,11 @@ fn main() -> Result<()> {
         .with_writer(std::io::stderr)
         .init();
     match Cli::parse().command {
-        Command::Snapshot { observers, out, frames } => snapshot(observers, &out, frames),
+        Command::Snapshot {
+            observers,
+            out,
+            frames,
+        } => snapshot(observers, &out, frames),
     }
 }
 
@@ -48,8 +56,13 @@ fn snapshot(observers: usize, out: &std::path::Path, frames: usize) -> Result<()
     for i in 0..observers {
         let rgb = renderer.render(&mut world, i)?.to_vec();
         let path = out.join(format!("{}.png", proto::scene::observer_name(i)));
-        sim_node::png_io::write_rgb_png(&path, &rgb, proto::scene::IMAGE_WIDTH_PX, proto::scene::IMAGE_HEIGHT_PX)
-            .with_context(|| format!("writing {}", path.display()))?;
+        sim_node::png_io::write_rgb_png(
+            &path,
+            &rgb,
+            proto::scene::IMAGE_WIDTH_PX,
+            proto::scene::IMAGE_HEIGHT_PX,
+        )
+        .with_context(|| format!("writing {}", path.display()))?;
         println!("wrote {}", path.display());
     }
     let start = Instant::now();

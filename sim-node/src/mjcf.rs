@@ -82,7 +82,10 @@ pub fn scene_xml(observers: usize, mesh_dir: &Path) -> Result<String, SceneError
         h = IMAGE_HEIGHT_PX,
     );
     for (name, file, _) in VISUAL_PARTS {
-        let _ = writeln!(x, r#"    <mesh name="{name}" file="{file}" scale="0.001 0.001 0.001"/>"#);
+        let _ = writeln!(
+            x,
+            r#"    <mesh name="{name}" file="{file}" scale="0.001 0.001 0.001"/>"#
+        );
     }
     let _ = writeln!(
         x,
@@ -117,9 +120,15 @@ pub fn scene_xml(observers: usize, mesh_dir: &Path) -> Result<String, SceneError
             pos[0], pos[1], pos[2]
         );
         for (mesh, _, material) in VISUAL_PARTS {
-            let _ = writeln!(x, r#"      <geom class="visual" mesh="{mesh}" material="{material}"/>"#);
+            let _ = writeln!(
+                x,
+                r#"      <geom class="visual" mesh="{mesh}" material="{material}"/>"#
+            );
         }
-        for (k, (sx, sy)) in [(1.0, -1.0), (-1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)].iter().enumerate() {
+        for (k, (sx, sy)) in [(1.0, -1.0), (-1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)]
+            .iter()
+            .enumerate()
+        {
             let mesh = if k % 2 == 0 { "prop_l" } else { "prop_r" };
             let angle = std::f64::consts::FRAC_PI_4 * (1 + 2 * k) as f64;
             let _ = writeln!(
@@ -129,7 +138,10 @@ pub fn scene_xml(observers: usize, mesh_dir: &Path) -> Result<String, SceneError
                 0.0325 * sy
             );
         }
-        let _ = writeln!(x, r#"      <geom name="{name}_collision" class="collision" pos="0 0 0.005"/>"#);
+        let _ = writeln!(
+            x,
+            r#"      <geom name="{name}_collision" class="collision" pos="0 0 0.005"/>"#
+        );
         if let Some(cam) = camera {
             // MuJoCo cameras look along their −z with +y up; the body looks along +x.
             let _ = writeln!(
@@ -142,7 +154,12 @@ pub fn scene_xml(observers: usize, mesh_dir: &Path) -> Result<String, SceneError
     drone(PERFORMER_BODY, PERFORMER_HOVER_M, 0.0, None);
     for i in 0..observers {
         let home = observer_home_m(i, observers);
-        drone(&observer_name(i), home, observer_home_yaw_rad(home), Some(&camera_name(i)));
+        drone(
+            &observer_name(i),
+            home,
+            observer_home_yaw_rad(home),
+            Some(&camera_name(i)),
+        );
     }
     let _ = writeln!(x, "  </worldbody>\n</mujoco>");
     Ok(x)

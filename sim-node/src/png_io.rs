@@ -18,9 +18,17 @@ pub enum PngError {
 /// Writes row-major RGB8 (top row first) as a PNG file.
 pub fn write_rgb_png(path: &Path, rgb: &[u8], width: u16, height: u16) -> Result<(), PngError> {
     if rgb.len() != usize::from(width) * usize::from(height) * 3 {
-        return Err(PngError::Size { len: rgb.len(), width, height });
+        return Err(PngError::Size {
+            len: rgb.len(),
+            width,
+            height,
+        });
     }
-    let mut encoder = png::Encoder::new(BufWriter::new(File::create(path)?), u32::from(width), u32::from(height));
+    let mut encoder = png::Encoder::new(
+        BufWriter::new(File::create(path)?),
+        u32::from(width),
+        u32::from(height),
+    );
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);
     let mut writer = encoder.write_header()?;

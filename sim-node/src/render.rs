@@ -29,22 +29,38 @@ impl CameraRenderer {
     pub fn new(world: &World) -> Result<Self, RenderError> {
         let model = world.model();
         let camera_ids = (0..world.observers())
-            .map(|i| model.name_to_id(MjtObjBase::mjOBJ_CAMERA, &camera_name(i)).ok_or(RenderError::NoCamera(i)))
+            .map(|i| {
+                model
+                    .name_to_id(MjtObjBase::mjOBJ_CAMERA, &camera_name(i))
+                    .ok_or(RenderError::NoCamera(i))
+            })
             .collect::<Result<Vec<_>, _>>()?;
         let renderer = MjRenderer::builder()
             .width(u32::from(IMAGE_WIDTH_PX))
             .height(u32::from(IMAGE_HEIGHT_PX))
             .build(model)
             .map_err(|e| RenderError::Init(format!("{e} ({e:?})")))?;
-        Ok(Self { renderer, camera_ids })
+        Ok(Self {
+            renderer,
+            camera_ids,
+        })
     }
 
     /// Renders observer `i`'s view of the current state; returns row-major RGB, top row first.
     pub fn render(&mut self, world: &mut World, observer: usize) -> Result<&[u8], RenderError> {
-        let cam = *self.camera_ids.get(observer).ok_or(RenderError::NoCamera(observer))?;
+        let cam = *self
+            .camera_ids
+            .get(observer)
+            .ok_or(RenderError::NoCamera(observer))?;
         self.renderer.set_camera(MjvCamera::new_fixed(cam));
-        self.renderer.sync_data(world.data_mut()).map_err(|e| RenderError::Render(e.to_string()))?;
-        self.renderer.render().map_err(|e| RenderError::Render(e.to_string()))?;
-        self.renderer.rgb_flat().ok_or_else(|| RenderError::Render("RGB output disabled".into()))
+        self.renderer
+            .sync_data(world.data_mut())
+            .map_err(|e| RenderError::Render(e.to_string()))?;
+        self.renderer
+            .render()
+            .map_err(|e| RenderError::Render(e.to_string()))?;
+        self.renderer
+            .rgb_flat()
+            .ok_or_else(|| RenderError::Render("RGB output disabled".into()))
     }
 }

@@ -7,7 +7,9 @@ use mujoco_rs::prelude::*;
 use proto::scene::{PERFORMER_HOVER_M, observer_home_m, observer_home_yaw_rad, observer_name};
 
 use crate::control::{DroneState, Gains, Reference, wrench};
-use crate::mjcf::{DRONE_INERTIA_KGM2, DRONE_MASS_KG, PERFORMER_BODY, PHYSICS_STEP_NS, SceneError, scene_xml};
+use crate::mjcf::{
+    DRONE_INERTIA_KGM2, DRONE_MASS_KG, PERFORMER_BODY, PHYSICS_STEP_NS, SceneError, scene_xml,
+};
 
 /// Why the world could not be built.
 #[derive(Debug, thiserror::Error)]
@@ -89,7 +91,10 @@ impl World {
             references,
             gains: Gains::default(),
             step_index: 0,
-            stats: ContactStats { contact_steps: 0, min_separation_m: f64::INFINITY },
+            stats: ContactStats {
+                contact_steps: 0,
+                min_separation_m: f64::INFINITY,
+            },
         };
         world.update_separation();
         Ok(world)
@@ -153,7 +158,14 @@ impl World {
         let gravity = -self.data.model().opt().gravity[2];
         for (i, ids) in self.drones.iter().enumerate() {
             let state = self.state(i);
-            let w = wrench(&state, &self.references[i], DRONE_MASS_KG, DRONE_INERTIA_KGM2, gravity, &self.gains);
+            let w = wrench(
+                &state,
+                &self.references[i],
+                DRONE_MASS_KG,
+                DRONE_INERTIA_KGM2,
+                gravity,
+                &self.gains,
+            );
             self.data.xfrc_applied_mut()[ids.body] = w;
         }
         self.data.step();
@@ -177,7 +189,9 @@ impl World {
             for b in a + 1..self.drones.len() {
                 let pa = xpos[self.drones[a].body];
                 let pb = xpos[self.drones[b].body];
-                let d = ((pa[0] - pb[0]).powi(2) + (pa[1] - pb[1]).powi(2) + (pa[2] - pb[2]).powi(2)).sqrt();
+                let d =
+                    ((pa[0] - pb[0]).powi(2) + (pa[1] - pb[1]).powi(2) + (pa[2] - pb[2]).powi(2))
+                        .sqrt();
                 if d < self.stats.min_separation_m {
                     self.stats.min_separation_m = d;
                 }
@@ -200,7 +214,8 @@ impl World {
     pub fn teleport(&mut self, i: DroneIndex, pos_m: [f64; 3], yaw_rad: f64) {
         let ids = self.drones[i];
         let (s, c) = (0.5 * yaw_rad).sin_cos();
-        self.data.qpos_mut()[ids.qpos..ids.qpos + 7].copy_from_slice(&[pos_m[0], pos_m[1], pos_m[2], c, 0.0, 0.0, s]);
+        self.data.qpos_mut()[ids.qpos..ids.qpos + 7]
+            .copy_from_slice(&[pos_m[0], pos_m[1], pos_m[2], c, 0.0, 0.0, s]);
         self.data.qvel_mut()[ids.qvel..ids.qvel + 6].fill(0.0);
         self.references[i] = Reference::hover(pos_m, yaw_rad);
         self.data.forward();

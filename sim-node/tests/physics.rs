@@ -18,10 +18,18 @@ fn every_drone_holds_its_setpoint_within_a_millimetre() {
         world.step();
         for i in 0..4 {
             let err = dist(world.position_m(i), world.reference(i).pos_m);
-            assert!(err < 1e-3, "drone {i} off its setpoint by {err} m at {} ns", world.time_ns());
+            assert!(
+                err < 1e-3,
+                "drone {i} off its setpoint by {err} m at {} ns",
+                world.time_ns()
+            );
         }
     }
-    assert_eq!(world.time_ns(), 3 * SECOND_NS, "integer clock: 1500 steps of 2 ms");
+    assert_eq!(
+        world.time_ns(),
+        3 * SECOND_NS,
+        "integer clock: 1500 steps of 2 ms"
+    );
 }
 
 #[test]
@@ -55,7 +63,11 @@ fn a_20_cm_step_settles_within_two_seconds_without_overshoot() {
 fn drones_commanded_into_each_other_register_contact_steps() {
     let mut world = World::new(1).expect("scene");
     world.step_until(SECOND_NS);
-    assert_eq!(world.contact_stats().contact_steps, 0, "separated drones touch");
+    assert_eq!(
+        world.contact_stats().contact_steps,
+        0,
+        "separated drones touch"
+    );
     let stats = world.contact_stats();
     assert!(stats.min_separation_m > 1.2, "{stats:?}");
     // Command the observer onto the performer's hover point.

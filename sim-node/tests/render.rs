@@ -14,7 +14,9 @@ fn diff_blob(a: &[u8], b: &[u8]) -> Option<([f64; 2], usize)> {
     for y in 0..H {
         for x in 0..W {
             let i = (y * W + x) * 3;
-            let d: i32 = (0..3).map(|c| (i32::from(a[i + c]) - i32::from(b[i + c])).abs()).sum();
+            let d: i32 = (0..3)
+                .map(|c| (i32::from(a[i + c]) - i32::from(b[i + c])).abs())
+                .sum();
             if d > 30 {
                 sx += x as f64 + 0.5;
                 sy += y as f64 + 0.5;
@@ -35,7 +37,10 @@ fn performer_is_a_compact_blob_that_moves_as_the_camera_model_predicts() {
     for i in 0..n {
         let first = renderer.render(&mut world, i).unwrap().to_vec();
         let again = renderer.render(&mut world, i).unwrap().to_vec();
-        assert!(first == again, "observer {i}: two renders of the same state differ");
+        assert!(
+            first == again,
+            "observer {i}: two renders of the same state differ"
+        );
         at_hover.push(first);
     }
     // Without the performer (parked far below the floor) the difference is exactly the performer.
@@ -44,11 +49,22 @@ fn performer_is_a_compact_blob_that_moves_as_the_camera_model_predicts() {
     for i in 0..n {
         empty.push(renderer.render(&mut world, i).unwrap().to_vec());
     }
-    world.teleport(0, [PERFORMER_HOVER_M[0] + 0.1, PERFORMER_HOVER_M[1], PERFORMER_HOVER_M[2]], 0.0);
+    world.teleport(
+        0,
+        [
+            PERFORMER_HOVER_M[0] + 0.1,
+            PERFORMER_HOVER_M[1],
+            PERFORMER_HOVER_M[2],
+        ],
+        0.0,
+    );
     for i in 0..n {
         let moved = renderer.render(&mut world, i).unwrap().to_vec();
         let (c0, px) = diff_blob(&at_hover[i], &empty[i]).expect("performer visible");
-        assert!(px > 60 && px < 5000, "observer {i}: blob of {px} px is not compact");
+        assert!(
+            px > 60 && px < 5000,
+            "observer {i}: blob of {px} px is not compact"
+        );
         assert!(
             (c0[0] - 320.0).abs() < 40.0 && (c0[1] - 240.0).abs() < 40.0,
             "observer {i}: performer at {c0:?}, not near the image centre"
@@ -59,11 +75,17 @@ fn performer_is_a_compact_blob_that_moves_as_the_camera_model_predicts() {
         let p1 = cam.project_px([0.1, 0.0, 1.3]).unwrap();
         let predicted = p1[0] - p0[0];
         let measured = c1[0] - c0[0];
-        assert!(predicted > 0.0 && measured > 0.0, "observer {i}: wrong direction {measured} vs {predicted}");
+        assert!(
+            predicted > 0.0 && measured > 0.0,
+            "observer {i}: wrong direction {measured} vs {predicted}"
+        );
         assert!(
             (measured - predicted).abs() <= 0.2 * predicted,
             "observer {i}: moved {measured:.1} px, camera model predicts {predicted:.1} px"
         );
-        assert!((c1[1] - c0[1]).abs() < 3.0, "observer {i}: vertical drift {c0:?} -> {c1:?}");
+        assert!(
+            (c1[1] - c0[1]).abs() < 3.0,
+            "observer {i}: vertical drift {c0:?} -> {c1:?}"
+        );
     }
 }

@@ -1,0 +1,320 @@
+//! Key expressions under `waggle/<session>/…` and the validated ids that go into them.
+//!
+//! Every key a process publishes or subscribes to is built here, so a typo cannot create a
+//! topic nobody listens to, and ids are checked once: a session or observer id is a single
+//! non-empty key chunk without `/` (chunk separator) or Zenoh's reserved `*`, `$`, `?`, `#`.
+
+use serde::{Deserialize, Serialize};
+
+use crate::scene::observer_name;
+
+/// Why an id cannot be used inside a key expression.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum KeyError {
+    #[error("{what} id is empty")]
+    Empty { what: &'static str },
+    #[error("{what} id {value:?} contains the reserved character {ch:?}")]
+    Reserved {
+        what: &'static str,
+        value: String,
+        ch: char,
+    },
+    #[error("{what} id {value:?} contains whitespace or a control character")]
+    Whitespace { what: &'static str, value: String },
+}
+
+const RESERVED: [char; 5] = ['/', '*', '$', '?', '#'];
+
+/// Checks that `value` can be used as one key-expression chunk.
+pub fn validate_chunk(what: &'static str, value: &str) -> Result<(), KeyError> {
+    if value.is_empty() {
+        return Err(KeyError::Empty { what });
+    }
+    if let Some(ch) = value.chars().find(|c| RESERVED.contains(c)) {
+        return Err(KeyError::Reserved {
+            what,
+            value: value.to_owned(),
+            ch,
+        });
+    }
+    if value.chars().any(|c| c.is_whitespace() || c.is_control()) {
+        return Err(KeyError::Whitespace {
+            what,
+            value: value.to_owned(),
+        });
+    }
+    Ok(())
+}
+
+/// A validated observer id such as `O1`. Deserialising an invalid id fails.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct ObserverId(String);
+
+impl ObserverId {
+    pub fn new(id: impl Into<String>) -> Result<Self, KeyError> {
+        let id = id.into();
+        validate_chunk("observer", &id)?;
+        Ok(Self(id))
+    }
+
+    /// The canonical id of 0-based observer `i` (`O1`, `O2`, …).
+    pub fn from_index(i: usize) -> Self {
+        Self(observer_name(i))
+    }
+
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+impl TryFrom<String> for ObserverId {
+    type Error = KeyError;
+    fn try_from(s: String) -> Result<Self, KeyError> {
+        Self::new(s)
+    }
+}
+
+impl From<ObserverId> for String {
+    fn from(id: ObserverId) -> String {
+        id.0
+    }
+}
+
+impl std::str::FromStr for ObserverId {
+    type Err = KeyError;
+    fn from_str(s: &str) -> Result<Self, KeyError> {
+        Self::new(s)
+    }
+}
+
+impl std::fmt::Display for ObserverId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// The role part of a liveliness token.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub enum Role {
+    Sim,
+    Camera,
+    Observer,
+    Performer,
+    Scheduler,
+    Recorder,
+    Launcher,
+}
+
+impl Role {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Role::Sim => "sim",
+            Role::Camera => "camera",
+            Role::Observer => "observer",
+            Role::Performer => "performer",
+            Role::Scheduler => "scheduler",
+            Role::Recorder => "recorder",
+            Role::Launcher => "launcher",
+        }
+    }
+}
+
+/// Key-expression builder for one session (`waggle/<session>/…`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Keys {
+    prefix: String,
+}
+
+impl Keys {
+    pub fn new(session: &str) -> Result<Self, KeyError> {
+        validate_chunk("session", session)?;
+        Ok(Self {
+            prefix: format!("waggle/{session}"),
+        })
+    }
+
+    /// `waggle/<session>`.
+    pub fn prefix(&self) -> &str {
+        &self.prefix
+    }
+
+    fn key(&self, rest: &str) -> String {
+        format!("{}/{rest}", self.prefix)
+    }
+
+    /// Everything of the session (the recorder's subscription).
+    pub fn all(&self) -> String {
+        self.key("**")
+    }
+
+    pub fn clock(&self) -> String {
+        self.key("clock")
+    }
+
+    pub fn sim_state(&self) -> String {
+        self.key("sim/state")
+    }
+
+    pub fn sim_contacts(&self) -> String {
+        self.key("sim/contacts")
+    }
+
+    pub fn sensor_events(&self, o: &ObserverId) -> String {
+        self.key(&format!("sensor/{o}/events"))
+    }
+
+    pub fn sensor_rgb(&self, o: &ObserverId) -> String {
+        self.key(&format!("sensor/{o}/rgb"))
+    }
+
+    /// Both sensor streams of one observer (`sensor/<o>/*`).
+    pub fn sensor_any(&self, o: &ObserverId) -> String {
+        self.key(&format!("sensor/{o}/*"))
+    }
+
+    pub fn observer_tokens(&self, o: &ObserverId) -> String {
+        self.key(&format!("observer/{o}/tokens"))
+    }
+
+    pub fn observer_frames(&self, o: &ObserverId) -> String {
+        self.key(&format!("observer/{o}/frames"))
+    }
+
+    pub fn observer_decision(&self, o: &ObserverId) -> String {
+        self.key(&format!("observer/{o}/decision"))
+    }
+
+    pub fn observer_status(&self, o: &ObserverId) -> String {
+        self.key(&format!("observer/{o}/status"))
+    }
+
+    /// Every observer's decisions (`observer/*/decision`).
+    pub fn observer_decision_any(&self) -> String {
+        self.key("observer/*/decision")
+    }
+
+    /// Every observer's status (`observer/*/status`).
+    pub fn observer_status_any(&self) -> String {
+        self.key("observer/*/status")
+    }
+
+    pub fn performer_setpoint(&self) -> String {
+        self.key("performer/setpoint")
+    }
+
+    pub fn truth_performer(&self) -> String {
+        self.key("truth/performer")
+    }
+
+    pub fn sched_cmd(&self) -> String {
+        self.key("sched/cmd")
+    }
+
+    pub fn sched_broadcast(&self) -> String {
+        self.key("sched/broadcast")
+    }
+
+    pub fn sched_session(&self) -> String {
+        self.key("sched/session")
+    }
+
+    pub fn fault(&self, o: &ObserverId) -> String {
+        self.key(&format!("fault/{o}"))
+    }
+
+    /// Every fault key (`fault/*`).
+    pub fn fault_any(&self) -> String {
+        self.key("fault/*")
+    }
+
+    /// Liveliness token of one process: `alive/<role>/<id>`.
+    pub fn alive(&self, role: Role, id: &str) -> Result<String, KeyError> {
+        validate_chunk("process", id)?;
+        Ok(self.key(&format!("alive/{}/{id}", role.as_str())))
+    }
+
+    /// Every liveliness token of one role (`alive/<role>/*`).
+    pub fn alive_role(&self, role: Role) -> String {
+        self.key(&format!("alive/{}/*", role.as_str()))
+    }
+
+    /// Every liveliness token of the session (`alive/**`).
+    pub fn alive_any(&self) -> String {
+        self.key("alive/**")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_follow_the_design_table() {
+        let k = Keys::new("run-7").unwrap();
+        let o2 = ObserverId::new("O2").unwrap();
+        assert_eq!(k.all(), "waggle/run-7/**");
+        assert_eq!(k.clock(), "waggle/run-7/clock");
+        assert_eq!(k.sim_state(), "waggle/run-7/sim/state");
+        assert_eq!(k.sim_contacts(), "waggle/run-7/sim/contacts");
+        assert_eq!(k.sensor_events(&o2), "waggle/run-7/sensor/O2/events");
+        assert_eq!(k.sensor_rgb(&o2), "waggle/run-7/sensor/O2/rgb");
+        assert_eq!(k.sensor_any(&o2), "waggle/run-7/sensor/O2/*");
+        assert_eq!(k.observer_tokens(&o2), "waggle/run-7/observer/O2/tokens");
+        assert_eq!(k.observer_frames(&o2), "waggle/run-7/observer/O2/frames");
+        assert_eq!(
+            k.observer_decision(&o2),
+            "waggle/run-7/observer/O2/decision"
+        );
+        assert_eq!(k.observer_status(&o2), "waggle/run-7/observer/O2/status");
+        assert_eq!(
+            k.observer_decision_any(),
+            "waggle/run-7/observer/*/decision"
+        );
+        assert_eq!(k.observer_status_any(), "waggle/run-7/observer/*/status");
+        assert_eq!(k.performer_setpoint(), "waggle/run-7/performer/setpoint");
+        assert_eq!(k.truth_performer(), "waggle/run-7/truth/performer");
+        assert_eq!(k.sched_cmd(), "waggle/run-7/sched/cmd");
+        assert_eq!(k.sched_broadcast(), "waggle/run-7/sched/broadcast");
+        assert_eq!(k.sched_session(), "waggle/run-7/sched/session");
+        assert_eq!(k.fault(&o2), "waggle/run-7/fault/O2");
+        assert_eq!(k.fault_any(), "waggle/run-7/fault/*");
+        assert_eq!(
+            k.alive(Role::Observer, "O2").unwrap(),
+            "waggle/run-7/alive/observer/O2"
+        );
+        assert_eq!(k.alive_role(Role::Camera), "waggle/run-7/alive/camera/*");
+        assert_eq!(k.alive_any(), "waggle/run-7/alive/**");
+    }
+
+    #[test]
+    fn ids_that_would_break_a_key_are_rejected() {
+        assert_eq!(Keys::new(""), Err(KeyError::Empty { what: "session" }));
+        for bad in ["a/b", "a*", "$x", "q?", "h#", "a b", "tab\t"] {
+            assert!(Keys::new(bad).is_err(), "{bad:?}");
+            assert!(ObserverId::new(bad).is_err(), "{bad:?}");
+        }
+        assert!(matches!(
+            ObserverId::new("O/1"),
+            Err(KeyError::Reserved { ch: '/', .. })
+        ));
+        let k = Keys::new("s").unwrap();
+        assert!(k.alive(Role::Sim, "").is_err());
+        assert!(k.alive(Role::Sim, "x/y").is_err());
+        assert_eq!(ObserverId::from_index(2).as_str(), "O3");
+    }
+
+    #[test]
+    fn an_invalid_observer_id_does_not_deserialise() {
+        let bytes = crate::encode(&"O*".to_string());
+        let body = &bytes[2..];
+        assert!(bincode::deserialize::<ObserverId>(body).is_err());
+        let ok = crate::encode(&"O1".to_string());
+        assert_eq!(
+            bincode::deserialize::<ObserverId>(&ok[2..])
+                .unwrap()
+                .as_str(),
+            "O1"
+        );
+    }
+}
