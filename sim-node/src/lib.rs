@@ -14,4 +14,5 @@ pub mod control;
 pub mod mjcf;
 pub mod png_io;
 pub mod render;
+pub mod sensor;
 pub mod world;

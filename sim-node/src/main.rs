@@ -8,6 +8,8 @@ use clap::{Parser, Subcommand};
 use sim_node::render::CameraRenderer;
 use sim_node::world::World;
 
+mod events;
+
 #[derive(Parser)]
 #[command(
     name = "sim-node",
@@ -33,6 +35,22 @@ enum Command {
         #[arg(long, default_value_t = 200)]
         frames: usize,
     },
+    /// Fly a short left–right motion, convert each observer's 100 Hz renders to events, and write
+    /// DIR/summary.json (packets, events, ON, OFF per observer) and event-frame PNGs.
+    Events {
+        /// Number of observers (1..=8).
+        #[arg(long, default_value_t = 3)]
+        observers: usize,
+        /// Simulated seconds.
+        #[arg(long, default_value_t = 5.0)]
+        seconds: f64,
+        /// Output directory (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+        /// Black out this observer's input before conversion (e.g. O2); repeatable.
+        #[arg(long)]
+        black: Vec<String>,
+    },
 }
 
 fn main() -> Result<()> {
@@ -46,6 +64,12 @@ fn main() -> Result<()> {
             out,
             frames,
         } => snapshot(observers, &out, frames),
+        Command::Events {
+            observers,
+            seconds,
+            out,
+            black,
+        } => events::run(observers, seconds, &out, &black),
     }
 }
 
