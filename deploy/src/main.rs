@@ -2,10 +2,12 @@
 
 use clap::Parser;
 
+mod case;
 mod cmd_allocate;
 mod cmd_events;
 mod cmd_link;
 mod cmd_payload;
+mod mission;
 
 #[derive(Parser)]
 #[command(
@@ -20,6 +22,8 @@ enum Cli {
     Allocate(cmd_allocate::AllocateArgs),
     /// Fly a broadcast in one process and decode it with each observer's receiver.
     Link(cmd_link::LinkArgs),
+    /// Fly a whole case (physics, cameras, performer, observers, scheduler) in one process.
+    Mission(mission::MissionArgs),
     /// Synthetic event camera tools (convert PNG frames into events).
     Events(cmd_events::EventsArgs),
 }
@@ -29,6 +33,7 @@ fn main() -> anyhow::Result<()> {
         Cli::Payload(args) => cmd_payload::run(args),
         Cli::Allocate(args) => cmd_allocate::run(args),
         Cli::Link(args) => cmd_link::run(args),
+        Cli::Mission(args) => mission::run(args),
         Cli::Events(args) => cmd_events::run(args),
     }
 }

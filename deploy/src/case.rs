@@ -1,0 +1,223 @@
+//! Case files: which mission to fly, which faults to inject, and what the outcome must be.
+//!
+//! Built-in cases are the TOML files in `deploy/cases/`, compiled into the binary; a path to a
+//! TOML file of the same shape works too. Unknown keys are rejected.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use serde::Deserialize;
+
+/// Built-in cases (name, TOML text), in the paper's table order.
+pub const BUILT_IN: &[(&str, &str)] = &[
+    ("one-observer", include_str!("../cases/one-observer.toml")),
+    ("two-observers", include_str!("../cases/two-observers.toml")),
+    ("nominal-3", include_str!("../cases/nominal-3.toml")),
+    ("black-o2", include_str!("../cases/black-o2.toml")),
+    ("no-broadcast", include_str!("../cases/no-broadcast.toml")),
+    ("only-a", include_str!("../cases/only-a.toml")),
+    ("dropout-o2", include_str!("../cases/dropout-o2.toml")),
+];
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum CaseModality {
+    Ideal,
+    Rgb,
+    Events,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FaultKind {
+    /// Black frames from start-up, before event conversion.
+    Black,
+    /// The sensor stream stops at `at_s`.
+    Dropout,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FaultSpec {
+    pub observer: String,
+    pub kind: FaultKind,
+    #[serde(default)]
+    pub at_s: f64,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Expected {
+    /// Complete messages (released frames with a valid offer) per observer, O1 first.
+    pub messages: Vec<usize>,
+    pub work_units: u32,
+    /// Sites of each observer's completed services, in order.
+    pub services: BTreeMap<String, Vec<String>>,
+}
+
+fn default_sites() -> Vec<String> {
+    vec!["A".into(), "B".into()]
+}
+
+fn default_rounds() -> u32 {
+    2
+}
+
+fn default_modalities() -> Vec<CaseModality> {
+    vec![CaseModality::Rgb, CaseModality::Events]
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Case {
+    pub name: String,
+    pub observers: usize,
+    /// Sites the performer advertises each round, in order (empty: no broadcast).
+    #[serde(default = "default_sites")]
+    pub offer_sites: Vec<String>,
+    #[serde(default = "default_rounds")]
+    pub rounds: u32,
+    /// Modalities this case applies to.
+    #[serde(default = "default_modalities")]
+    pub modalities: Vec<CaseModality>,
+    #[serde(default)]
+    pub faults: Vec<FaultSpec>,
+    /// Hard limit on simulated time.
+    #[serde(default)]
+    pub time_limit_s: Option<f64>,
+    pub expected: Expected,
+}
+
+impl Case {
+    /// A built-in case by name, or a TOML file by path.
+    pub fn load(name_or_path: &str) -> Result<Self> {
+        let (origin, text) = match BUILT_IN.iter().find(|(n, _)| *n == name_or_path) {
+            Some((n, t)) => (format!("built-in case {n}"), (*t).to_string()),
+            None => {
+                let path = Path::new(name_or_path);
+                if !path.exists() {
+                    let names: Vec<&str> = BUILT_IN.iter().map(|(n, _)| *n).collect();
+                    bail!(
+                        "{name_or_path:?} is neither a built-in case ({}) nor a file",
+                        names.join(", ")
+                    );
+                }
+                (
+                    path.display().to_string(),
+                    std::fs::read_to_string(path)
+                        .with_context(|| format!("reading {}", path.display()))?,
+                )
+            }
+        };
+        let case: Case = toml::from_str(&text).with_context(|| format!("parsing {origin}"))?;
+        case.check().with_context(|| format!("checking {origin}"))?;
+        Ok(case)
+    }
+
+    fn check(&self) -> Result<()> {
+        if !(1..=proto::scene::MAX_OBSERVERS).contains(&self.observers) {
+            bail!(
+                "observers = {} is outside 1..={}",
+                self.observers,
+                proto::scene::MAX_OBSERVERS
+            );
+        }
+        let names: Vec<String> = (0..self.observers)
+            .map(proto::scene::observer_name)
+            .collect();
+        for f in &self.faults {
+            if !names.contains(&f.observer) {
+                bail!(
+                    "fault names observer {:?}, but the case has {}",
+                    f.observer,
+                    names.join(", ")
+                );
+            }
+            if !(f.at_s.is_finite() && f.at_s >= 0.0) {
+                bail!("fault at_s = {} must be a non-negative number", f.at_s);
+            }
+        }
+        for s in &self.offer_sites {
+            s.parse::<proto::Site>()
+                .map_err(|e| anyhow::anyhow!("offer_sites: {e}"))?;
+        }
+        if self.expected.messages.len() != self.observers {
+            bail!(
+                "expected.messages has {} entries for {} observers",
+                self.expected.messages.len(),
+                self.observers
+            );
+        }
+        for (o, sites) in &self.expected.services {
+            if !names.contains(o) {
+                bail!("expected.services names unknown observer {o:?}");
+            }
+            for s in sites {
+                s.parse::<proto::Site>()
+                    .map_err(|e| anyhow::anyhow!("expected.services.{o}: {e}"))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Sim time (ns) at which `observer`'s stream drops out, if it does.
+    pub fn dropout_ns(&self, observer: &str) -> Option<u64> {
+        self.faults
+            .iter()
+            .find(|f| f.observer == observer && f.kind == FaultKind::Dropout)
+            .map(|f| (f.at_s * 1e9).round() as u64)
+    }
+
+    /// True if `observer`'s input is black from start-up.
+    pub fn black(&self, observer: &str) -> bool {
+        self.faults
+            .iter()
+            .any(|f| f.observer == observer && f.kind == FaultKind::Black)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_built_in_case_loads() {
+        for (name, _) in BUILT_IN {
+            let c = Case::load(name).unwrap();
+            assert_eq!(&c.name, name);
+        }
+    }
+
+    #[test]
+    fn unknown_keys_and_bad_values_are_rejected_with_the_origin_named() {
+        let dir = std::env::temp_dir().join(format!("waggle-case-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (text, needle) in [
+            (
+                "name='x'\nobservers=1\nbogus=1\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "bogus",
+            ),
+            (
+                "name='x'\nobservers=9\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "outside",
+            ),
+            (
+                "name='x'\nobservers=1\noffer_sites=['C']\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "offer_sites",
+            ),
+            (
+                "name='x'\nobservers=1\n[[faults]]\nobserver='O4'\nkind='black'\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "O4",
+            ),
+        ] {
+            let path = dir.join("case.toml");
+            std::fs::write(&path, text).unwrap();
+            let err = format!("{:#}", Case::load(path.to_str().unwrap()).unwrap_err());
+            assert!(err.contains(needle) && err.contains("case.toml"), "{err}");
+        }
+        assert!(
+            format!("{:#}", Case::load("nope").unwrap_err()).contains("neither a built-in case")
+        );
+    }
+}
