@@ -14,7 +14,10 @@ use performer_node::{GestureConfig, IdealReceiver, Schedule, broadcast};
 use proto::ReleasedFrame;
 use proto::scene::{MAX_OBSERVERS, observer_name};
 use serde::Serialize;
+use observer_node::perception::{Modality as PerceptionModality, Perception, SensorInput};
 use sim_node::control::Reference;
+use sim_node::render::CameraRenderer;
+use sim_node::sensor::{ObserverSensor, SensorKind, SensorOutput};
 use sim_node::world::World;
 
 /// Sensor modality of the observers.
@@ -94,7 +97,18 @@ struct LinkOut {
     sim_seconds: f64,
     wall_seconds: f64,
     performer_max_tracking_error_m: f64,
+    /// The ideal receiver's output for the same flight (rgb/events runs only), for comparison.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ideal: Option<BTreeMap<String, ObserverOut>>,
     contact_steps: u64,
+}
+
+/// One observer's sensor and receiver.
+struct Chain {
+    sensor: ObserverSensor,
+    perception: Perception,
+    tokens: Vec<SegmentToken>,
+    frames: Vec<ReleasedFrame>,
 }
 
 fn ns_to_s(ns: u64) -> f64 {
@@ -183,34 +197,66 @@ pub fn run(args: LinkArgs) -> Result<()> {
     let end_ns = schedule.end_ns() + TAIL_NS;
     let mut world = World::new(args.observers).context("building the scene")?;
 
-    let (outputs, max_err_m) = match args.modality {
-        Modality::Ideal => {
-            let mut ideal = IdealReceiver::new(args.observers, SegmenterConfig::rgb())?;
-            let black: Vec<usize> = args
-                .black
-                .iter()
-                .filter_map(|b| names.iter().position(|n| n == b))
-                .collect();
-            let max_err = fly(&mut world, &schedule, end_ns, IDEAL_PERIOD_NS, |w| {
-                ideal.push(w.time_ns(), w.position_m(0))?;
-                for &i in &black {
-                    ideal.interrupt(i, w.time_ns())?;
-                }
-                Ok(())
-            })?;
-            let outs: Vec<ObserverOut> = ideal
-                .outputs()
-                .iter()
-                .map(|o| observer_out(&o.tokens, &o.frames))
-                .collect();
-            (outs, max_err)
-        }
+    let ideal_config = if args.modality == Modality::Events { SegmenterConfig::events() } else { SegmenterConfig::rgb() };
+    let mut ideal = IdealReceiver::new(args.observers, ideal_config)?;
+    let black: Vec<bool> = names.iter().map(|n| args.black.contains(n)).collect();
+    let mut chains = match args.modality {
+        Modality::Ideal => Vec::new(),
         Modality::Rgb | Modality::Events => {
-            bail!(
-                "the {:?} receiver is not built yet: only --modality ideal works so far",
-                args.modality
-            )
+            let (kind, modality) = if args.modality == Modality::Rgb {
+                (SensorKind::Rgb, PerceptionModality::Rgb)
+            } else {
+                (SensorKind::Events, PerceptionModality::Events)
+            };
+            (0..args.observers)
+                .map(|i| -> Result<Chain> {
+                    Ok(Chain {
+                        sensor: ObserverSensor::new(kind, i, black[i])?,
+                        perception: Perception::new(modality)?,
+                        tokens: Vec::new(),
+                        frames: Vec::new(),
+                    })
+                })
+                .collect::<Result<Vec<_>>>()?
         }
+    };
+    let mut renderer = if chains.is_empty() {
+        None
+    } else {
+        Some(CameraRenderer::new(&world).context("creating the offscreen renderer")?)
+    };
+    let period_ns = chains.first().map_or(IDEAL_PERIOD_NS, |c| c.sensor.render_period_ns());
+    let max_err_m = fly(&mut world, &schedule, end_ns, period_ns, |w| {
+        let t = w.time_ns();
+        if t.is_multiple_of(IDEAL_PERIOD_NS) {
+            ideal.push(t, w.position_m(0))?;
+            for (i, &b) in black.iter().enumerate() {
+                if b {
+                    ideal.interrupt(i, t)?;
+                }
+            }
+        }
+        if let Some(renderer) = renderer.as_mut() {
+            for chain in &mut chains {
+                for output in chain.sensor.capture(w, renderer)? {
+                    let step = match &output {
+                        SensorOutput::Rgb(f) => chain.perception.push(SensorInput::Rgb(f))?,
+                        SensorOutput::Events(p) => chain.perception.push(SensorInput::Events(p))?,
+                    };
+                    chain.tokens.extend(step.tokens);
+                    chain.frames.extend(step.frames);
+                }
+            }
+        }
+        Ok(())
+    })?;
+    let ideal_outs: Vec<ObserverOut> =
+        ideal.outputs().iter().map(|o| observer_out(&o.tokens, &o.frames)).collect();
+    let (outputs, ideal_tokens) = if chains.is_empty() {
+        (ideal_outs, None)
+    } else {
+        let outs = chains.iter().map(|c| observer_out(&c.tokens, &c.frames)).collect();
+        (outs, Some(names.iter().cloned().zip(ideal_outs).collect()))
     };
 
     let out = LinkOut {
@@ -219,6 +265,7 @@ pub fn run(args: LinkArgs) -> Result<()> {
         sim_seconds: ns_to_s(world.time_ns()),
         wall_seconds: started.elapsed().as_secs_f64(),
         performer_max_tracking_error_m: max_err_m,
+        ideal: ideal_tokens,
         contact_steps: world.contact_stats().contact_steps,
     };
     if args.json {

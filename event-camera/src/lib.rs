@@ -1,1 +1,41 @@
-//! Synthetic event camera: threshold-crossing converter and packetiser.
+//! Synthetic event camera: an exact threshold-crossing converter and a 40 ms packetiser.
+//!
+//! Pure code (no I/O): the camera process feeds rendered RGB frames and publishes the packets;
+//! `waggle events convert` feeds PNG frames from disk.
+//!
+//! # The model (DESIGN.md §5, the paper's "Synthetic event generation")
+//!
+//! * Log luminance `L = ln(max(0.299R + 0.587G + 0.114B, 1))`, defined bit-exactly in
+//!   [`luminance`]: `Y = (299R + 587G + 114B) / 1000` formed as an exact integer, divided once in
+//!   f64, then f64 `ln`.
+//! * Each pixel keeps `L_init` (its first frame) and an integer level `n`; its reference is
+//!   `L_init + n·C`, never an accumulated float. With `d = L − L_init` (one f64 subtraction):
+//!   up-events fire while `d ≥ (n+1)·C` (each sets `n += 1`), down-events while `d ≤ (n−1)·C`
+//!   (each sets `n −= 1`); `(n±1)·C` is `f64::from(n ± 1) * C`. Inclusive comparisons make a
+//!   pixel that returns exactly to a former value return to the same level.
+//! * Crossing of level `k` inside the interval `(t0, t1]`: with `d0`, `d1` the values of `d` at
+//!   the two frames, `frac = (f64::from(k)·C − d0) / (d1 − d0)` and
+//!   `t = t0 + clamp(ceil(frac · (t1 − t0) as f64), 1, t1 − t0)` integer nanoseconds. Rounding up
+//!   keeps every event strictly after the earlier frame, matching the packets' (start, end]
+//!   watermarks.
+//! * The first frame only initialises. Events of one interval are sorted by time, then pixel
+//!   index `y·width + x`, then crossing order.
+//!
+//! [`reference::ReferenceConverter`] states this literally; [`Converter`] is the fast,
+//! bit-identical implementation used everywhere else. [`EventCamera`] cuts the stream into
+//! [`proto::EventPacket`]s; [`picture`] draws packets the way the paper's figure does.
+
+pub mod camera;
+pub mod converter;
+pub mod error;
+pub mod event;
+mod kernel;
+pub mod luminance;
+pub mod picture;
+pub mod reference;
+pub mod synthetic;
+
+pub use camera::{CameraConfig, EventCamera};
+pub use converter::Converter;
+pub use error::{CameraError, ConvertError, MIN_THRESHOLD, PictureError};
+pub use event::{DEFAULT_THRESHOLD, Event, Polarity};

@@ -7,6 +7,7 @@
 pub mod agent;
 pub mod decoder;
 pub mod events;
+pub mod perception;
 pub mod segmenter;
 
 pub use decoder::{DecodeStep, Decoder};

@@ -46,6 +46,12 @@ impl CameraRenderer {
         })
     }
 
+    /// Draws the observers' own airframes too (hidden by default: they are never in another
+    /// observer's view, see [`crate::mjcf::OBSERVER_GEOM_GROUP`]).
+    pub fn show_observers(&mut self, show: bool) {
+        self.renderer.opts_mut().geomgroup[crate::mjcf::OBSERVER_GEOM_GROUP] = u8::from(show);
+    }
+
     /// Renders observer `i`'s view of the current state; returns row-major RGB, top row first.
     pub fn render(&mut self, world: &mut World, observer: usize) -> Result<&[u8], RenderError> {
         let cam = *self

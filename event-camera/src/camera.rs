@@ -1,0 +1,184 @@
+//! The event camera: converter + black-input fault + 40 ms packetiser.
+//!
+//! Packets tile sim time on a fixed grid: packet k covers `(k·P, (k+1)·P]` (P = packet period),
+//! independent of when the camera started, so every observer's packets line up with the 25 Hz
+//! receivers. The first packet is the one following the first render (k = ⌊t_first / P⌋); packet
+//! k is emitted by the first render at or after `(k+1)·P`, which is when all its events are
+//! known. Empty packets are emitted like any other: quiet is not absence.
+//!
+//! * `valid` — the whole interval was observed (false only for a first packet that starts before
+//!   the first render).
+//! * `continuous` — no render was missing inside the interval (no two consecutive renders more
+//!   than one render period apart across it). Events are still interpolated across such a gap,
+//!   but a receiver must not treat the packet as a direct continuation.
+
+use std::collections::VecDeque;
+
+use proto::EventPacket;
+
+use crate::converter::Converter;
+use crate::error::CameraError;
+use crate::event::{DEFAULT_THRESHOLD, Event};
+
+/// Sensor and timing configuration of one event camera.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CameraConfig {
+    pub width: u16,
+    pub height: u16,
+    /// Contrast threshold C.
+    pub threshold: f64,
+    pub packet_period_ns: u64,
+    /// Nominal time between renders; a larger step between renders marks a gap.
+    pub render_period_ns: u64,
+    /// Fault: every render is replaced by a black frame before conversion.
+    pub black_input: bool,
+}
+
+impl CameraConfig {
+    /// The paper's sensor: C = 0.18, 40 ms packets (25 Hz) from 100 Hz renders, no fault.
+    pub fn paper(width: u16, height: u16) -> Self {
+        Self {
+            width,
+            height,
+            threshold: DEFAULT_THRESHOLD,
+            packet_period_ns: 40_000_000,
+            render_period_ns: 10_000_000,
+            black_input: false,
+        }
+    }
+}
+
+/// One synthetic event camera producing [`EventPacket`]s from renders.
+#[derive(Clone)]
+pub struct EventCamera {
+    config: CameraConfig,
+    converter: Converter,
+    /// All-zero frame fed instead of the render under the black-input fault.
+    black: Vec<u8>,
+    /// Converted events not yet packed, in time order.
+    pending: Vec<Event>,
+    next_seq: u64,
+    /// Grid index k of the next packet, once the first render has arrived.
+    next_packet: Option<u64>,
+    first_stamp_ns: u64,
+    last_stamp_ns: u64,
+    /// Render gaps `(previous render, render)` that may still overlap unsent packets.
+    gaps: VecDeque<(u64, u64)>,
+}
+
+impl std::fmt::Debug for EventCamera {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EventCamera")
+            .field("config", &self.config)
+            .field("next_seq", &self.next_seq)
+            .field("pending_events", &self.pending.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl EventCamera {
+    pub fn new(config: CameraConfig) -> Result<Self, CameraError> {
+        if config.packet_period_ns == 0 || config.packet_period_ns > u64::from(u32::MAX) {
+            return Err(CameraError::BadPacketPeriod(config.packet_period_ns));
+        }
+        if config.render_period_ns == 0 {
+            return Err(CameraError::BadRenderPeriod);
+        }
+        let converter = Converter::new(config.width, config.height, config.threshold)?;
+        let pixels = usize::from(config.width) * usize::from(config.height);
+        Ok(Self {
+            config,
+            converter,
+            black: vec![0; 3 * pixels],
+            pending: Vec::new(),
+            next_seq: 0,
+            next_packet: None,
+            first_stamp_ns: 0,
+            last_stamp_ns: 0,
+            gaps: VecDeque::new(),
+        })
+    }
+
+    pub fn config(&self) -> &CameraConfig {
+        &self.config
+    }
+
+    /// Switches the black-input fault on or off for subsequent renders.
+    pub fn set_black_input(&mut self, black: bool) {
+        self.config.black_input = black;
+    }
+
+    /// Sequence number the next packet will carry.
+    pub fn next_seq(&self) -> u64 {
+        self.next_seq
+    }
+
+    /// Feeds the render made at `stamp_ns` and returns the packets it completes (usually none
+    /// or one; several after a render gap longer than a packet). On error nothing changes.
+    pub fn push_frame(
+        &mut self,
+        stamp_ns: u64,
+        rgb: &[u8],
+    ) -> Result<Vec<EventPacket>, CameraError> {
+        if rgb.len() != self.black.len() {
+            return Err(crate::ConvertError::FrameSize {
+                got: rgb.len(),
+                want: self.black.len(),
+                width: self.config.width,
+                height: self.config.height,
+            }
+            .into());
+        }
+        let input = if self.config.black_input {
+            &self.black[..]
+        } else {
+            rgb
+        };
+        self.converter.push(stamp_ns, input, &mut self.pending)?;
+        let period = self.config.packet_period_ns;
+        let Some(mut k) = self.next_packet else {
+            self.first_stamp_ns = stamp_ns;
+            self.last_stamp_ns = stamp_ns;
+            self.next_packet = Some(stamp_ns / period);
+            return Ok(Vec::new());
+        };
+        if stamp_ns - self.last_stamp_ns > self.config.render_period_ns {
+            self.gaps.push_back((self.last_stamp_ns, stamp_ns));
+        }
+        self.last_stamp_ns = stamp_ns;
+
+        let mut packets = Vec::new();
+        while (k + 1).saturating_mul(period) <= stamp_ns {
+            packets.push(self.pack(k * period, (k + 1) * period));
+            k += 1;
+        }
+        self.next_packet = Some(k);
+        Ok(packets)
+    }
+
+    fn pack(&mut self, start_ns: u64, end_ns: u64) -> EventPacket {
+        let count = self.pending.partition_point(|e| e.t_ns <= end_ns);
+        let events = &self.pending[..count];
+        let continuous = !self.gaps.iter().any(|&(a, b)| a < end_ns && start_ns < b);
+        while self.gaps.front().is_some_and(|&(_, b)| b <= end_ns) {
+            self.gaps.pop_front();
+        }
+        let packet = EventPacket {
+            seq: self.next_seq,
+            start_ns,
+            end_ns,
+            width: self.config.width,
+            height: self.config.height,
+            valid: self.first_stamp_ns <= start_ns,
+            continuous,
+            xs: events.iter().map(|e| e.x).collect(),
+            ys: events.iter().map(|e| e.y).collect(),
+            // Events lie in (start, end] and the period fits u32 (checked in `new`).
+            dt_ns: events.iter().map(|e| (e.t_ns - start_ns) as u32).collect(),
+            on_bits: EventPacket::pack_polarities(events.iter().map(|e| e.polarity)),
+        };
+        self.pending.drain(..count);
+        self.next_seq += 1;
+        packet
+    }
+}

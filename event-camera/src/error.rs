@@ -1,0 +1,74 @@
+//! Typed errors of the converter, the packetiser and the picture codec.
+
+/// Smallest accepted contrast threshold. It bounds the events one pixel can emit per interval
+/// (|ΔL| ≤ ln 255 ≈ 5.5, so at most ≈ 5 500 crossings), keeping every level index far from
+/// overflow and every packet of sane size.
+pub const MIN_THRESHOLD: f64 = 1e-3;
+
+/// Why a converter could not be built or a frame could not be converted.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConvertError {
+    #[error("contrast threshold must be finite and at least {MIN_THRESHOLD}, got {0}")]
+    BadThreshold(f64),
+    #[error("sensor size {width}x{height} has no pixels")]
+    EmptySensor { width: u16, height: u16 },
+    #[error("frame has {got} bytes, expected {want} for a {width}x{height} RGB frame")]
+    FrameSize {
+        got: usize,
+        want: usize,
+        width: u16,
+        height: u16,
+    },
+    #[error("frame stamp {stamp_ns} ns is not after the previous frame at {previous_ns} ns")]
+    StampNotIncreasing { stamp_ns: u64, previous_ns: u64 },
+}
+
+/// Why an event camera could not be built or could not accept a render.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CameraError {
+    #[error(transparent)]
+    Convert(#[from] ConvertError),
+    #[error("packet period must be in 1..=u32::MAX ns (event offsets are u32), got {0} ns")]
+    BadPacketPeriod(u64),
+    #[error("render period must be positive")]
+    BadRenderPeriod,
+}
+
+/// Why a picture could not be composed, encoded or decoded.
+#[derive(Debug, thiserror::Error)]
+pub enum PictureError {
+    #[error(
+        "inset crop {x},{y} {width}x{height} does not fit in a {image_width}x{image_height} image"
+    )]
+    CropOutside {
+        x: u32,
+        y: u32,
+        width: u32,
+        height: u32,
+        image_width: u32,
+        image_height: u32,
+    },
+    #[error(
+        "magnified inset {width}x{height} does not fit in a {image_width}x{image_height} image"
+    )]
+    InsetTooLarge {
+        width: u32,
+        height: u32,
+        image_width: u32,
+        image_height: u32,
+    },
+    #[error("inset crop must be non-empty with a magnification of at least 1")]
+    EmptyInset,
+    #[error("malformed event packet: {0}")]
+    MalformedPacket(String),
+    #[error("image buffer has {got} bytes, expected {want}")]
+    BufferSize { got: usize, want: usize },
+    #[error("image too large to decode into memory")]
+    TooLarge,
+    #[error("PNG encoding failed")]
+    Encode(#[from] png::EncodingError),
+    #[error("PNG decoding failed")]
+    Decode(#[from] png::DecodingError),
+    #[error("unsupported PNG pixel format {0:?} (need 8-bit gray, gray+alpha, RGB or RGBA)")]
+    UnsupportedFormat(png::ColorType),
+}

@@ -1,0 +1,29 @@
+//! The event-only receiving chain (paper, "Event-only trajectories and conditional null
+//! signals"): an observer's own [`proto::EventPacket`]s in — coordinates, times, polarities,
+//! watermarks, sequence, validity, continuity, dimensions; no RGB, no poses, no labels — tokens
+//! and released frames out.
+//!
+//! - [`health`]: malformed packets (counted by reason) and delivery discontinuities;
+//! - [`support`]: unique-pixel support, spans, percentile-bound centre, polarity balance;
+//! - [`tracker`]: localise near the optical centre, track locally, judge support before polarity;
+//! - [`acquisition`]: the NULL gate — a closed moving path observed, a 20 s tracking lease;
+//! - [`receiver`]: the chain, feeding the shared segmenter and frame parser.
+
+pub mod acquisition;
+pub mod error;
+pub mod health;
+pub mod receiver;
+pub mod support;
+pub mod tracker;
+
+pub use acquisition::{Acquisition, AcquisitionConfig, AcquisitionEvent};
+pub use error::EventReceiverError;
+pub use health::{Delivery, DeliveryMonitor, Discontinuity, PacketRejection};
+pub use receiver::{
+    EventReceiver, EventReceiverConfig, InterruptCause, PacketOutcome, ReceiverStatus,
+    SymbolTrajectory, TrackSample,
+};
+pub use support::{Evidence, SupportScratch, Window, gather};
+pub use tracker::{
+    Judgement, Observation, SupportTracker, TrackFault, TrackerConfig, is_supported, support_first,
+};

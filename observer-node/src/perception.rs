@@ -1,0 +1,73 @@
+//! One observer's perception, whichever sensor it carries: its own RGB frames or its own event
+//! packets in, tokens and released frames out. This is all an observer process is allowed to
+//! see of the world.
+
+use proto::{EventPacket, RgbFrame};
+
+use crate::decoder::DecodeStep;
+use crate::events::{EventReceiver, EventReceiverConfig, EventReceiverError};
+
+/// The sensor an observer carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Modality {
+    Rgb,
+    Events,
+}
+
+/// One input from the observer's own sensor.
+#[derive(Debug, Clone, Copy)]
+pub enum SensorInput<'a> {
+    Rgb(&'a RgbFrame),
+    Events(&'a EventPacket),
+}
+
+/// Why perception could not be built or fed.
+#[derive(Debug, thiserror::Error)]
+pub enum PerceptionError {
+    #[error("a {got} input reached a {expected} receiver")]
+    WrongSensor { expected: &'static str, got: &'static str },
+    #[error("the RGB receiver is not built yet")]
+    RgbUnavailable,
+    #[error(transparent)]
+    Events(#[from] EventReceiverError),
+}
+
+/// The receiving chain of one observer.
+#[derive(Debug, Clone)]
+pub enum Perception {
+    Events(Box<EventReceiver>),
+}
+
+impl Perception {
+    /// The paper's receiver for `modality`.
+    pub fn new(modality: Modality) -> Result<Self, PerceptionError> {
+        match modality {
+            Modality::Events => Ok(Self::Events(Box::new(EventReceiver::new(EventReceiverConfig::paper())?))),
+            Modality::Rgb => Err(PerceptionError::RgbUnavailable),
+        }
+    }
+
+    /// Feeds the next input of this observer's sensor.
+    pub fn push(&mut self, input: SensorInput<'_>) -> Result<DecodeStep, PerceptionError> {
+        match (self, input) {
+            (Self::Events(r), SensorInput::Events(p)) => Ok(r.push_packet(p).step),
+            (Self::Events(_), SensorInput::Rgb(_)) => {
+                Err(PerceptionError::WrongSensor { expected: "events", got: "rgb" })
+            }
+        }
+    }
+
+    /// The sensor stream is known to be missing at `stamp_ns` (publisher gone, grace expired).
+    pub fn missing(&mut self, stamp_ns: u64) -> DecodeStep {
+        match self {
+            Self::Events(r) => r.interrupt(stamp_ns).step,
+        }
+    }
+
+    /// A new round or reception window: forget target, partial frame and stream continuity.
+    pub fn reset(&mut self) {
+        match self {
+            Self::Events(r) => r.reset(),
+        }
+    }
+}
