@@ -9,12 +9,12 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
+use observer_node::perception::{Modality as PerceptionModality, Perception, SensorInput};
 use observer_node::{SegmentToken, SegmenterConfig};
 use performer_node::{GestureConfig, IdealReceiver, Schedule, broadcast};
 use proto::ReleasedFrame;
 use proto::scene::{MAX_OBSERVERS, observer_name};
 use serde::Serialize;
-use observer_node::perception::{Modality as PerceptionModality, Perception, SensorInput};
 use sim_node::control::Reference;
 use sim_node::render::CameraRenderer;
 use sim_node::sensor::{ObserverSensor, SensorKind, SensorOutput};
@@ -39,9 +39,16 @@ pub struct LinkArgs {
     /// Observer sensor modality.
     #[arg(long, value_enum, default_value_t = Modality::Ideal)]
     modality: Modality,
-    /// Six-bit payload to broadcast, e.g. 011010; repeat for back-to-back offers.
-    #[arg(long = "payload", required = true, value_parser = parse_bits6)]
+    /// Six-bit payload to broadcast, e.g. 011010; repeat for back-to-back offers. Without any,
+    /// the performer only hovers (a control: nothing may be decoded).
+    #[arg(long = "payload", value_parser = parse_bits6)]
     payloads: Vec<u8>,
+    /// Events modality: skip the acquisition sweep before the first offer (a control).
+    #[arg(long)]
+    no_acquisition: bool,
+    /// Seconds to hover when no payload is given.
+    #[arg(long, default_value_t = 30.0)]
+    hover_s: f64,
     /// Black out this observer's camera from start-up (e.g. O2); repeatable.
     #[arg(long)]
     black: Vec<String>,
@@ -186,7 +193,11 @@ pub fn run(args: LinkArgs) -> Result<()> {
         }
     }
     let started = Instant::now();
-    let acquisition = args.modality == Modality::Events;
+    let acquisition =
+        args.modality == Modality::Events && !args.no_acquisition && !args.payloads.is_empty();
+    if !(args.hover_s.is_finite() && args.hover_s >= 0.0) {
+        bail!("--hover-s {} must be a non-negative number", args.hover_s);
+    }
     let schedule = broadcast(
         LEAD_IN_NS,
         &args.payloads,
@@ -194,10 +205,19 @@ pub fn run(args: LinkArgs) -> Result<()> {
         &GestureConfig::default(),
     )
     .context("building the broadcast schedule")?;
-    let end_ns = schedule.end_ns() + TAIL_NS;
+    let hover_ns = if args.payloads.is_empty() {
+        (args.hover_s * 1e9).round() as u64
+    } else {
+        0
+    };
+    let end_ns = schedule.end_ns().max(LEAD_IN_NS + hover_ns) + TAIL_NS;
     let mut world = World::new(args.observers).context("building the scene")?;
 
-    let ideal_config = if args.modality == Modality::Events { SegmenterConfig::events() } else { SegmenterConfig::rgb() };
+    let ideal_config = if args.modality == Modality::Events {
+        SegmenterConfig::events()
+    } else {
+        SegmenterConfig::rgb()
+    };
     let mut ideal = IdealReceiver::new(args.observers, ideal_config)?;
     let black: Vec<bool> = names.iter().map(|n| args.black.contains(n)).collect();
     let mut chains = match args.modality {
@@ -225,7 +245,9 @@ pub fn run(args: LinkArgs) -> Result<()> {
     } else {
         Some(CameraRenderer::new(&world).context("creating the offscreen renderer")?)
     };
-    let period_ns = chains.first().map_or(IDEAL_PERIOD_NS, |c| c.sensor.render_period_ns());
+    let period_ns = chains
+        .first()
+        .map_or(IDEAL_PERIOD_NS, |c| c.sensor.render_period_ns());
     let max_err_m = fly(&mut world, &schedule, end_ns, period_ns, |w| {
         let t = w.time_ns();
         if t.is_multiple_of(IDEAL_PERIOD_NS) {
@@ -250,12 +272,18 @@ pub fn run(args: LinkArgs) -> Result<()> {
         }
         Ok(())
     })?;
-    let ideal_outs: Vec<ObserverOut> =
-        ideal.outputs().iter().map(|o| observer_out(&o.tokens, &o.frames)).collect();
+    let ideal_outs: Vec<ObserverOut> = ideal
+        .outputs()
+        .iter()
+        .map(|o| observer_out(&o.tokens, &o.frames))
+        .collect();
     let (outputs, ideal_tokens) = if chains.is_empty() {
         (ideal_outs, None)
     } else {
-        let outs = chains.iter().map(|c| observer_out(&c.tokens, &c.frames)).collect();
+        let outs = chains
+            .iter()
+            .map(|c| observer_out(&c.tokens, &c.frames))
+            .collect();
         (outs, Some(names.iter().cloned().zip(ideal_outs).collect()))
     };
 

@@ -14,6 +14,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use observer_node::agent::{AgentFrame, FrameOutcome, ObserverAgent};
+use observer_node::perception::{Modality as PerceptionModality, SensorInput};
 use observer_node::{DecodeStep, Decoder, Sample, SegmentToken, SegmenterConfig};
 use performer_node::{GestureConfig, Schedule, broadcast};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, observer_name};
@@ -22,7 +23,7 @@ use scheduler_node::{DecisionNotice, EventKind, Modality, Scheduler, SchedulerCo
 use serde::Serialize;
 use sim_node::control::Reference;
 use sim_node::render::CameraRenderer;
-use sim_node::sensor::ObserverSensor;
+use sim_node::sensor::{ObserverSensor, SensorKind, SensorOutput};
 use sim_node::world::World;
 
 use crate::case::{Case, CaseModality};
@@ -50,12 +51,15 @@ enum Perception {
         camera: LevelCamera,
         decoder: Decoder,
     },
+    /// The observer's real receiver, fed only by its own sensor.
+    Sensor(Box<observer_node::perception::Perception>),
 }
 
 impl Perception {
     fn reset(&mut self) {
         match self {
             Perception::Ideal { decoder, .. } => decoder.reset(),
+            Perception::Sensor(p) => p.reset(),
         }
     }
 
@@ -63,6 +67,7 @@ impl Perception {
     fn missing(&mut self, stamp_ns: u64) -> Result<DecodeStep> {
         match self {
             Perception::Ideal { decoder, .. } => Ok(decoder.interrupt(stamp_ns)?),
+            Perception::Sensor(p) => Ok(p.missing(stamp_ns)),
         }
     }
 }
@@ -202,8 +207,14 @@ pub fn fly_case(case: &Case, modality: CaseModality) -> Result<MissionSummary> {
                 None,
             ),
             CaseModality::Rgb | CaseModality::Events => {
-                bail!(
-                    "the {modality:?} receiver is not wired into `waggle mission` yet: use --modality ideal"
+                let (kind, m) = if modality == CaseModality::Rgb {
+                    (SensorKind::Rgb, PerceptionModality::Rgb)
+                } else {
+                    (SensorKind::Events, PerceptionModality::Events)
+                };
+                (
+                    Perception::Sensor(Box::new(observer_node::perception::Perception::new(m)?)),
+                    Some(kind),
                 )
             }
         };
@@ -387,16 +398,20 @@ pub fn fly_case(case: &Case, modality: CaseModality) -> Result<MissionSummary> {
 
 fn sense(
     world: &mut World,
-    renderer: Option<&mut CameraRenderer>,
+    mut renderer: Option<&mut CameraRenderer>,
     slots: &mut [Slot],
     t: u64,
 ) -> Result<()> {
-    let _ = renderer;
     let performer_m = world.position_m(0);
     for slot in slots.iter_mut() {
-        let dropped = slot.dropout_ns.is_some_and(|d| t > d);
-        if dropped {
-            // The stream is gone: no data arrives; perception learns of it once (in the
+        // The camera keeps running during flights (its events are part of the record); only
+        // perception pauses outside reception windows.
+        let outputs = match (&mut slot.sensor, renderer.as_deref_mut()) {
+            (Some(sensor), Some(renderer)) => sensor.capture(world, renderer)?,
+            _ => Vec::new(),
+        };
+        if slot.dropout_ns.is_some_and(|d| t > d) {
+            // The stream is gone: nothing arrives. Perception learns of it once (in the
             // distributed runtime from the camera's liveliness token).
             if !slot.dropped && slot.agent.receiving() {
                 let step = slot.perception.missing(t)?;
@@ -405,11 +420,11 @@ fn sense(
             slot.dropped = true;
             continue;
         }
-        match &mut slot.perception {
+        if !slot.agent.receiving() {
+            continue;
+        }
+        let steps = match &mut slot.perception {
             Perception::Ideal { camera, decoder } => {
-                if !slot.agent.receiving() {
-                    continue;
-                }
                 let inside = camera.project_px(performer_m).filter(|p| {
                     p[0] >= 0.0
                         && p[1] >= 0.0
@@ -420,9 +435,18 @@ fn sense(
                     Some(p) if !slot.black => Sample::tracked(t, p),
                     _ => Sample::lost(t),
                 };
-                let step = decoder.push(sample)?;
-                slot.absorb(step, t);
+                vec![decoder.push(sample)?]
             }
+            Perception::Sensor(p) => outputs
+                .iter()
+                .map(|output| match output {
+                    SensorOutput::Rgb(f) => p.push(SensorInput::Rgb(f)),
+                    SensorOutput::Events(e) => p.push(SensorInput::Events(e)),
+                })
+                .collect::<Result<Vec<_>, _>>()?,
+        };
+        for step in steps {
+            slot.absorb(step, t);
         }
     }
     Ok(())

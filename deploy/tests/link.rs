@@ -2,31 +2,8 @@
 
 use std::process::Command;
 
-use serde_json::Value;
-
-fn link(args: &[&str]) -> Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_waggle"))
-        .arg("link")
-        .args(args)
-        .arg("--json")
-        .output()
-        .expect("run waggle");
-    assert!(
-        out.status.success(),
-        "waggle link {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("JSON output")
-}
-
-fn payloads(v: &Value, observer: &str) -> Vec<String> {
-    v["observers"][observer]["payloads"]
-        .as_array()
-        .unwrap_or_else(|| panic!("no payloads for {observer}: {v}"))
-        .iter()
-        .map(|p| p.as_str().expect("string").to_string())
-        .collect()
-}
+mod common;
+use common::{link, payloads};
 
 #[test]
 fn ideal_link_releases_both_nominal_offers_for_every_observer_in_order() {

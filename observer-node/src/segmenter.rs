@@ -183,6 +183,11 @@ pub struct Segmenter {
     after_null: bool,
     motion_start_ns: Option<u64>,
     path_px: Vec<[f64; 2]>,
+    /// Reliable samples since the last interruption, at most one NULL-confirmation span old:
+    /// a new rest starts at the earliest of them that is already within the anchor radius of
+    /// where the target now is, so the rest timer does not depend on where, inside the radius,
+    /// a lagging tracker happened to cross its edge.
+    recent: std::collections::VecDeque<(u64, [f64; 2])>,
 }
 
 impl Segmenter {
@@ -203,6 +208,7 @@ impl Segmenter {
             after_null: false,
             motion_start_ns: None,
             path_px: Vec::new(),
+            recent: std::collections::VecDeque::new(),
         }
     }
 
@@ -266,6 +272,14 @@ impl Segmenter {
             }
         };
         self.interrupted = false;
+        self.recent.push_back((stamp_ns, p));
+        while self
+            .recent
+            .front()
+            .is_some_and(|&(t, _)| stamp_ns - t > self.config.null_confirm_ns)
+        {
+            self.recent.pop_front();
+        }
         let radius_px = self.config.anchor_radius_px;
         if let Some(anchor) = self.anchor.filter(|a| dist(a.point_px, p) <= radius_px) {
             self.rest_sum_px = [self.rest_sum_px[0] + p[0], self.rest_sum_px[1] + p[1]];
@@ -284,6 +298,9 @@ impl Segmenter {
         // The point is moving (or has just been re-acquired): start a new rest candidate here.
         if self.rested {
             self.rested = false;
+            // Samples of the confirmed rest must never start the next one.
+            self.recent.clear();
+            self.recent.push_back((stamp_ns, p));
             self.motion_start_ns = Some(stamp_ns);
             self.path_px.clear();
             self.path_px.push(self.rest_mean());
@@ -305,13 +322,22 @@ impl Segmenter {
                 self.path_px.clear();
             }
         }
+        let (mut start_ns, mut sum_px, mut count) = (stamp_ns, p, 1u32);
+        for &(t, q) in self.recent.iter().rev().skip(1) {
+            if dist(q, p) > radius_px {
+                break;
+            }
+            start_ns = t;
+            sum_px = [sum_px[0] + q[0], sum_px[1] + q[1]];
+            count += 1;
+        }
         self.anchor = Some(Anchor {
             point_px: p,
-            stamp_ns,
+            stamp_ns: start_ns,
             path_index: self.path_px.len().saturating_sub(1),
         });
-        self.rest_sum_px = p;
-        self.rest_count = 1;
+        self.rest_sum_px = sum_px;
+        self.rest_count = count;
         Ok(out)
     }
 
@@ -332,6 +358,7 @@ impl Segmenter {
 
     fn break_continuity(&mut self, stamp_ns: u64, why: Interruption) -> Option<SegmentToken> {
         self.anchor = None;
+        self.recent.clear();
         self.rested = false;
         self.after_null = false;
         self.motion_start_ns = None;
@@ -511,7 +538,12 @@ pub(crate) mod tests {
             &mut Segmenter::new(SegmenterConfig::events()).unwrap(),
             &sc.samples,
         );
-        assert_eq!(rgb_out[0].stamp_ns, 5 * S);
+        // The RGB rest restarts at the step, give or take the one jittered sample before it
+        // that already lay within 15 px of where the target settled.
+        assert!(
+            (4_900_000_000..=5 * S).contains(&rgb_out[0].stamp_ns),
+            "{rgb_out:?}"
+        );
         assert_eq!(ev_out[0].stamp_ns, 3 * S);
     }
 
@@ -529,10 +561,10 @@ pub(crate) mod tests {
                 "{action}"
             );
             assert_eq!(out[1].stamp_ns, out[2].stamp_ns);
-            // The rest is anchored once the point is within 15 px of the centre, just before
-            // the drawing ends at 8 s, and confirmed 3 s later.
+            // The rest starts once the point is within 15 px of where it settles, just before
+            // the drawing ends at 8 s, and is confirmed 3 s later.
             assert!(
-                (10_800_000_000..=11 * S).contains(&out[2].stamp_ns),
+                (10_700_000_000..=11 * S).contains(&out[2].stamp_ns),
                 "{action}: {out:?}"
             );
             let TokenCause::Classified(c) = out[1].cause else {
