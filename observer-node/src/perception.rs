@@ -6,6 +6,7 @@ use proto::{EventPacket, RgbFrame};
 
 use crate::decoder::DecodeStep;
 use crate::events::{EventReceiver, EventReceiverConfig, EventReceiverError};
+use crate::rgb::{RgbReceiver, RgbReceiverConfig, RgbReceiverError};
 
 /// The sensor an observer carries.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -25,9 +26,12 @@ pub enum SensorInput<'a> {
 #[derive(Debug, thiserror::Error)]
 pub enum PerceptionError {
     #[error("a {got} input reached a {expected} receiver")]
-    WrongSensor { expected: &'static str, got: &'static str },
-    #[error("the RGB receiver is not built yet")]
-    RgbUnavailable,
+    WrongSensor {
+        expected: &'static str,
+        got: &'static str,
+    },
+    #[error(transparent)]
+    Rgb(#[from] RgbReceiverError),
     #[error(transparent)]
     Events(#[from] EventReceiverError),
 }
@@ -35,6 +39,7 @@ pub enum PerceptionError {
 /// The receiving chain of one observer.
 #[derive(Debug, Clone)]
 pub enum Perception {
+    Rgb(Box<RgbReceiver>),
     Events(Box<EventReceiver>),
 }
 
@@ -42,8 +47,12 @@ impl Perception {
     /// The paper's receiver for `modality`.
     pub fn new(modality: Modality) -> Result<Self, PerceptionError> {
         match modality {
-            Modality::Events => Ok(Self::Events(Box::new(EventReceiver::new(EventReceiverConfig::paper())?))),
-            Modality::Rgb => Err(PerceptionError::RgbUnavailable),
+            Modality::Events => Ok(Self::Events(Box::new(EventReceiver::new(
+                EventReceiverConfig::paper(),
+            )?))),
+            Modality::Rgb => Ok(Self::Rgb(Box::new(RgbReceiver::new(
+                RgbReceiverConfig::paper(),
+            )?))),
         }
     }
 
@@ -51,9 +60,15 @@ impl Perception {
     pub fn push(&mut self, input: SensorInput<'_>) -> Result<DecodeStep, PerceptionError> {
         match (self, input) {
             (Self::Events(r), SensorInput::Events(p)) => Ok(r.push_packet(p).step),
-            (Self::Events(_), SensorInput::Rgb(_)) => {
-                Err(PerceptionError::WrongSensor { expected: "events", got: "rgb" })
-            }
+            (Self::Rgb(r), SensorInput::Rgb(f)) => Ok(r.push_frame(f).step),
+            (Self::Rgb(_), SensorInput::Events(_)) => Err(PerceptionError::WrongSensor {
+                expected: "rgb",
+                got: "events",
+            }),
+            (Self::Events(_), SensorInput::Rgb(_)) => Err(PerceptionError::WrongSensor {
+                expected: "events",
+                got: "rgb",
+            }),
         }
     }
 
@@ -61,6 +76,7 @@ impl Perception {
     pub fn missing(&mut self, stamp_ns: u64) -> DecodeStep {
         match self {
             Self::Events(r) => r.interrupt(stamp_ns).step,
+            Self::Rgb(r) => r.interrupt(stamp_ns).step,
         }
     }
 
@@ -68,6 +84,7 @@ impl Perception {
     pub fn reset(&mut self) {
         match self {
             Self::Events(r) => r.reset(),
+            Self::Rgb(r) => r.reset(),
         }
     }
 }

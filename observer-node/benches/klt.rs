@@ -1,0 +1,2 @@
+//! KLT benchmark (being written).
+fn main() {}
