@@ -33,8 +33,11 @@ pub enum CaseModality {
 pub enum FaultKind {
     /// Black frames from start-up, before event conversion.
     Black,
-    /// The sensor stream stops at `at_s`.
+    /// The sensor stream stops at `at_s` (`waggle run`: the camera process is killed).
     Dropout,
+    /// From `at_s` on, the camera drops `drop_per_mille` ‰ of its packets and delays the rest
+    /// by `delay_ms` of wall-clock time (`waggle run` only).
+    Throttle,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -44,6 +47,12 @@ pub struct FaultSpec {
     pub kind: FaultKind,
     #[serde(default)]
     pub at_s: f64,
+    /// Throttle only: packets dropped per thousand.
+    #[serde(default)]
+    pub drop_per_mille: u16,
+    /// Throttle only: wall-clock delay of each packet, ms.
+    #[serde(default)]
+    pub delay_ms: u32,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -136,6 +145,12 @@ impl Case {
             }
             if !(f.at_s.is_finite() && f.at_s >= 0.0) {
                 bail!("fault at_s = {} must be a non-negative number", f.at_s);
+            }
+            if f.drop_per_mille > 1000 {
+                bail!("fault drop_per_mille = {} exceeds 1000", f.drop_per_mille);
+            }
+            if f.kind != FaultKind::Throttle && (f.drop_per_mille != 0 || f.delay_ms != 0) {
+                bail!("drop_per_mille and delay_ms apply to throttle faults only");
             }
         }
         for s in &self.offer_sites {

@@ -8,6 +8,8 @@ mod cmd_events;
 mod cmd_link;
 mod cmd_payload;
 mod mission;
+mod run;
+mod summary;
 
 #[derive(Parser)]
 #[command(
@@ -24,6 +26,9 @@ enum Cli {
     Link(cmd_link::LinkArgs),
     /// Fly a whole case (physics, cameras, performer, observers, scheduler) in one process.
     Mission(mission::MissionArgs),
+    /// Run a whole case as separate processes over Zenoh (simulator, cameras, performer,
+    /// observers, scheduler), supervised, with a progress bar and a summary.
+    Run(run::RunArgs),
     /// Synthetic event camera tools (convert PNG frames into events).
     Events(cmd_events::EventsArgs),
 }
@@ -34,6 +39,7 @@ fn main() -> anyhow::Result<()> {
         Cli::Allocate(args) => cmd_allocate::run(args),
         Cli::Link(args) => cmd_link::run(args),
         Cli::Mission(args) => mission::run(args),
+        Cli::Run(args) => run::run(args),
         Cli::Events(args) => cmd_events::run(args),
     }
 }

@@ -20,13 +20,13 @@ use performer_node::{GestureConfig, Schedule, broadcast};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, observer_name};
 use proto::{ClockTick, ObserverId, Roster, Site, TICK_NS};
 use scheduler_node::{DecisionNotice, EventKind, Modality, Scheduler, SchedulerConfig};
-use serde::Serialize;
 use sim_node::control::Reference;
 use sim_node::render::CameraRenderer;
 use sim_node::sensor::{ObserverSensor, SensorKind, SensorOutput};
 use sim_node::world::World;
 
 use crate::case::{Case, CaseModality};
+use crate::summary::{MissionSummary, ObserverSummary, check_expected, ns_s, print_summary};
 
 #[derive(Debug, Args)]
 pub struct MissionArgs {
@@ -100,36 +100,6 @@ impl Slot {
             self.decisions.push(d);
         }
     }
-}
-
-#[derive(Debug, Serialize)]
-pub struct ObserverSummary {
-    pub complete_messages: usize,
-    pub payloads: Vec<String>,
-    pub final_null_s: Vec<f64>,
-    pub decisions: Vec<String>,
-    pub services: Vec<String>,
-    pub tokens: usize,
-}
-
-#[derive(Debug, Serialize)]
-pub struct MissionSummary {
-    pub case: String,
-    pub modality: String,
-    pub observers: BTreeMap<String, ObserverSummary>,
-    pub work_units: u32,
-    pub mission_time_s: f64,
-    pub end_reason: String,
-    pub contact_steps: u64,
-    pub min_separation_m: f64,
-    pub provenance_violations: Vec<String>,
-    pub pass: bool,
-    pub reasons: Vec<String>,
-    pub wall_seconds: f64,
-}
-
-fn ns_s(ns: u64) -> f64 {
-    ns as f64 * 1e-9
 }
 
 pub fn run(args: MissionArgs) -> Result<()> {
@@ -450,75 +420,4 @@ fn sense(
         }
     }
     Ok(())
-}
-
-fn check_expected(case: &Case, s: &MissionSummary) -> Vec<String> {
-    let mut reasons = Vec::new();
-    let got: Vec<usize> = s.observers.values().map(|o| o.complete_messages).collect();
-    if got != case.expected.messages {
-        reasons.push(format!(
-            "complete messages {got:?}, expected {:?}",
-            case.expected.messages
-        ));
-    }
-    if s.work_units != case.expected.work_units {
-        reasons.push(format!(
-            "{} work units, expected {}",
-            s.work_units, case.expected.work_units
-        ));
-    }
-    for (o, want) in &case.expected.services {
-        let have = s
-            .observers
-            .get(o)
-            .map(|x| x.services.clone())
-            .unwrap_or_default();
-        if &have != want {
-            reasons.push(format!("{o} served {have:?}, expected {want:?}"));
-        }
-    }
-    if s.contact_steps != 0 {
-        reasons.push(format!("{} contact steps", s.contact_steps));
-    }
-    reasons.extend(
-        s.provenance_violations
-            .iter()
-            .map(|v| format!("provenance: {v}")),
-    );
-    reasons
-}
-
-fn print_summary(s: &MissionSummary) {
-    println!(
-        "case {} ({}) — {}: mission time {:.2} s ({}), {:.1} s wall",
-        s.case,
-        s.modality,
-        if s.pass { "PASS" } else { "FAIL" },
-        s.mission_time_s,
-        s.end_reason,
-        s.wall_seconds
-    );
-    println!(
-        "{:<4} {:>9} {:>24} {:>12} {:>10}",
-        "obs", "messages", "payloads", "decisions", "services"
-    );
-    for (name, o) in &s.observers {
-        println!(
-            "{name:<4} {:>9} {:>24} {:>12} {:>10}",
-            o.complete_messages,
-            o.payloads.join(","),
-            o.decisions.join(","),
-            o.services.join(",")
-        );
-    }
-    println!(
-        "work units {} · contact steps {} · minimum separation {:.3} m · provenance violations {}",
-        s.work_units,
-        s.contact_steps,
-        s.min_separation_m,
-        s.provenance_violations.len()
-    );
-    for r in &s.reasons {
-        println!("  ✗ {r}");
-    }
 }

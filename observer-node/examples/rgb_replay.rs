@@ -18,13 +18,18 @@ fn read_png(path: &Path) -> Result<(u32, u32, Vec<u8>)> {
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
     decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
-    let mut reader = decoder.read_info().with_context(|| format!("reading {}", path.display()))?;
+    let mut reader = decoder
+        .read_info()
+        .with_context(|| format!("reading {}", path.display()))?;
     let mut buf = vec![0; reader.output_buffer_size().context("png too large")?];
     let info = reader.next_frame(&mut buf)?;
     buf.truncate(info.buffer_size());
     let rgb = match info.color_type {
         png::ColorType::Rgb => buf,
-        png::ColorType::Rgba => buf.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect(),
+        png::ColorType::Rgba => buf
+            .chunks_exact(4)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect(),
         other => bail!("{}: unsupported colour type {other:?}", path.display()),
     };
     Ok((info.width, info.height, rgb))
@@ -32,14 +37,18 @@ fn read_png(path: &Path) -> Result<(u32, u32, Vec<u8>)> {
 
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
-    let dir = PathBuf::from(args.next().context("usage: DIR [--trajectory OUT.csv] [--drop FIRST:COUNT]")?);
+    let dir = PathBuf::from(
+        args.next()
+            .context("usage: DIR [--trajectory OUT.csv] [--drop FIRST:COUNT]")?,
+    );
     let mut trajectory: Option<std::fs::File> = None;
     let mut drop = 0..0;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--trajectory" => {
                 let p = args.next().context("--trajectory needs a path")?;
-                trajectory = Some(std::fs::File::create(&p).with_context(|| format!("creating {p}"))?);
+                trajectory =
+                    Some(std::fs::File::create(&p).with_context(|| format!("creating {p}"))?);
             }
             "--drop" => {
                 let v = args.next().context("--drop needs FIRST:COUNT")?;
@@ -83,14 +92,27 @@ fn main() -> Result<()> {
             }
             if let Some(f) = trajectory.as_mut() {
                 let p = t.point_px.unwrap_or([f64::NAN; 2]);
-                writeln!(f, "{},{},{},{},{},{}", frame.seq, frame.stamp_ns, p[0], p[1], t.reliable, t.features)?;
+                writeln!(
+                    f,
+                    "{},{},{},{},{},{}",
+                    frame.seq, frame.stamp_ns, p[0], p[1], t.reliable, t.features
+                )?;
             }
         }
         for t in &out.step.tokens {
-            println!("{:8.2} s {:7} {:?}", t.stamp_ns as f64 * 1e-9, t.token.label(), t.cause);
+            println!(
+                "{:8.2} s {:7} {:?}",
+                t.stamp_ns as f64 * 1e-9,
+                t.token.label(),
+                t.cause
+            );
         }
         for f in &out.step.frames {
-            println!("RELEASED {:06b} at {:.2} s", f.payload, f.final_null_ns() as f64 * 1e-9);
+            println!(
+                "RELEASED {:06b} at {:.2} s",
+                f.payload,
+                f.final_null_ns() as f64 * 1e-9
+            );
         }
     }
     let wall = started.elapsed().as_secs_f64();
@@ -100,7 +122,10 @@ fn main() -> Result<()> {
         wall,
         wall * 1e3 / paths.len().max(1) as f64,
         acquisitions,
-        rx.frames().iter().map(|f| format!("{:06b}", f.payload)).collect::<Vec<_>>()
+        rx.frames()
+            .iter()
+            .map(|f| format!("{:06b}", f.payload))
+            .collect::<Vec<_>>()
     );
     Ok(())
 }

@@ -4,7 +4,7 @@ use bincode::Options;
 use serde::{Serialize, de::DeserializeOwned};
 
 /// Version of the wire format; bumped on any incompatible change to a message.
-pub const FORMAT_VERSION: u16 = 1;
+pub const FORMAT_VERSION: u16 = 2;
 
 /// Largest message we accept; protects decoders from hostile length prefixes.
 const MAX_MESSAGE_BYTES: u64 = 256 * 1024 * 1024;
@@ -59,4 +59,87 @@ pub fn decode<T: DeserializeOwned + Validate>(bytes: &[u8]) -> Result<T, DecodeE
         .map_err(|e| DecodeError::Malformed(e.to_string()))?;
     msg.validate().map_err(DecodeError::Inconsistent)?;
     Ok(msg)
+}
+
+/// Serde adapter for `Vec<u8>` fields that hold bulk data (RGB pixels, polarity bits): the same
+/// bytes on the wire as the default (a `u64` length, then one byte per element), but written
+/// and read in one block instead of element by element — for a 640×480 RGB frame that is the
+/// difference between ≈ 1 ms and ≈ 0.05 ms per encode or decode.
+pub(crate) mod bulk_bytes {
+    use serde::de::{Deserializer, SeqAccess, Visitor};
+    use serde::ser::Serializer;
+
+    pub fn serialize<S: Serializer>(bytes: &[u8], s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_bytes(bytes)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<u8>, D::Error> {
+        d.deserialize_byte_buf(BytesVisitor)
+    }
+
+    struct BytesVisitor;
+
+    impl<'de> Visitor<'de> for BytesVisitor {
+        type Value = Vec<u8>;
+
+        fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("a byte array")
+        }
+
+        fn visit_bytes<E: serde::de::Error>(self, v: &[u8]) -> Result<Vec<u8>, E> {
+            Ok(v.to_vec())
+        }
+
+        fn visit_byte_buf<E: serde::de::Error>(self, v: Vec<u8>) -> Result<Vec<u8>, E> {
+            Ok(v)
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<u8>, A::Error> {
+            let mut out = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(1 << 20));
+            while let Some(b) = seq.next_element()? {
+                out.push(b);
+            }
+            Ok(out)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use serde::{Deserialize, Serialize};
+
+    #[derive(Debug, PartialEq, Serialize, Deserialize)]
+    struct Plain {
+        data: Vec<u8>,
+    }
+
+    #[derive(Debug, PartialEq, Serialize, Deserialize)]
+    struct Bulk {
+        #[serde(with = "super::bulk_bytes")]
+        data: Vec<u8>,
+    }
+
+    impl super::Validate for Plain {
+        fn validate(&self) -> Result<(), String> {
+            Ok(())
+        }
+    }
+
+    impl super::Validate for Bulk {
+        fn validate(&self) -> Result<(), String> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn bulk_bytes_are_the_same_wire_bytes_as_a_plain_vec() {
+        let data: Vec<u8> = (0..=255).cycle().take(1000).collect();
+        let plain = super::encode(&Plain { data: data.clone() });
+        let bulk = super::encode(&Bulk { data: data.clone() });
+        assert_eq!(plain, bulk);
+        assert_eq!(super::decode::<Bulk>(&plain).unwrap().data, data);
+        assert_eq!(super::decode::<Plain>(&bulk).unwrap().data, data);
+        let json = serde_json::to_string(&Bulk { data: vec![1, 2] }).unwrap();
+        assert_eq!(serde_json::from_str::<Bulk>(&json).unwrap().data, [1, 2]);
+    }
 }

@@ -12,6 +12,10 @@ pub enum FaultKind {
     BlackInput,
     /// The sensor stream stops: no packets are published.
     StreamDropout,
+    /// The camera publisher is throttled: it drops `drop_per_mille` ‰ of its packets (chosen
+    /// by a hash of the packet sequence number, so the same packets go in every run) and
+    /// delays each remaining one by `delay_ms` of wall-clock time.
+    Throttle { drop_per_mille: u16, delay_ms: u32 },
 }
 
 /// A fault on one observer's camera over `[from_ns, until_ns)` (`None` = to the end).
@@ -32,6 +36,14 @@ impl Fault {
 
 impl Validate for Fault {
     fn validate(&self) -> Result<(), String> {
+        if let FaultKind::Throttle { drop_per_mille, .. } = self.kind
+            && drop_per_mille > 1000
+        {
+            return Err(format!(
+                "throttle of {} drops {drop_per_mille} per mille",
+                self.observer
+            ));
+        }
         if self.until_ns.is_some_and(|u| u <= self.from_ns) {
             return Err(format!(
                 "fault on {} ends ({:?} ns) before it starts ({} ns)",

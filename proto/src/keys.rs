@@ -243,6 +243,45 @@ impl Keys {
     pub fn alive_any(&self) -> String {
         self.key("alive/**")
     }
+
+    /// Readiness token of one process (`ready/<role>/<id>`): declared once the process has seen
+    /// the liveliness token of every process of the session, i.e. once every peer it talks to
+    /// knows its subscriptions and it knows theirs. The simulator starts the clock only when every
+    /// process is ready, so no lockstep message is published before its subscriber exists.
+    pub fn ready(&self, role: Role, id: &str) -> Result<String, KeyError> {
+        validate_chunk("process", id)?;
+        Ok(self.key(&format!("ready/{}/{id}", role.as_str())))
+    }
+
+    /// Every readiness token of the session (`ready/**`).
+    pub fn ready_any(&self) -> String {
+        self.key("ready/**")
+    }
+
+    /// Every ground-truth key of the simulator (`sim/**`).
+    pub fn sim_all(&self) -> String {
+        self.key("sim/**")
+    }
+
+    /// Every ground-truth label key (`truth/**`).
+    pub fn truth_all(&self) -> String {
+        self.key("truth/**")
+    }
+
+    /// Every key of the performer (`performer/**`).
+    pub fn performer_all(&self) -> String {
+        self.key("performer/**")
+    }
+
+    /// Every output key of one observer (`observer/<o>/**`).
+    pub fn observer_all(&self, o: &ObserverId) -> String {
+        self.key(&format!("observer/{o}/**"))
+    }
+
+    /// The scheduler's end-of-mission report (`sched/report`).
+    pub fn sched_report(&self) -> String {
+        self.key("sched/report")
+    }
 }
 
 #[cfg(test)]
@@ -285,6 +324,16 @@ mod tests {
         );
         assert_eq!(k.alive_role(Role::Camera), "waggle/run-7/alive/camera/*");
         assert_eq!(k.alive_any(), "waggle/run-7/alive/**");
+        assert_eq!(
+            k.ready(Role::Camera, "O2").unwrap(),
+            "waggle/run-7/ready/camera/O2"
+        );
+        assert_eq!(k.ready_any(), "waggle/run-7/ready/**");
+        assert_eq!(k.sched_report(), "waggle/run-7/sched/report");
+        assert_eq!(k.sim_all(), "waggle/run-7/sim/**");
+        assert_eq!(k.truth_all(), "waggle/run-7/truth/**");
+        assert_eq!(k.performer_all(), "waggle/run-7/performer/**");
+        assert_eq!(k.observer_all(&o2), "waggle/run-7/observer/O2/**");
     }
 
     #[test]

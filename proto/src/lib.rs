@@ -34,7 +34,10 @@ pub use observer::{
 };
 pub use payload::{Offer, PayloadError, Site};
 pub use provenance::{AuditViolation, audit_assignment, decide};
-pub use sched::{Broadcast, ObserverSetpoint, SchedCommand, SessionControl, SessionEvent};
+pub use sched::{
+    Broadcast, BroadcastTick, Departure, MissionReport, ObserverSetpoint, SchedCommand,
+    SessionControl, SessionEvent, SessionTick,
+};
 pub use sensor::{EventPacket, Polarity, RgbFrame};
 pub use task::{TaskError, TaskState};
 pub use token::{Action, Token};

@@ -137,6 +137,10 @@ pub struct ObserverStatus {
     pub frames: u64,
     /// Assignment of the current round, once decided.
     pub assignment: Option<Site>,
+    /// The decision made in this very tick, if any (also published on `observer/<o>/decision`).
+    /// The scheduler takes decisions from here: status{k} is the one message it waits for, so
+    /// no decision can arrive after the tick it belongs to.
+    pub decision: Option<Decision>,
 }
 
 impl Validate for ObserverStatus {
@@ -146,6 +150,15 @@ impl Validate for ObserverStatus {
                 "parser progress {} of a 17-token frame",
                 self.parser_progress
             ));
+        }
+        if let Some(d) = &self.decision {
+            d.validate()?;
+            if d.observer != self.observer {
+                return Err(format!(
+                    "status of {} carries a decision of {}",
+                    self.observer, d.observer
+                ));
+            }
         }
         Ok(())
     }

@@ -2,13 +2,21 @@
 //! performer must send (`sched/broadcast`) and session controls (`sched/session`).
 //!
 //! Session controls carry no payloads, labels or poses: observers subscribe to them.
+//!
+//! In the distributed runtime the scheduler publishes one [`SessionTick`] on `sched/session` and
+//! one [`BroadcastTick`] on `sched/broadcast` **every** tick, even when empty: an observer (or the
+//! performer) then knows it has everything the scheduler said in tick k, whatever the arrival
+//! order of messages from different publishers. The final [`MissionReport`] goes on
+//! `sched/report`.
+
+use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
 use crate::clock::{check_finite, stamp_in_tick};
 use crate::codec::Validate;
 use crate::keys::ObserverId;
-use crate::payload::Offer;
+use crate::payload::{Offer, Site};
 
 /// Flight setpoint of one observer, chosen by the safety router.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -17,6 +25,8 @@ pub struct ObserverSetpoint {
     pub pos_m: [f64; 3],
     /// Feed-forward velocity.
     pub vel_mps: [f64; 3],
+    /// Feed-forward acceleration (the simulator extrapolates the setpoint over the next tick).
+    pub acc_mps2: [f64; 3],
     pub yaw_rad: f64,
 }
 
@@ -25,6 +35,8 @@ pub struct ObserverSetpoint {
 pub struct SchedCommand {
     pub tick: u64,
     pub setpoints: Vec<ObserverSetpoint>,
+    /// The mission ended in this tick: the simulator stops instead of stepping on.
+    pub mission_end: bool,
 }
 
 impl Validate for SchedCommand {
@@ -39,6 +51,10 @@ impl Validate for SchedCommand {
             }
             check_finite(&format!("setpoint position of {}", s.observer), &s.pos_m)?;
             check_finite(&format!("setpoint velocity of {}", s.observer), &s.vel_mps)?;
+            check_finite(
+                &format!("setpoint acceleration of {}", s.observer),
+                &s.acc_mps2,
+            )?;
             check_finite(&format!("setpoint yaw of {}", s.observer), &[s.yaw_rad])?;
         }
         Ok(())
@@ -50,6 +66,8 @@ impl Validate for SchedCommand {
 pub struct Broadcast {
     pub tick: u64,
     pub round: u32,
+    /// Sim time at which the performer starts flying it (inside tick `tick`).
+    pub start_ns: u64,
     /// Offers to send, each as one complete frame, in this order; empty = send nothing.
     pub offers: Vec<Offer>,
     /// Whether to fly the acquisition motion and quiet period before the first offer.
@@ -69,6 +87,35 @@ impl Validate for Broadcast {
         }
         for o in &self.offers {
             o.check().map_err(|e| format!("broadcast offer: {e}"))?;
+        }
+        if !stamp_in_tick(self.start_ns, self.tick) {
+            return Err(format!(
+                "broadcast starting at {} ns is outside tick {}",
+                self.start_ns, self.tick
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What the scheduler tells the performer in one tick (`sched/broadcast`, every tick).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BroadcastTick {
+    pub tick: u64,
+    /// A broadcast starting in this tick, if any.
+    pub broadcast: Option<Broadcast>,
+}
+
+impl Validate for BroadcastTick {
+    fn validate(&self) -> Result<(), String> {
+        if let Some(b) = &self.broadcast {
+            b.validate()?;
+            if b.tick != self.tick {
+                return Err(format!(
+                    "broadcast of tick {} inside the message of tick {}",
+                    b.tick, self.tick
+                ));
+            }
         }
         Ok(())
     }
@@ -101,6 +148,71 @@ impl Validate for SessionControl {
             return Err(format!(
                 "session control at {} ns is outside tick {}",
                 self.stamp_ns, self.tick
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Every session control of one tick, in the order they apply (`sched/session`, every tick).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SessionTick {
+    pub tick: u64,
+    pub controls: Vec<SessionControl>,
+}
+
+impl Validate for SessionTick {
+    fn validate(&self) -> Result<(), String> {
+        for c in &self.controls {
+            c.validate()?;
+            if c.tick != self.tick {
+                return Err(format!(
+                    "session control of tick {} inside the message of tick {}",
+                    c.tick, self.tick
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One departure of an observer on a trip (for the provenance audit).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Departure {
+    pub observer: ObserverId,
+    pub round: u32,
+    pub site: Site,
+    pub t_ns: u64,
+}
+
+/// The scheduler's account of the mission, published once on its last tick (`sched/report`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MissionReport {
+    pub tick: u64,
+    pub end_ns: u64,
+    /// Why the mission ended (the scheduler's end reason, as text).
+    pub end_reason: String,
+    pub work_units: u32,
+    /// Completed services per observer, in order: (round, site).
+    pub services: BTreeMap<ObserverId, Vec<(u32, Site)>>,
+    pub departures: Vec<Departure>,
+    /// Decisions the scheduler rejected.
+    pub rejected_decisions: u64,
+}
+
+impl Validate for MissionReport {
+    fn validate(&self) -> Result<(), String> {
+        if crate::clock::tick_end_ns(self.tick) != Some(self.end_ns) {
+            return Err(format!(
+                "mission report of tick {} ends at {} ns",
+                self.tick, self.end_ns
+            ));
+        }
+        let served: usize = self.services.values().map(Vec::len).sum();
+        if served != self.work_units as usize {
+            return Err(format!(
+                "{} work units but {served} services listed",
+                self.work_units
             ));
         }
         Ok(())

@@ -43,6 +43,7 @@ pub struct EventPacket {
     /// Event times as offsets from `start_ns`, nanoseconds.
     pub dt_ns: Vec<u32>,
     /// Polarity bits, one per event, packed LSB first; 1 = ON.
+    #[serde(with = "crate::codec::bulk_bytes")]
     pub on_bits: Vec<u8>,
 }
 
@@ -133,6 +134,7 @@ pub struct RgbFrame {
     pub height: u16,
     pub valid: bool,
     pub continuous: bool,
+    #[serde(with = "crate::codec::bulk_bytes")]
     pub rgb: Vec<u8>,
 }
 

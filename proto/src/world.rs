@@ -76,11 +76,16 @@ pub struct Contact {
     pub depth_m: f64,
 }
 
-/// Contacts of one tick (published every tick; empty when nothing touched).
+/// Contacts of one tick (published every tick; empty when nothing touched), with the running
+/// totals since the start so a late subscriber still learns the mission's figures.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SimContacts {
     pub tick: u64,
     pub contacts: Vec<Contact>,
+    /// Physics steps with at least one drone–drone contact, since the start.
+    pub contact_steps: u64,
+    /// Minimum body-centre distance over all drone pairs and steps since the start, m.
+    pub min_separation_m: f64,
 }
 
 impl Validate for SimContacts {
@@ -97,6 +102,12 @@ impl Validate for SimContacts {
                 return Err("contact with an unnamed body".into());
             }
         }
+        if self.min_separation_m.is_nan() || self.min_separation_m < 0.0 {
+            return Err(format!(
+                "minimum separation {} m is not a distance",
+                self.min_separation_m
+            ));
+        }
         Ok(())
     }
 }
@@ -109,6 +120,8 @@ pub struct PerformerSetpoint {
     pub pos_m: [f64; 3],
     /// Feed-forward velocity.
     pub vel_mps: [f64; 3],
+    /// Feed-forward acceleration (the simulator extrapolates the setpoint over the next tick).
+    pub acc_mps2: [f64; 3],
     pub yaw_rad: f64,
 }
 
@@ -116,6 +129,7 @@ impl Validate for PerformerSetpoint {
     fn validate(&self) -> Result<(), String> {
         check_finite("performer setpoint position", &self.pos_m)?;
         check_finite("performer setpoint velocity", &self.vel_mps)?;
+        check_finite("performer setpoint acceleration", &self.acc_mps2)?;
         check_finite("performer setpoint yaw", &[self.yaw_rad])
     }
 }

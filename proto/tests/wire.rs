@@ -77,6 +77,35 @@ fn decision() -> Decision {
     decide(&oid("O2"), &cache, &roster, 30).unwrap()
 }
 
+fn broadcast() -> Broadcast {
+    Broadcast {
+        tick: 125,
+        round: 2,
+        start_ns: 5_000_000_000,
+        offers: vec!["010000".parse().unwrap(), "100111".parse().unwrap()],
+        acquisition: true,
+    }
+}
+
+fn mission_report() -> MissionReport {
+    MissionReport {
+        tick: 12_345,
+        end_ns: 493_800_000_000,
+        end_reason: "RoundsComplete".into(),
+        work_units: 2,
+        services: [(oid("O1"), vec![(1, Site::A), (2, Site::B)])]
+            .into_iter()
+            .collect(),
+        departures: vec![Departure {
+            observer: oid("O1"),
+            round: 1,
+            site: Site::A,
+            t_ns: 200_000_000_000,
+        }],
+        rejected_decisions: 0,
+    }
+}
+
 fn frame_event() -> FrameEvent {
     FrameEvent {
         observer: oid("O1"),
@@ -106,6 +135,8 @@ fn all_encoded() -> Vec<(&'static str, Vec<u8>)> {
                     body_b: "floor".into(),
                     depth_m: 0.001,
                 }],
+                contact_steps: 1,
+                min_separation_m: 0.35,
             }),
         ),
         (
@@ -114,6 +145,7 @@ fn all_encoded() -> Vec<(&'static str, Vec<u8>)> {
                 tick: 3,
                 pos_m: [0.0, 0.0, 1.4],
                 vel_mps: [0.0; 3],
+                acc_mps2: [0.5, 0.0, -0.25],
                 yaw_rad: 1.0,
             }),
         ),
@@ -151,6 +183,22 @@ fn all_encoded() -> Vec<(&'static str, Vec<u8>)> {
                 tokens: 40,
                 frames: 2,
                 assignment: None,
+                decision: None,
+            }),
+        ),
+        (
+            "ObserverStatus",
+            encode(&ObserverStatus {
+                observer: oid("O2"),
+                tick: 6,
+                round: 1,
+                phase: ObserverPhase::Decided,
+                input: InputState::Received,
+                parser_progress: 0,
+                tokens: 41,
+                frames: 2,
+                assignment: Some(Site::A),
+                decision: Some(decision()),
             }),
         ),
         (
@@ -161,19 +209,39 @@ fn all_encoded() -> Vec<(&'static str, Vec<u8>)> {
                     observer: oid("O1"),
                     pos_m: [1.0, 2.0, 1.3],
                     vel_mps: [0.0; 3],
+                    acc_mps2: [0.0, 0.1, 0.0],
                     yaw_rad: 0.0,
                 }],
+                mission_end: false,
+            }),
+        ),
+        ("Broadcast", encode(&broadcast())),
+        (
+            "BroadcastTick",
+            encode(&BroadcastTick {
+                tick: 125,
+                broadcast: Some(broadcast()),
             }),
         ),
         (
-            "Broadcast",
-            encode(&Broadcast {
-                tick: 0,
-                round: 2,
-                offers: vec!["010000".parse().unwrap(), "100111".parse().unwrap()],
-                acquisition: true,
+            "SessionTick",
+            encode(&SessionTick {
+                tick: 3,
+                controls: vec![
+                    SessionControl {
+                        tick: 3,
+                        stamp_ns: 120_000_000,
+                        event: SessionEvent::RoundReset { round: 1 },
+                    },
+                    SessionControl {
+                        tick: 3,
+                        stamp_ns: 120_000_000,
+                        event: SessionEvent::WindowOpen { round: 1 },
+                    },
+                ],
             }),
         ),
+        ("MissionReport", encode(&mission_report())),
         (
             "SessionControl",
             encode(&SessionControl {
@@ -217,11 +285,14 @@ fn decode_as(name: &str, bytes: &[u8]) -> Result<Vec<u8>, DecodeError> {
         "Broadcast" => go::<Broadcast>(bytes),
         "SessionControl" => go::<SessionControl>(bytes),
         "Fault" => go::<Fault>(bytes),
+        "BroadcastTick" => go::<BroadcastTick>(bytes),
+        "SessionTick" => go::<SessionTick>(bytes),
+        "MissionReport" => go::<MissionReport>(bytes),
         other => panic!("test table names unknown type {other}"),
     }
 }
 
-const TYPE_COUNT: usize = 15;
+const TYPE_COUNT: usize = 19;
 
 #[test]
 fn every_message_type_round_trips_byte_identically() {
@@ -355,6 +426,7 @@ fn inconsistent_messages_of_other_types_are_rejected() {
     let bad_offer = Broadcast {
         tick: 0,
         round: 1,
+        start_ns: 0,
         offers: vec![Offer {
             site: Site::A,
             quality: 4,
@@ -365,6 +437,89 @@ fn inconsistent_messages_of_other_types_are_rejected() {
     assert!(matches!(
         decode::<Broadcast>(&encode(&bad_offer)),
         Err(DecodeError::Inconsistent(_))
+    ));
+    let late_start = Broadcast {
+        start_ns: 5_040_000_000,
+        ..broadcast()
+    };
+    assert!(matches!(
+        decode::<Broadcast>(&encode(&late_start)),
+        Err(DecodeError::Inconsistent(m)) if m.contains("outside tick")
+    ));
+    let wrong_tick = BroadcastTick {
+        tick: 124,
+        broadcast: Some(broadcast()),
+    };
+    assert!(matches!(
+        decode::<BroadcastTick>(&encode(&wrong_tick)),
+        Err(DecodeError::Inconsistent(_))
+    ));
+    let stray = SessionTick {
+        tick: 4,
+        controls: vec![SessionControl {
+            tick: 3,
+            stamp_ns: 120_000_000,
+            event: SessionEvent::MissionEnd,
+        }],
+    };
+    assert!(matches!(
+        decode::<SessionTick>(&encode(&stray)),
+        Err(DecodeError::Inconsistent(_))
+    ));
+    let mut report = mission_report();
+    report.work_units = 3;
+    assert!(matches!(
+        decode::<MissionReport>(&encode(&report)),
+        Err(DecodeError::Inconsistent(m)) if m.contains("work units")
+    ));
+    let report = MissionReport {
+        end_ns: 1,
+        ..mission_report()
+    };
+    assert!(matches!(
+        decode::<MissionReport>(&encode(&report)),
+        Err(DecodeError::Inconsistent(_))
+    ));
+    let mut contacts = SimContacts {
+        tick: 1,
+        contacts: vec![],
+        contact_steps: 0,
+        min_separation_m: f64::NAN,
+    };
+    assert!(matches!(
+        decode::<SimContacts>(&encode(&contacts)),
+        Err(DecodeError::Inconsistent(_))
+    ));
+    contacts.min_separation_m = 0.4;
+    assert!(decode::<SimContacts>(&encode(&contacts)).is_ok());
+    let throttle = Fault {
+        observer: oid("O1"),
+        kind: FaultKind::Throttle {
+            drop_per_mille: 1001,
+            delay_ms: 0,
+        },
+        from_ns: 0,
+        until_ns: None,
+    };
+    assert!(matches!(
+        decode::<Fault>(&encode(&throttle)),
+        Err(DecodeError::Inconsistent(_))
+    ));
+    let foreign = ObserverStatus {
+        observer: oid("O1"),
+        tick: 6,
+        round: 1,
+        phase: ObserverPhase::Decided,
+        input: InputState::Received,
+        parser_progress: 0,
+        tokens: 41,
+        frames: 2,
+        assignment: Some(Site::A),
+        decision: Some(decision()),
+    };
+    assert!(matches!(
+        decode::<ObserverStatus>(&encode(&foreign)),
+        Err(DecodeError::Inconsistent(m)) if m.contains("decision of O2")
     ));
     let mut d = decision();
     d.assignment = Some(Site::B); // O2's own allocation entry says A.

@@ -79,12 +79,12 @@ pub struct BroadcastPlan {
 }
 
 impl BroadcastPlan {
-    /// The wire form for `sched/broadcast`. `proto::Broadcast` has no start time: the performer
-    /// must start it at the sim time of `tick`, which is `start_ns`.
+    /// The wire form for `sched/broadcast` (`start_ns` is the sim time of `tick`).
     pub fn to_proto(&self, tick: u64) -> Broadcast {
         Broadcast {
             tick,
             round: self.round,
+            start_ns: self.start_ns,
             offers: self.offers.clone(),
             acquisition: self.acquisition,
         }
@@ -110,8 +110,7 @@ pub struct TickOutput {
 }
 
 impl TickOutput {
-    /// `sched/cmd` for this tick (drops the acceleration feed-forward, see
-    /// [`FlightSetpoint::to_proto`]).
+    /// `sched/cmd` for this tick.
     pub fn command(&self) -> SchedCommand {
         SchedCommand {
             tick: self.tick,
@@ -120,6 +119,7 @@ impl TickOutput {
                 .iter()
                 .map(FlightSetpoint::to_proto)
                 .collect(),
+            mission_end: self.mission_end.is_some(),
         }
     }
 

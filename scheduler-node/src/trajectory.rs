@@ -23,13 +23,14 @@ pub struct FlightSetpoint {
 }
 
 impl FlightSetpoint {
-    /// The wire form. `proto::ObserverSetpoint` has no acceleration field (yet): the simulator
-    /// then loses the acceleration feed-forward.
+    /// The wire form (the simulator extrapolates it over the next tick with the feed-forward
+    /// velocity and acceleration).
     pub fn to_proto(&self) -> ObserverSetpoint {
         ObserverSetpoint {
             observer: self.observer.clone(),
             pos_m: self.pos_m,
             vel_mps: self.vel_mps,
+            acc_mps2: self.acc_mps2,
             yaw_rad: self.yaw_rad,
         }
     }

@@ -9,6 +9,8 @@ use sim_node::render::CameraRenderer;
 use sim_node::world::World;
 
 mod events;
+mod node_camera;
+mod node_run;
 
 #[derive(Parser)]
 #[command(
@@ -23,6 +25,12 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// The physics process of a distributed session: steps the world in lockstep with the
+    /// performer and scheduler, publishing the clock, ground-truth state and contacts.
+    Run(node_run::RunArgs),
+    /// One observer's camera process: renders its view from `sim/state` and publishes RGB
+    /// frames or event packets.
+    Camera(node_camera::CameraArgs),
     /// Write each observer's current view as DIR/O<i>.png, then time 200 renders per camera.
     Snapshot {
         /// Number of observers (1..=8).
@@ -59,6 +67,8 @@ fn main() -> Result<()> {
         .with_writer(std::io::stderr)
         .init();
     match Cli::parse().command {
+        Command::Run(args) => node_run::run(args),
+        Command::Camera(args) => node_camera::run(args),
         Command::Snapshot {
             observers,
             out,

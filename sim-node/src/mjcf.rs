@@ -119,7 +119,11 @@ pub fn scene_xml(observers: usize, mesh_dir: &Path) -> Result<String, SceneError
         // field of view (homes are > 70° off-axis, trips run behind the arc), and skipping their
         // meshes saves a quarter of the CPU render time. `CameraRenderer::show_observers` puts
         // them back; a test checks the images are identical at the homes.
-        let group = if camera.is_some() { OBSERVER_GEOM_GROUP } else { 2 };
+        let group = if camera.is_some() {
+            OBSERVER_GEOM_GROUP
+        } else {
+            2
+        };
         let _ = writeln!(
             x,
             r#"    <body name="{name}" pos="{} {} {}" euler="0 0 {yaw}">

@@ -67,6 +67,14 @@ impl ObserverSensor {
         })
     }
 
+    /// Switches the black-input fault on or off for subsequent captures (an injected fault).
+    pub fn set_black(&mut self, black: bool) {
+        self.black = black;
+        if let State::Events(camera) = &mut self.state {
+            camera.set_black_input(black);
+        }
+    }
+
     /// Time between renders.
     pub fn render_period_ns(&self) -> u64 {
         match self.state {

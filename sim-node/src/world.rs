@@ -209,6 +209,52 @@ impl World {
         self.data.model()
     }
 
+    /// Drone `i`'s body pose as the last kinematics pass computed it — what the renderer
+    /// draws: position (m) and orientation quaternion (w, x, y, z).
+    pub fn body_pose(&self, i: DroneIndex) -> ([f64; 3], [f64; 4]) {
+        let body = self.drones[i].body;
+        (self.data.xpos()[body], self.data.xquat()[body])
+    }
+
+    /// Overwrites drone `i`'s free-joint pose without touching its reference or velocity. A
+    /// camera process mirrors the simulator's ground truth this way; call
+    /// [`World::forward_at`] once every drone of the instant is set.
+    pub fn set_pose(&mut self, i: DroneIndex, pos_m: [f64; 3], world_from_body: [f64; 4]) {
+        let ids = self.drones[i];
+        let q = &mut self.data.qpos_mut()[ids.qpos..ids.qpos + 7];
+        q[..3].copy_from_slice(&pos_m);
+        q[3..].copy_from_slice(&world_from_body);
+    }
+
+    /// Recomputes kinematics from the current poses and moves the clock to `t_ns` (rounded
+    /// down to the physics step) without stepping: the renderer then draws exactly these poses
+    /// and sensors stamp their output with `t_ns`.
+    pub fn forward_at(&mut self, t_ns: u64) {
+        self.step_index = t_ns / PHYSICS_STEP_NS;
+        self.data.forward();
+    }
+
+    /// Contacts present after the last step: the two bodies' names and the penetration depth (m,
+    /// positive when overlapping).
+    pub fn contacts(&self) -> Vec<(String, String, f64)> {
+        let model = self.data.model();
+        let body_of_geom = model.geom_bodyid();
+        let name = |geom: i32| {
+            usize::try_from(geom)
+                .ok()
+                .and_then(|g| body_of_geom.get(g))
+                .and_then(|&b| usize::try_from(b).ok())
+                .and_then(|b| model.id_to_name(MjtObjBase::mjOBJ_BODY, b))
+                .unwrap_or("world")
+                .to_string()
+        };
+        self.data
+            .contact()
+            .iter()
+            .map(|c| (name(c.geom[0]), name(c.geom[1]), -c.dist))
+            .collect()
+    }
+
     /// Overwrites drone `i`'s pose (teleport, zero velocity) and recomputes kinematics. For tests
     /// and tools that need a given state without flying there.
     pub fn teleport(&mut self, i: DroneIndex, pos_m: [f64; 3], yaw_rad: f64) {

@@ -44,7 +44,10 @@ fn performer_is_a_compact_blob_that_moves_as_the_camera_model_predicts() {
         renderer.show_observers(true);
         let with_observers = renderer.render(&mut world, i).unwrap().to_vec();
         renderer.show_observers(false);
-        assert!(first == with_observers, "observer {i}: another observer's airframe is in view");
+        assert!(
+            first == with_observers,
+            "observer {i}: another observer's airframe is in view"
+        );
         at_hover.push(first);
     }
     // Without the performer (parked far below the floor) the difference is exactly the performer.

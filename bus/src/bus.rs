@@ -1,0 +1,287 @@
+//! One Zenoh session with a single ordered inbox.
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use proto::{DecodeError, KeyError, Keys, Validate};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use zenoh::Wait;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::{Publisher, Subscriber};
+use zenoh::qos::CongestionControl;
+use zenoh::sample::{Sample, SampleKind};
+
+use crate::cli::NodeArgs;
+use crate::endpoints::{Endpoints, config};
+
+/// Why a bus operation failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BusError {
+    #[error("invalid Zenoh configuration: {0}")]
+    Config(String),
+    #[error("zenoh: {what}: {message}")]
+    Zenoh { what: String, message: String },
+    #[error(transparent)]
+    Key(#[from] KeyError),
+    #[error("message on {key}: {source}")]
+    Decode {
+        key: String,
+        #[source]
+        source: DecodeError,
+    },
+    #[error("timed out after {waited_s:.1} s waiting for {what}")]
+    Timeout { what: String, waited_s: f64 },
+}
+
+fn zenoh_err(what: impl Into<String>, e: impl std::fmt::Display) -> BusError {
+    BusError::Zenoh {
+        what: what.into(),
+        message: e.to_string(),
+    }
+}
+
+/// Something that reached this process.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Inbound {
+    /// A message published on `key`.
+    Data { key: String, payload: Vec<u8> },
+    /// A liveliness token appeared (`alive = true`) or disappeared.
+    Liveliness { key: String, alive: bool },
+}
+
+/// A Zenoh session of one Waggle process.
+///
+/// Publications use reliable, blocking congestion control: a lockstep message is never
+/// dropped, a slow subscriber slows its publisher down instead.
+pub struct Bus {
+    keys: Keys,
+    // Declared entities must be dropped before the session; field order is drop order.
+    publishers: BTreeMap<String, Publisher<'static>>,
+    subscribers: Vec<Subscriber<()>>,
+    tokens: BTreeMap<String, LivelinessToken>,
+    session: zenoh::Session,
+    tx: mpsc::Sender<Inbound>,
+    rx: mpsc::Receiver<Inbound>,
+    pending: VecDeque<Inbound>,
+    alive: BTreeSet<String>,
+}
+
+impl Bus {
+    /// Opens a session for Waggle session id `session` with the given endpoints.
+    pub fn open(session: &str, endpoints: &Endpoints) -> Result<Self, BusError> {
+        Self::open_with_acl(session, endpoints, &[])
+    }
+
+    /// Opens the session of a node process from its command-line options (including its
+    /// `--deny` access-control list).
+    pub fn open_node(node: &NodeArgs) -> Result<Self, BusError> {
+        Self::open_with_acl(&node.session, &node.endpoints, &node.deny)
+    }
+
+    /// Opens a session whose links deny the key expressions in `deny` (see [`config`]).
+    pub fn open_with_acl(
+        session: &str,
+        endpoints: &Endpoints,
+        deny: &[String],
+    ) -> Result<Self, BusError> {
+        let keys = Keys::new(session)?;
+        let zenoh_session = zenoh::open(config(endpoints, deny)?)
+            .wait()
+            .map_err(|e| zenoh_err("opening the session", e))?;
+        let (tx, rx) = mpsc::channel();
+        Ok(Self {
+            keys,
+            publishers: BTreeMap::new(),
+            subscribers: Vec::new(),
+            tokens: BTreeMap::new(),
+            session: zenoh_session,
+            tx,
+            rx,
+            pending: VecDeque::new(),
+            alive: BTreeSet::new(),
+        })
+    }
+
+    /// Key builder of this session.
+    pub fn keys(&self) -> &Keys {
+        &self.keys
+    }
+
+    /// Subscribes to `key` (a key expression); its messages arrive through [`Bus::recv`].
+    pub fn subscribe(&mut self, key: &str) -> Result<(), BusError> {
+        let tx = self.tx.clone();
+        let sub = self
+            .session
+            .declare_subscriber(key.to_string())
+            .callback(move |sample: Sample| {
+                let _ = tx.send(Inbound::Data {
+                    key: sample.key_expr().as_str().to_string(),
+                    payload: sample.payload().to_bytes().into_owned(),
+                });
+            })
+            .wait()
+            .map_err(|e| zenoh_err(format!("subscribing to {key}"), e))?;
+        self.subscribers.push(sub);
+        Ok(())
+    }
+
+    /// Watches the liveliness tokens matching `key`, including those already present.
+    pub fn watch_liveliness(&mut self, key: &str) -> Result<(), BusError> {
+        let tx = self.tx.clone();
+        let sub = self
+            .session
+            .liveliness()
+            .declare_subscriber(key.to_string())
+            .history(true)
+            .callback(move |sample: Sample| {
+                let _ = tx.send(Inbound::Liveliness {
+                    key: sample.key_expr().as_str().to_string(),
+                    alive: sample.kind() == SampleKind::Put,
+                });
+            })
+            .wait()
+            .map_err(|e| zenoh_err(format!("watching liveliness of {key}"), e))?;
+        self.subscribers.push(sub);
+        Ok(())
+    }
+
+    /// Declares the liveliness token `key` (kept until the process exits or it is undeclared).
+    pub fn declare_token(&mut self, key: &str) -> Result<(), BusError> {
+        let token = self
+            .session
+            .liveliness()
+            .declare_token(key.to_string())
+            .wait()
+            .map_err(|e| zenoh_err(format!("declaring token {key}"), e))?;
+        self.tokens.insert(key.to_string(), token);
+        Ok(())
+    }
+
+    /// Encodes `msg` with [`proto::encode`] and publishes it on `key`.
+    pub fn put<T: Serialize>(&mut self, key: &str, msg: &T) -> Result<(), BusError> {
+        self.put_bytes(key, proto::encode(msg))
+    }
+
+    /// Publishes raw bytes on `key` (reliable, blocking congestion control).
+    pub fn put_bytes(&mut self, key: &str, bytes: Vec<u8>) -> Result<(), BusError> {
+        if !self.publishers.contains_key(key) {
+            let publisher = self
+                .session
+                .declare_publisher(key.to_string())
+                .congestion_control(CongestionControl::Block)
+                .wait()
+                .map_err(|e| zenoh_err(format!("declaring publisher {key}"), e))?;
+            self.publishers.insert(key.to_string(), publisher);
+        }
+        self.publishers[key]
+            .put(bytes)
+            .wait()
+            .map_err(|e| zenoh_err(format!("publishing on {key}"), e))
+    }
+
+    /// True when some other process has a subscriber matching `key` (Zenoh's matching status
+    /// of a publisher on `key`). Used to prove which keys a process does — and does not —
+    /// subscribe to.
+    pub fn has_subscribers(&mut self, key: &str) -> Result<bool, BusError> {
+        let publisher = self
+            .session
+            .declare_publisher(key.to_string())
+            .wait()
+            .map_err(|e| zenoh_err(format!("declaring publisher {key}"), e))?;
+        let status = publisher
+            .matching_status()
+            .wait()
+            .map_err(|e| zenoh_err(format!("matching status of {key}"), e))?;
+        Ok(status.matching())
+    }
+
+    /// The next inbound item, waiting at most `timeout`; `None` when nothing arrived.
+    pub fn recv(&mut self, timeout: Duration) -> Option<Inbound> {
+        if let Some(item) = self.pending.pop_front() {
+            return Some(item);
+        }
+        let item = self.rx.recv_timeout(timeout).ok()?;
+        self.note(&item);
+        Some(item)
+    }
+
+    /// Like [`Bus::recv`] but without waiting.
+    pub fn try_recv(&mut self) -> Option<Inbound> {
+        if let Some(item) = self.pending.pop_front() {
+            return Some(item);
+        }
+        let item = self.rx.try_recv().ok()?;
+        self.note(&item);
+        Some(item)
+    }
+
+    /// Liveliness is tracked when an item leaves the channel, so [`Bus::is_alive`] is current
+    /// even for items still buffered by [`Bus::wait_for`].
+    fn note(&mut self, item: &Inbound) {
+        if let Inbound::Liveliness { key, alive } = item {
+            if *alive {
+                self.alive.insert(key.clone());
+            } else {
+                self.alive.remove(key);
+            }
+        }
+    }
+
+    /// True while the liveliness token `key` is present (among the watched ones).
+    pub fn is_alive(&self, key: &str) -> bool {
+        self.alive.contains(key)
+    }
+
+    /// Every watched liveliness token currently present.
+    pub fn alive_keys(&self) -> &BTreeSet<String> {
+        &self.alive
+    }
+
+    /// Waits until `done` holds for the present liveliness tokens, buffering everything else
+    /// that arrives meanwhile (later [`Bus::recv`] calls return it in order).
+    pub fn wait_for(
+        &mut self,
+        what: &str,
+        timeout: Duration,
+        done: impl Fn(&BTreeSet<String>) -> bool,
+    ) -> Result<(), BusError> {
+        let start = Instant::now();
+        loop {
+            if done(&self.alive) {
+                return Ok(());
+            }
+            let left = timeout.saturating_sub(start.elapsed());
+            if left.is_zero() {
+                return Err(BusError::Timeout {
+                    what: what.to_string(),
+                    waited_s: start.elapsed().as_secs_f64(),
+                });
+            }
+            if let Ok(item) = self.rx.recv_timeout(left.min(Duration::from_millis(100))) {
+                self.note(&item);
+                self.pending.push_back(item);
+            }
+        }
+    }
+
+    /// Closes the session now, so peers see this process's tokens disappear at once.
+    pub fn close(mut self) -> Result<(), BusError> {
+        self.tokens.clear();
+        self.subscribers.clear();
+        self.publishers.clear();
+        self.session
+            .close()
+            .wait()
+            .map_err(|e| zenoh_err("closing the session", e))
+    }
+}
+
+/// Decodes a message received on `key` with [`proto::decode`].
+pub fn decode<T: DeserializeOwned + Validate>(key: &str, payload: &[u8]) -> Result<T, BusError> {
+    proto::decode(payload).map_err(|source| BusError::Decode {
+        key: key.to_string(),
+        source,
+    })
+}

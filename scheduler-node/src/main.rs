@@ -1,0 +1,233 @@
+//! `scheduler-node --session S …`: the scheduler process.
+//!
+//! Tick k closes once the scheduler holds the ground truth at t_k (the `sim/state` stamped t_k)
+//! and `status{k}` of every observer whose liveliness token is present (an observer that dies
+//! stops being waited for). Decisions are taken from the statuses, so none can arrive after the
+//! tick it belongs to. It then steps [`Scheduler`] exactly like the in-process runner and
+//! publishes, every tick and in this order: `sched/session` (the tick's controls, possibly
+//! none), `sched/broadcast` (the broadcast starting now, if any) and `sched/cmd{k}`. On the
+//! mission's last tick `cmd` carries `mission_end` and `sched/report` the account of the
+//! mission.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use bus::{Bus, Inbound, NodeArgs, SensorModality, handshake};
+use clap::Parser;
+use proto::{
+    BroadcastTick, ClockTick, Departure, MissionReport, ObserverId, ObserverStatus, Role,
+    SessionTick, SimState, Site, TICK_NS,
+};
+use scheduler_node::{
+    DecisionNotice, EventKind, Modality, Scheduler, SchedulerConfig, observer_positions,
+};
+
+#[derive(Parser)]
+#[command(
+    name = "scheduler-node",
+    version,
+    about = "The Waggle scheduler process"
+)]
+struct Args {
+    /// The observers' sensor (the event modality adds the acquisition preamble).
+    #[arg(long, value_enum)]
+    modality: SensorModality,
+    /// Sites advertised each round, in order, comma-separated; empty: no broadcast.
+    #[arg(long, default_value = "A,B")]
+    offers: String,
+    /// Number of rounds.
+    #[arg(long, default_value_t = 2)]
+    rounds: u32,
+    /// Hard limit on simulated time, seconds.
+    #[arg(long)]
+    time_limit_s: Option<f64>,
+    #[command(flatten)]
+    node: NodeArgs,
+}
+
+fn parse_sites(list: &str) -> Result<Vec<Site>> {
+    list.split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            s.parse::<Site>()
+                .map_err(|e| anyhow::anyhow!("--offers: {e}"))
+        })
+        .collect()
+}
+
+fn main() -> Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
+        .with_writer(std::io::stderr)
+        .init();
+    let args = Args::parse();
+    let node = &args.node;
+    let modality = match args.modality {
+        SensorModality::Rgb => Modality::Rgb,
+        SensorModality::Events => Modality::Events,
+    };
+    let mut config = SchedulerConfig::new(node.observers, modality)
+        .with_offer_sites(&parse_sites(&args.offers)?);
+    config.rounds = args.rounds;
+    config.time_limit_ns = args.time_limit_s.map(|s| (s * 1e9).round() as u64);
+    let mut scheduler = Scheduler::new(config).context("configuring the scheduler")?;
+
+    let mut bus = Bus::open_node(&node).context("opening the Zenoh session")?;
+    let keys = bus.keys().clone();
+    bus.subscribe(&keys.sim_state())?;
+    bus.subscribe(&keys.observer_status_any())?;
+    handshake::join(
+        &mut bus,
+        &handshake::Process::singleton(Role::Scheduler),
+        &node.processes(),
+        node.startup_timeout(),
+    )
+    .context("start-up handshake")?;
+    let observers: Vec<ObserverId> = (0..node.observers).map(ObserverId::from_index).collect();
+    let alive_key: BTreeMap<ObserverId, String> = observers
+        .iter()
+        .map(|o| Ok((o.clone(), keys.alive(Role::Observer, o.as_str())?)))
+        .collect::<Result<_>>()?;
+    let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
+
+    let mut states: BTreeMap<u64, SimState> = BTreeMap::new();
+    let mut statuses: BTreeMap<u64, BTreeMap<ObserverId, ObserverStatus>> = BTreeMap::new();
+    let mut tick = 0u64;
+    loop {
+        let t_k = tick * TICK_NS;
+        let alive: BTreeSet<ObserverId> = observers
+            .iter()
+            .filter(|o| bus.is_alive(&alive_key[*o]))
+            .cloned()
+            .collect();
+        let have = statuses.get(&tick);
+        let ready = states.contains_key(&t_k)
+            && alive
+                .iter()
+                .all(|o| have.is_some_and(|s| s.contains_key(o)));
+        if !ready {
+            match bus.recv(Duration::from_millis(200)) {
+                Some(Inbound::Data { key, payload }) if key == keys.sim_state() => {
+                    let s: SimState = bus::decode(&key, &payload)?;
+                    if s.stamp_ns == s.tick * TICK_NS && s.tick >= tick {
+                        states.insert(s.stamp_ns, s);
+                    }
+                }
+                Some(Inbound::Data { key, payload }) => {
+                    let s: ObserverStatus = bus::decode(&key, &payload)?;
+                    if key != keys.observer_status(&s.observer) {
+                        bail!("status of {} published on {key}", s.observer);
+                    }
+                    if s.tick >= tick {
+                        statuses
+                            .entry(s.tick)
+                            .or_default()
+                            .insert(s.observer.clone(), s);
+                    }
+                }
+                _ => {
+                    if !bus.is_alive(&sim_alive) {
+                        bail!("the simulator disappeared at tick {tick}");
+                    }
+                }
+            }
+            continue;
+        }
+        let state = states.remove(&t_k).expect("checked");
+        let of_tick = statuses.remove(&tick).unwrap_or_default();
+        let mut decisions: Vec<DecisionNotice> = of_tick
+            .values()
+            .filter_map(|s| s.decision.as_ref().map(DecisionNotice::from))
+            .collect();
+        decisions.sort();
+        let positions = observer_positions(&state);
+        let out = scheduler.step(&scheduler_node::TickInput {
+            clock: ClockTick::at(tick).context("tick overflow")?,
+            positions_m: &positions,
+            decisions: &decisions,
+            alive: &alive,
+        })?;
+        for e in &out.events {
+            tracing::info!(tick, t_s = e.t_ns as f64 * 1e-9, event = ?e.kind, "scheduler");
+        }
+        bus.put(
+            &keys.sched_session(),
+            &SessionTick {
+                tick,
+                controls: out.session.clone(),
+            },
+        )?;
+        bus.put(
+            &keys.sched_broadcast(),
+            &BroadcastTick {
+                tick,
+                broadcast: out.broadcast_message(),
+            },
+        )?;
+        bus.put(&keys.sched_cmd(), &out.command())?;
+        if let Some(reason) = out.mission_end {
+            let report = report(&scheduler, tick, format!("{reason:?}"));
+            bus.put(&keys.sched_report(), &report)?;
+            tracing::info!(tick, ?reason, work_units = report.work_units, "mission end");
+            break;
+        }
+        tick += 1;
+    }
+    // Stay until the simulator and the observers have taken the last tick's messages: closing
+    // undeclares our token at control priority, which may overtake data still in flight.
+    let consumers: Vec<&String> = std::iter::once(&sim_alive)
+        .chain(alive_key.values())
+        .collect();
+    let until = std::time::Instant::now() + Duration::from_secs(10);
+    while consumers.iter().any(|k| bus.is_alive(k)) && std::time::Instant::now() < until {
+        bus.recv(Duration::from_millis(50));
+    }
+    bus.close()?;
+    Ok(())
+}
+
+fn report(scheduler: &Scheduler, tick: u64, end_reason: String) -> MissionReport {
+    let stats = scheduler.stats();
+    MissionReport {
+        tick,
+        end_ns: tick * TICK_NS,
+        end_reason,
+        work_units: stats.work_units,
+        services: stats.services.clone(),
+        departures: scheduler
+            .log()
+            .iter()
+            .filter_map(|e| match &e.kind {
+                EventKind::Departure {
+                    observer,
+                    site,
+                    round,
+                    ..
+                } => Some(Departure {
+                    observer: observer.clone(),
+                    round: *round,
+                    site: *site,
+                    t_ns: e.t_ns,
+                }),
+                _ => None,
+            })
+            .collect(),
+        rejected_decisions: stats.rejections(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_sites;
+    use proto::Site;
+
+    #[test]
+    fn offer_lists_parse_including_the_empty_one() {
+        assert_eq!(parse_sites("A,B").unwrap(), [Site::A, Site::B]);
+        assert_eq!(parse_sites("A").unwrap(), [Site::A]);
+        assert!(parse_sites("").unwrap().is_empty());
+        assert!(parse_sites("A,C").is_err());
+    }
+}

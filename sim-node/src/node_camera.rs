@@ -1,0 +1,223 @@
+//! `sim-node camera --observer Oi`: one observer's camera as its own process.
+//!
+//! It mirrors the simulator's ground truth (`sim/state`) into its own [`World`], renders the
+//! observer's view at each of the sensor's render instants and publishes what the sensor
+//! delivers — one RGB frame or one event packet (empty ones included) per tick — on
+//! `sensor/Oi/rgb` or `sensor/Oi/events`. Injected faults arrive on `fault/Oi`: black input
+//! (before any conversion) and throttling (drop a fixed, hash-chosen fraction of packets and/or
+//! delay each by wall-clock time). Each fault is logged with the sim time it took effect.
+//! The process ends when the simulator's liveliness token disappears.
+
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use bus::{Bus, Inbound, NodeArgs, SensorModality, handshake};
+use proto::{Fault, FaultKind, ObserverId, Role, SimState};
+use sim_node::render::CameraRenderer;
+use sim_node::sensor::{ObserverSensor, SensorKind, SensorOutput};
+use sim_node::world::World;
+
+#[derive(Debug, clap::Args)]
+pub struct CameraArgs {
+    /// The observer whose camera this is (O1, O2, …).
+    #[arg(long)]
+    observer: ObserverId,
+    /// The sensor it carries.
+    #[arg(long, value_enum)]
+    modality: SensorModality,
+    /// Black input from start-up (the fault of the black-o2 case). Given on the command line so
+    /// it is in force before the first render, whatever the arrival order of messages; the
+    /// launcher also publishes it on `fault/Oi` for the record.
+    #[arg(long)]
+    black: bool,
+    #[command(flatten)]
+    node: NodeArgs,
+}
+
+/// Folds `bytes` into the running digest `h` (8-byte words, multiply–rotate): cheap enough for
+/// every RGB frame, and any changed byte changes it. Two runs without faults must end with the
+/// same digest (DESIGN.md §3: byte-identical sensor payloads).
+pub fn digest(mut h: u64, bytes: &[u8]) -> u64 {
+    const K: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut chunks = bytes.chunks_exact(8);
+    for c in &mut chunks {
+        let w = u64::from_le_bytes(c.try_into().expect("8-byte chunk"));
+        h = (h ^ w).wrapping_mul(K).rotate_left(29);
+    }
+    for &b in chunks.remainder() {
+        h = (h ^ u64::from(b)).wrapping_mul(K).rotate_left(29);
+    }
+    (h ^ bytes.len() as u64).wrapping_mul(K)
+}
+
+/// True when a throttle dropping `per_mille` ‰ drops packet `seq` (a fixed hash of the
+/// sequence number: the same packets go in every run).
+pub fn throttle_drops(seq: u64, per_mille: u16) -> bool {
+    let h = seq.wrapping_add(1).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40;
+    h % 1000 < u64::from(per_mille)
+}
+
+pub fn run(args: CameraArgs) -> Result<()> {
+    let node = args.node;
+    let index = (0..node.observers)
+        .find(|&i| proto::scene::observer_name(i) == args.observer.as_str())
+        .with_context(|| {
+            format!(
+                "{} is not one of the {} observers",
+                args.observer, node.observers
+            )
+        })?;
+    let mut world = World::new(node.observers).context("building the scene")?;
+    let mut renderer = CameraRenderer::new(&world).context("creating the offscreen renderer")?;
+    let kind = match args.modality {
+        SensorModality::Rgb => SensorKind::Rgb,
+        SensorModality::Events => SensorKind::Events,
+    };
+    let mut sensor = ObserverSensor::new(kind, index, false)?;
+    let period_ns = sensor.render_period_ns();
+    let names: Vec<String> = world.drone_names().to_vec();
+
+    let mut bus = Bus::open_node(&node).context("opening the Zenoh session")?;
+    let keys = bus.keys().clone();
+    bus.subscribe(&keys.sim_state())?;
+    bus.subscribe(&keys.fault(&args.observer))?;
+    handshake::join(
+        &mut bus,
+        &handshake::Process::new(Role::Camera, args.observer.as_str()),
+        &node.processes(),
+        node.startup_timeout(),
+    )
+    .context("start-up handshake")?;
+    let out_key = match args.modality {
+        SensorModality::Rgb => keys.sensor_rgb(&args.observer),
+        SensorModality::Events => keys.sensor_events(&args.observer),
+    };
+    let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
+    let mut faults: Vec<Fault> = Vec::new();
+    if args.black {
+        faults.push(Fault {
+            observer: args.observer.clone(),
+            kind: FaultKind::BlackInput,
+            from_ns: 0,
+            until_ns: None,
+        });
+    }
+    let mut black = false;
+    let mut throttle: Option<(u16, u32)> = None;
+    let mut started = false;
+    let (mut published, mut dropped, mut sensor_digest) = (0u64, 0u64, 0u64);
+    loop {
+        let Some(item) = bus.recv(Duration::from_millis(200)) else {
+            if started && !bus.is_alive(&sim_alive) {
+                break;
+            }
+            continue;
+        };
+        match item {
+            Inbound::Data { key, payload } if key == keys.sim_state() => {
+                started = true;
+                let state: SimState = bus::decode(&key, &payload)?;
+                // No render at t = 0 (the first render instant is one period in).
+                if state.stamp_ns == 0 || !state.stamp_ns.is_multiple_of(period_ns) {
+                    continue;
+                }
+                for (i, name) in names.iter().enumerate() {
+                    let Some(d) = state.drone(name) else {
+                        bail!("sim/state at {} ns lacks drone {name}", state.stamp_ns);
+                    };
+                    world.set_pose(i, d.pos_m, d.quat_wxyz);
+                }
+                world.forward_at(state.stamp_ns);
+                let t = state.stamp_ns;
+                let want_black = faults
+                    .iter()
+                    .any(|f| f.kind == FaultKind::BlackInput && f.active_at(t));
+                if want_black != black {
+                    tracing::warn!(observer = %args.observer, t_s = t as f64 * 1e-9, black = want_black, "black-input fault");
+                    black = want_black;
+                    sensor.set_black(black);
+                }
+                let want_throttle = faults.iter().find_map(|f| match f.kind {
+                    FaultKind::Throttle {
+                        drop_per_mille,
+                        delay_ms,
+                    } if f.active_at(t) => Some((drop_per_mille, delay_ms)),
+                    _ => None,
+                });
+                if want_throttle != throttle {
+                    tracing::warn!(observer = %args.observer, t_s = t as f64 * 1e-9, ?want_throttle, "throttle fault");
+                    throttle = want_throttle;
+                }
+                for output in sensor.capture(&mut world, &mut renderer)? {
+                    let (seq, bytes) = match &output {
+                        SensorOutput::Rgb(f) => (f.seq, proto::encode(f)),
+                        SensorOutput::Events(p) => (p.seq, proto::encode(p)),
+                    };
+                    if let Some((drop, delay_ms)) = throttle {
+                        if throttle_drops(seq, drop) {
+                            dropped += 1;
+                            continue;
+                        }
+                        std::thread::sleep(Duration::from_millis(u64::from(delay_ms)));
+                    }
+                    sensor_digest = digest(sensor_digest, &bytes);
+                    published += 1;
+                    bus.put_bytes(&out_key, bytes)?;
+                }
+            }
+            Inbound::Data { key, payload } if key == keys.fault(&args.observer) => {
+                let fault: Fault = bus::decode(&key, &payload)?;
+                if fault.observer != args.observer {
+                    bail!(
+                        "fault for {} on {}'s fault key",
+                        fault.observer,
+                        args.observer
+                    );
+                }
+                if !faults.contains(&fault) {
+                    tracing::warn!(observer = %args.observer, ?fault, "fault received");
+                    faults.push(fault);
+                }
+            }
+            Inbound::Liveliness { key, alive: false } if key == sim_alive => break,
+            _ => {}
+        }
+    }
+    // One machine-readable line for the launcher (determinism evidence).
+    println!(
+        "sensor-digest {} packets={published} dropped={dropped} digest={sensor_digest:016x}",
+        args.observer
+    );
+    bus.close()?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{digest, throttle_drops};
+
+    #[test]
+    fn the_digest_sees_every_byte_and_the_length() {
+        let a = vec![7u8; 1001];
+        let base = digest(0, &a);
+        assert_eq!(base, digest(0, &a.clone()));
+        for i in [0, 500, 999, 1000] {
+            let mut b = a.clone();
+            b[i] ^= 1;
+            assert_ne!(digest(0, &b), base, "byte {i}");
+        }
+        assert_ne!(digest(0, &a[..1000]), base);
+        assert_ne!(digest(digest(0, &a), &a), base);
+    }
+
+    #[test]
+    fn throttle_drops_about_the_asked_fraction_and_always_the_same_packets() {
+        let dropped = (0..10_000).filter(|&s| throttle_drops(s, 250)).count();
+        assert!((2_200..2_800).contains(&dropped), "{dropped}");
+        assert_eq!((0..1000).filter(|&s| throttle_drops(s, 0)).count(), 0);
+        assert_eq!((0..1000).filter(|&s| throttle_drops(s, 1000)).count(), 1000);
+        let a: Vec<u64> = (0..100).filter(|&s| throttle_drops(s, 300)).collect();
+        let b: Vec<u64> = (0..100).filter(|&s| throttle_drops(s, 300)).collect();
+        assert_eq!(a, b);
+    }
+}

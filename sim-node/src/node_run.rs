@@ -1,0 +1,198 @@
+//! `sim-node run`: the physics process of a distributed session (DESIGN.md §3).
+//!
+//! Tick k: physics has reached t_k; the node publishes `sim/state` for the render instants in
+//! (t_{k−1}, t_k] (every 10 ms; tick 0 has the single instant 0), `sim/contacts{k}`, then
+//! `clock{k}`. It then waits for the performer's `setpoint{k}` and the scheduler's `cmd{k}`, and
+//! steps tick k+1 with those references extrapolated inside the tick with their feed-forward
+//! velocity and acceleration ([`Reference::extrapolated`]). A `cmd` flagged `mission_end` ends
+//! the run.
+
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+/// How long the messages of a peer whose token disappeared may still take to arrive.
+const PEER_LOSS_GRACE: Duration = Duration::from_secs(3);
+
+use anyhow::{Context, Result, bail};
+use bus::{Bus, Inbound, NodeArgs, handshake};
+use proto::clock::EVENT_RENDER_PERIOD_NS;
+use proto::{
+    ClockTick, Contact, DronePose, PerformerSetpoint, Role, SchedCommand, SimContacts, SimState,
+    TICK_NS,
+};
+use sim_node::control::Reference;
+use sim_node::world::World;
+
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    #[command(flatten)]
+    node: NodeArgs,
+}
+
+pub fn run(args: RunArgs) -> Result<()> {
+    let node = args.node;
+    let mut world = World::new(node.observers).context("building the scene")?;
+    let mut bus = Bus::open_node(&node).context("opening the Zenoh session")?;
+    let keys = bus.keys().clone();
+    bus.subscribe(&keys.performer_setpoint())?;
+    bus.subscribe(&keys.sched_cmd())?;
+    let everyone = node.processes();
+    handshake::join(
+        &mut bus,
+        &handshake::Process::singleton(Role::Sim),
+        &everyone,
+        node.startup_timeout(),
+    )
+    .context("start-up handshake")?;
+    handshake::wait_ready(&mut bus, &everyone, node.startup_timeout())
+        .context("waiting for every process to be ready")?;
+    tracing::info!(
+        session = node.session,
+        "every process ready: starting the clock"
+    );
+
+    let index: BTreeMap<String, usize> = world
+        .drone_names()
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (n.clone(), i))
+        .collect();
+    let peers = [
+        keys.alive(Role::Performer, Role::Performer.as_str())?,
+        keys.alive(Role::Scheduler, Role::Scheduler.as_str())?,
+    ];
+    let mut setpoints: BTreeMap<u64, PerformerSetpoint> = BTreeMap::new();
+    let mut commands: BTreeMap<u64, SchedCommand> = BTreeMap::new();
+    let mut tick = 0u64;
+    let mut dead_since: Option<Instant> = None;
+    publish_state(&mut bus, &world, 0)?;
+    publish_tick(&mut bus, &world, 0, Vec::new())?;
+    loop {
+        // Wait for setpoint{k} and cmd{k}.
+        while !(setpoints.contains_key(&tick) && commands.contains_key(&tick)) {
+            match bus.recv(Duration::from_millis(200)) {
+                Some(Inbound::Data { key, payload }) if key == keys.performer_setpoint() => {
+                    let sp: PerformerSetpoint = bus::decode(&key, &payload)?;
+                    setpoints.insert(sp.tick, sp);
+                }
+                Some(Inbound::Data { key, payload }) if key == keys.sched_cmd() => {
+                    let cmd: SchedCommand = bus::decode(&key, &payload)?;
+                    commands.insert(cmd.tick, cmd);
+                }
+                _ => {
+                    // A token's deletion travels at control priority and may overtake the
+                    // peer's last messages: give them time to arrive before giving up.
+                    if let Some(dead) = peers.iter().find(|p| !bus.is_alive(p)) {
+                        let since = *dead_since.get_or_insert_with(Instant::now);
+                        if since.elapsed() > PEER_LOSS_GRACE {
+                            bail!("{dead} disappeared while the simulator waited for tick {tick}");
+                        }
+                    }
+                }
+            }
+        }
+        let setpoint = setpoints.remove(&tick).expect("checked above");
+        let cmd = commands.remove(&tick).expect("checked above");
+        setpoints.retain(|t, _| *t > tick);
+        commands.retain(|t, _| *t > tick);
+        if cmd.mission_end {
+            tracing::info!(tick, "mission end");
+            break;
+        }
+        let t_k = world.time_ns();
+        let performer = Reference {
+            pos_m: setpoint.pos_m,
+            vel_mps: setpoint.vel_mps,
+            acc_mps2: setpoint.acc_mps2,
+            yaw_rad: setpoint.yaw_rad,
+        };
+        let observers: Vec<(usize, Reference)> = cmd
+            .setpoints
+            .iter()
+            .filter_map(|s| {
+                index.get(s.observer.as_str()).map(|&i| {
+                    (
+                        i,
+                        Reference {
+                            pos_m: s.pos_m,
+                            vel_mps: s.vel_mps,
+                            acc_mps2: s.acc_mps2,
+                            yaw_rad: s.yaw_rad,
+                        },
+                    )
+                })
+            })
+            .collect();
+        let mut contacts = Vec::new();
+        let next = tick + 1;
+        while world.time_ns() < t_k + TICK_NS {
+            let dt_s = (world.time_ns() - t_k) as f64 * 1e-9;
+            world.set_reference(0, performer.extrapolated(dt_s));
+            for (i, r) in &observers {
+                world.set_reference(*i, r.extrapolated(dt_s));
+            }
+            let before = world.contact_stats().contact_steps;
+            world.step();
+            let t = world.time_ns();
+            if world.contact_stats().contact_steps > before {
+                contacts.extend(world.contacts().into_iter().map(|(a, b, depth_m)| Contact {
+                    step_ns: t,
+                    body_a: a,
+                    body_b: b,
+                    depth_m,
+                }));
+            }
+            if t.is_multiple_of(EVENT_RENDER_PERIOD_NS) {
+                publish_state(&mut bus, &world, next)?;
+            }
+        }
+        tick = next;
+        publish_tick(&mut bus, &world, tick, contacts)?;
+    }
+    bus.close()?;
+    Ok(())
+}
+
+fn publish_state(bus: &mut Bus, world: &World, tick: u64) -> Result<()> {
+    let drones = world
+        .drone_names()
+        .iter()
+        .enumerate()
+        .map(|(i, name)| {
+            let (pos_m, quat_wxyz) = world.body_pose(i);
+            let s = world.state(i);
+            DronePose {
+                name: name.clone(),
+                pos_m,
+                quat_wxyz,
+                vel_mps: s.vel_mps,
+                ang_vel_radps: s.body_rate_radps,
+            }
+        })
+        .collect();
+    let state = SimState {
+        tick,
+        stamp_ns: world.time_ns(),
+        drones,
+    };
+    let key = bus.keys().sim_state();
+    bus.put(&key, &state)?;
+    Ok(())
+}
+
+fn publish_tick(bus: &mut Bus, world: &World, tick: u64, contacts: Vec<Contact>) -> Result<()> {
+    let stats = world.contact_stats();
+    let key = bus.keys().sim_contacts();
+    bus.put(
+        &key,
+        &SimContacts {
+            tick,
+            contacts,
+            contact_steps: stats.contact_steps,
+            min_separation_m: stats.min_separation_m,
+        },
+    )?;
+    let key = bus.keys().clock();
+    bus.put(&key, &ClockTick::at(tick).context("tick overflow")?)?;
+    Ok(())
+}
