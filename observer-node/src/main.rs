@@ -67,7 +67,7 @@ fn main() -> Result<()> {
         modality,
     )
     .context("building the receiver")?;
-    let mut bus = Bus::open_node(&node).context("opening the Zenoh session")?;
+    let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
     let keys = bus.keys().clone();
     // The only three data subscriptions of an observer (see the isolation test).
     bus.subscribe(&keys.sensor_any(&args.id))?;

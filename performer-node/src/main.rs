@@ -73,7 +73,7 @@ fn main() -> Result<()> {
     let args = Args::parse();
     let node = &args.node;
     let gesture = GestureConfig::default();
-    let mut bus = Bus::open_node(&node).context("opening the Zenoh session")?;
+    let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
     let keys = bus.keys().clone();
     bus.subscribe(&keys.sched_broadcast())?;
     handshake::join(

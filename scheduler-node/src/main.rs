@@ -74,7 +74,7 @@ fn main() -> Result<()> {
     config.time_limit_ns = args.time_limit_s.map(|s| (s * 1e9).round() as u64);
     let mut scheduler = Scheduler::new(config).context("configuring the scheduler")?;
 
-    let mut bus = Bus::open_node(&node).context("opening the Zenoh session")?;
+    let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
     let keys = bus.keys().clone();
     bus.subscribe(&keys.sim_state())?;
     bus.subscribe(&keys.observer_status_any())?;
