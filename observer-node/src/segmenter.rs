@@ -281,22 +281,16 @@ impl Segmenter {
             self.recent.pop_front();
         }
         let radius_px = self.config.anchor_radius_px;
-        if let Some(anchor) = self.anchor.filter(|a| dist(a.point_px, p) <= radius_px) {
-            self.rest_sum_px = [self.rest_sum_px[0] + p[0], self.rest_sum_px[1] + p[1]];
-            self.rest_count = self.rest_count.saturating_add(1);
-            if !self.rested {
-                if self.after_null {
-                    self.path_px.push(p);
-                }
-                if stamp_ns - anchor.stamp_ns >= self.config.null_confirm_ns && sample.null_allowed
-                {
-                    self.confirm_null(stamp_ns, anchor, &mut out);
-                }
-            }
-            return Ok(out);
-        }
-        // The point is moving (or has just been re-acquired): start a new rest candidate here.
         if self.rested {
+            if self
+                .anchor
+                .is_some_and(|a| dist(a.point_px, p) <= radius_px)
+            {
+                self.rest_sum_px = [self.rest_sum_px[0] + p[0], self.rest_sum_px[1] + p[1]];
+                self.rest_count = self.rest_count.saturating_add(1);
+                return Ok(out);
+            }
+            // The target left its confirmed rest: motion starts here.
             self.rested = false;
             // Samples of the confirmed rest must never start the next one.
             self.recent.clear();
@@ -307,21 +301,12 @@ impl Segmenter {
         }
         if self.after_null {
             self.path_px.push(p);
-            if let Some(start_ns) = self.motion_start_ns
-                && stamp_ns - start_ns > self.config.max_motion_ns
-            {
-                out.push(SegmentToken {
-                    token: Token::Unknown,
-                    stamp_ns,
-                    cause: TokenCause::Overlong {
-                        motion_ns: stamp_ns - start_ns,
-                    },
-                });
-                self.after_null = false;
-                self.motion_start_ns = None;
-                self.path_px.clear();
-            }
         }
+        // The rest candidate is anchored on where the target is now: it started at the earliest
+        // recent sample from which every later one lies within the anchor radius of this point.
+        // Anchoring on the current point (not on wherever an earlier candidate happened to
+        // begin) makes the rest start a property of the trajectory's final approach alone, so
+        // receivers whose estimates differ by a few pixels confirm their NULLs together.
         let (mut start_ns, mut sum_px, mut count) = (stamp_ns, p, 1u32);
         for &(t, q) in self.recent.iter().rev().skip(1) {
             if dist(q, p) > radius_px {
@@ -331,13 +316,30 @@ impl Segmenter {
             sum_px = [sum_px[0] + q[0], sum_px[1] + q[1]];
             count += 1;
         }
-        self.anchor = Some(Anchor {
+        if self.after_null
+            && let Some(motion_ns) = self.motion_start_ns.map(|m| start_ns.saturating_sub(m))
+            && motion_ns > self.config.max_motion_ns
+        {
+            out.push(SegmentToken {
+                token: Token::Unknown,
+                stamp_ns,
+                cause: TokenCause::Overlong { motion_ns },
+            });
+            self.after_null = false;
+            self.motion_start_ns = None;
+            self.path_px.clear();
+        }
+        let anchor = Anchor {
             point_px: p,
             stamp_ns: start_ns,
-            path_index: self.path_px.len().saturating_sub(1),
-        });
+            path_index: self.path_px.len().saturating_sub(count as usize),
+        };
+        self.anchor = Some(anchor);
         self.rest_sum_px = sum_px;
         self.rest_count = count;
+        if stamp_ns - start_ns >= self.config.null_confirm_ns && sample.null_allowed {
+            self.confirm_null(stamp_ns, anchor, &mut out);
+        }
         Ok(out)
     }
 
@@ -545,6 +547,44 @@ pub(crate) mod tests {
             "{rgb_out:?}"
         );
         assert_eq!(ev_out[0].stamp_ns, 3 * S);
+    }
+
+    #[test]
+    fn the_rest_starts_where_the_final_approach_entered_the_radius_whatever_came_before() {
+        // Two receivers see the same slow 20 px/s approach to the same hover point; one saw it
+        // from 10 px further out. A rest anchored on an earlier candidate would begin wherever
+        // the chain of candidates happened to fall (≈ 0.5 s apart here); anchored on the
+        // current point it begins 20 px out in both.
+        let end_ns = 20 * S;
+        let approach = |from_px: f64| {
+            let mut samples = Vec::new();
+            let travel_ns = (from_px / 20.0 * 1e9) as u64;
+            let mut t = end_ns - travel_ns;
+            while t < end_ns + 6 * S {
+                let left_px = from_px * (end_ns.saturating_sub(t)) as f64 / travel_ns as f64;
+                samples.push(Sample::tracked(t, [CENTRE[0] + left_px, CENTRE[1]]));
+                t += PERIOD_NS;
+            }
+            samples
+        };
+        let nulls = |from_px: f64| {
+            let out = run(
+                &mut Segmenter::new(SegmenterConfig::events()).unwrap(),
+                &approach(from_px),
+            );
+            assert_eq!(tokens(&out), vec![Token::Null], "from {from_px} px");
+            out[0].stamp_ns
+        };
+        let want_ns = end_ns - S + 3 * S;
+        // 20 px out at 20 px/s is 1 s before arrival; the NULL follows 3 s after that (the
+        // farther approach is sampled at other instants: one sample period of play).
+        for from_px in [200.0, 210.0] {
+            let null_ns = nulls(from_px);
+            assert!(
+                null_ns.abs_diff(want_ns) <= PERIOD_NS,
+                "from {from_px} px: {null_ns}"
+            );
+        }
     }
 
     #[test]
