@@ -1,10 +1,13 @@
 //! Pyramidal Lucas–Kanade tracking with a forward–backward check.
 //!
-//! A thin wrapper around the pure-Rust `optical-flow-lk` crate. Before adopting it we compared it
-//! with OpenCV's `calcOpticalFlowPyrLK` on our own rendered frames and points (see
-//! `benches/klt.rs` and `tests/klt_opencv.rs`): it tracks the same points to a median endpoint
-//! disagreement of a few ten-thousandths of a pixel and is faster than OpenCV per frame, so we
-//! did not write our own. Both libraries use Scharr gradients, bilinear window sampling and
+//! A thin wrapper around the pure-Rust `optical-flow-lk` crate, adopted after comparing it with
+//! OpenCV's `calcOpticalFlowPyrLK` (opencv-python-headless 5.0, a test oracle only) on our own
+//! MuJoCo renders and our tracker's own points, with the same window, levels, iteration cap,
+//! epsilon and eigenvalue threshold (`tests/klt_oracle.rs`, `benches/klt.rs`, ARCHITECTURE.md
+//! "RGB KLT vs OpenCV"): on 2 578 points moving a median 2.9 px per frame the endpoints differ
+//! by a median of 0.0011 px (95th percentile 0.0048, maximum 0.0072), every status and
+//! round-trip verdict agrees, and it tracks a frame pair in about 0.7 times OpenCV's time on one
+//! thread, so we did not write our own. Both use Scharr gradients, bilinear window sampling and
 //! 14-bit fixed-point window weights; the pyramids differ (2×2 means here, a 5×5 Gaussian in
 //! OpenCV), which the full-resolution refinement absorbs.
 
@@ -44,7 +47,7 @@ impl KltConfig {
 
     pub fn validate(&self) -> Result<(), RgbReceiverError> {
         let bad = |what: &str| Err(RgbReceiverError::BadConfig(format!("klt: {what}")));
-        if self.window_px < 3 || self.window_px % 2 == 0 || self.window_px > 127 {
+        if self.window_px < 3 || self.window_px.is_multiple_of(2) || self.window_px > 127 {
             return bad("window_px must be odd and in 3..=127");
         }
         if !(1..=6).contains(&self.pyramid_levels) {
