@@ -17,6 +17,10 @@ pub struct NodeArgs {
     /// No launcher takes part (processes started by hand): nobody waits for it.
     #[arg(long)]
     pub standalone: bool,
+    /// A recorder (`recorder-node`) takes part in the start-up handshake: the clock starts only
+    /// once it is ready, so it records from tick 0.
+    #[arg(long)]
+    pub recorder: bool,
     /// How long to wait for every process of the session at start-up, seconds.
     #[arg(long, default_value_t = 120.0)]
     pub startup_timeout_s: f64,
@@ -30,7 +34,11 @@ pub struct NodeArgs {
 impl NodeArgs {
     /// Every process of the session.
     pub fn processes(&self) -> Vec<Process> {
-        mission_processes(self.observers, !self.standalone)
+        let mut out = mission_processes(self.observers, !self.standalone);
+        if self.recorder {
+            out.push(Process::singleton(proto::Role::Recorder));
+        }
+        out
     }
 
     pub fn startup_timeout(&self) -> Duration {
@@ -49,6 +57,9 @@ impl NodeArgs {
         ];
         if self.standalone {
             out.push("--standalone".into());
+        }
+        if self.recorder {
+            out.push("--recorder".into());
         }
         for d in &self.deny {
             out.push("--deny".into());
@@ -92,6 +103,7 @@ mod tests {
             session: "run-1".into(),
             observers: 2,
             standalone: true,
+            recorder: false,
             startup_timeout_s: 30.0,
             deny: vec!["waggle/run-1/sim/**".into()],
             endpoints: Endpoints {
@@ -103,5 +115,17 @@ mod tests {
         argv.extend(node.to_args());
         assert_eq!(Cli::parse_from(argv).node, node);
         assert_eq!(node.processes().len(), 3 + 4);
+        let recorded = NodeArgs {
+            recorder: true,
+            ..node
+        };
+        let mut argv = vec!["x".to_string()];
+        argv.extend(recorded.to_args());
+        assert_eq!(Cli::parse_from(argv).node, recorded);
+        assert!(
+            recorded
+                .processes()
+                .contains(&Process::singleton(proto::Role::Recorder))
+        );
     }
 }

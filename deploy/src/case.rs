@@ -87,7 +87,8 @@ pub struct Case {
     pub offer_sites: Vec<String>,
     #[serde(default = "default_rounds")]
     pub rounds: u32,
-    /// Modalities this case applies to.
+    /// Sensor modalities this case applies to (`rgb`, `events`; default both — every built-in
+    /// case states it). The ideal receiver can fly every case.
     #[serde(default = "default_modalities")]
     pub modalities: Vec<CaseModality>,
     #[serde(default)]
@@ -157,6 +158,16 @@ impl Case {
             s.parse::<proto::Site>()
                 .map_err(|e| anyhow::anyhow!("offer_sites: {e}"))?;
         }
+        if self.modalities.is_empty()
+            || self.modalities.contains(&CaseModality::Ideal)
+            || (1..self.modalities.len())
+                .any(|i| self.modalities[..i].contains(&self.modalities[i]))
+        {
+            bail!(
+                "modalities = {:?}: list rgb and/or events, each once (ideal applies to every case)",
+                self.modalities
+            );
+        }
         if self.expected.messages.len() != self.observers {
             bail!(
                 "expected.messages has {} entries for {} observers",
@@ -197,11 +208,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_built_in_case_loads() {
-        for (name, _) in BUILT_IN {
+    fn every_built_in_case_loads_and_states_its_modalities() {
+        for (name, text) in BUILT_IN {
             let c = Case::load(name).unwrap();
             assert_eq!(&c.name, name);
+            assert!(
+                text.lines().any(|l| l.starts_with("modalities = ")),
+                "{name} does not state its modalities"
+            );
         }
+        let events_only = Case::load("dropout-o2").unwrap();
+        assert_eq!(events_only.modalities, [CaseModality::Events]);
     }
 
     #[test]
@@ -210,20 +227,28 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         for (text, needle) in [
             (
-                "name='x'\nobservers=1\nbogus=1\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "name='x'\nobservers=1\nmodalities=['rgb']\nbogus=1\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
                 "bogus",
             ),
             (
-                "name='x'\nobservers=9\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "name='x'\nobservers=9\nmodalities=['rgb']\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
                 "outside",
             ),
             (
-                "name='x'\nobservers=1\noffer_sites=['C']\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "name='x'\nobservers=1\nmodalities=['rgb']\noffer_sites=['C']\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
                 "offer_sites",
             ),
             (
-                "name='x'\nobservers=1\n[[faults]]\nobserver='O4'\nkind='black'\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "name='x'\nobservers=1\nmodalities=['rgb']\n[[faults]]\nobserver='O4'\nkind='black'\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
                 "O4",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['events','events']\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "each once",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['ideal']\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "ideal applies",
             ),
         ] {
             let path = dir.join("case.toml");

@@ -49,7 +49,7 @@ enum Perception {
     /// Ground truth projected into the home camera (evaluation baseline).
     Ideal {
         camera: LevelCamera,
-        decoder: Decoder,
+        decoder: Box<Decoder>,
     },
     /// The observer's real receiver, fed only by its own sensor.
     Sensor(Box<observer_node::perception::Perception>),
@@ -172,7 +172,7 @@ pub fn fly_case(case: &Case, modality: CaseModality) -> Result<MissionSummary> {
             CaseModality::Ideal => (
                 Perception::Ideal {
                     camera: LevelCamera::at_home(i, n),
-                    decoder: Decoder::new(SegmenterConfig::rgb())?,
+                    decoder: Box::new(Decoder::new(SegmenterConfig::rgb())?),
                 },
                 None,
             ),

@@ -26,7 +26,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use proto::scene::{observer_home_m, observer_name};
 use proto::{
     ClockTick, Decision, Fault, FaultKind, FrameEvent, MissionReport, ObserverId, ObserverStatus,
-    Role, SessionEvent, SessionTick, SimContacts, SimState, TokenEvent,
+    ObserverTrack, PerformerTruth, Role, SessionEvent, SessionTick, SimContacts, SimState,
+    TokenEvent, TrackSample,
 };
 use serde::{Deserialize, Serialize};
 
@@ -73,6 +74,13 @@ pub struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Do not record the session (by default `recorder-node` writes DIR/session.mcap, with the
+    /// case in its metadata; see `waggle audit` and `waggle replay`).
+    #[arg(long)]
+    no_record: bool,
+    /// Record every RGB frame (by default one in 25, i.e. 1 Hz).
+    #[arg(long)]
+    record_all_rgb: bool,
     /// The launcher's own endpoints (default: listen on a free loopback port). Children
     /// connect to every listen endpoint given here, plus every connect endpoint.
     #[command(flatten)]
@@ -185,6 +193,8 @@ struct Proc {
     killed_by_fault: bool,
     /// Stopped by the launcher (end of run, failure elsewhere or Ctrl-C).
     stopped: bool,
+    /// Stopped with SIGTERM and given time to finish (the recorder closes its file).
+    graceful: bool,
     stdout_path: PathBuf,
     stderr_path: PathBuf,
 }
@@ -232,6 +242,11 @@ impl Proc {
     fn kill(&mut self) {
         if self.running() {
             self.stopped = true;
+            if self.graceful
+                && crate::recording::terminate(&mut self.child, Duration::from_secs(15))
+            {
+                return;
+            }
             let _ = self.child.kill();
         }
     }
@@ -255,7 +270,8 @@ impl Launch<'_> {
         if !bin.exists() {
             bail!(
                 "{} not found: build the node binaries first (cargo build --release -p deploy \
-                 -p sim-node -p observer-node -p performer-node -p scheduler-node) or pass --bin-dir",
+                 -p sim-node -p observer-node -p performer-node -p scheduler-node -p recorder-node) \
+                 or pass --bin-dir",
                 bin.display()
             );
         }
@@ -288,6 +304,7 @@ impl Launch<'_> {
             success: false,
             killed_by_fault: false,
             stopped: false,
+            graceful: false,
             stdout_path,
             stderr_path,
         })
@@ -332,6 +349,9 @@ pub struct ObserverRecord {
     pub tokens: Vec<TokenEvent>,
     pub frames: Vec<FrameEvent>,
     pub decisions: Vec<Decision>,
+    /// The observer's image-plane track while receiving (`observer/<o>/track`).
+    #[serde(default)]
+    pub track: Vec<TrackSample>,
 }
 
 /// What the launcher gathered from the bus.
@@ -349,6 +369,8 @@ struct Gathered {
     /// Observers' homes, and the farthest each got from it (every `sim/state` sample).
     homes_m: BTreeMap<String, [f64; 3]>,
     excursion_m: BTreeMap<String, f64>,
+    /// Performer spans, controls, trips and stays for `session.json`.
+    session: crate::report::record::SessionRecorder,
 }
 
 enum Topic {
@@ -361,6 +383,8 @@ enum Topic {
     Tokens,
     Frames,
     Decision,
+    Truth,
+    Track,
 }
 
 impl Gathered {
@@ -375,6 +399,7 @@ impl Gathered {
             }
             Topic::State => {
                 let s: SimState = bus::decode(key, payload)?;
+                self.session.state(&s);
                 for d in &s.drones {
                     if let Some(h) = self.homes_m.get(&d.name) {
                         let e = distance_m(d.pos_m, *h);
@@ -385,9 +410,26 @@ impl Gathered {
                 self.state = Some(s);
             }
             Topic::Contacts => self.contacts = Some(bus::decode(key, payload)?),
-            Topic::Report => self.report = Some(bus::decode(key, payload)?),
+            Topic::Report => {
+                let r: MissionReport = bus::decode(key, payload)?;
+                self.session.report(&r);
+                self.report = Some(r);
+            }
+            Topic::Truth => {
+                let t: PerformerTruth = bus::decode(key, payload)?;
+                self.session.truth(&t);
+            }
+            Topic::Track => {
+                let t: ObserverTrack = bus::decode(key, payload)?;
+                self.records
+                    .entry(t.observer.clone())
+                    .or_default()
+                    .track
+                    .extend(t.samples);
+            }
             Topic::Session => {
                 let s: SessionTick = bus::decode(key, payload)?;
+                self.session.session(&s);
                 for c in s.controls {
                     self.phase = match c.event {
                         SessionEvent::RoundReset { round } => format!("round {round}"),
@@ -580,7 +622,9 @@ fn fly(case: &Case, modality: SensorModality, args: &RunArgs) -> Result<RunSumma
     topics.insert(keys.sim_contacts(), Topic::Contacts);
     topics.insert(keys.sched_session(), Topic::Session);
     topics.insert(keys.sched_report(), Topic::Report);
+    topics.insert(keys.truth_performer(), Topic::Truth);
     for o in &observers {
+        topics.insert(keys.observer_track(o), Topic::Track);
         topics.insert(keys.observer_status(o), Topic::Status);
         topics.insert(keys.observer_tokens(o), Topic::Tokens);
         topics.insert(keys.observer_frames(o), Topic::Frames);
@@ -608,6 +652,7 @@ fn fly(case: &Case, modality: SensorModality, args: &RunArgs) -> Result<RunSumma
             session: session.clone(),
             observers: n,
             standalone: false,
+            recorder: !args.no_record,
             startup_timeout_s: 120.0,
             deny: Vec::new(),
             endpoints: Endpoints {
@@ -652,6 +697,16 @@ fn fly(case: &Case, modality: SensorModality, args: &RunArgs) -> Result<RunSumma
                 }
             }
             procs.push(launch.spawn(&format!("observer-{o}"), "observer-node", &observer_args)?);
+        }
+        if !args.no_record {
+            let mut recorder_args =
+                crate::recording::recorder_args(&args.case, case, &m, &out_dir)?;
+            if args.record_all_rgb {
+                recorder_args.push("--all-rgb".into());
+            }
+            let mut recorder = launch.spawn("recorder", "recorder-node", &recorder_args)?;
+            recorder.graceful = true;
+            procs.push(recorder);
         }
         Ok(())
     })();
@@ -710,6 +765,10 @@ fn fly(case: &Case, modality: SensorModality, args: &RunArgs) -> Result<RunSumma
         out_dir.join("observers.json"),
         serde_json::to_string_pretty(&summary.1)?,
     )?;
+    std::fs::write(
+        out_dir.join("session.json"),
+        serde_json::to_string_pretty(&summary.2)?,
+    )?;
     if args.out.is_none() && !args.json {
         println!("summary and logs in {}", out_dir.display());
     }
@@ -765,7 +824,10 @@ fn supervise(
     stop: &AtomicBool,
     quiet: bool,
 ) -> Result<(Gathered, Vec<String>, bool)> {
-    let everyone = handshake::mission_processes(case.observers, true);
+    let mut everyone = handshake::mission_processes(case.observers, true);
+    if procs.iter().any(|p| p.name == "recorder") {
+        everyone.push(handshake::Process::singleton(Role::Recorder));
+    }
     let startup_deadline = Instant::now() + Duration::from_secs(180);
     // Start-up: wait for every process, checking the children meanwhile.
     loop {
@@ -817,10 +879,12 @@ fn supervise(
         );
         b
     };
+    let homes_m: BTreeMap<String, [f64; 3]> = (0..case.observers)
+        .map(|i| (observer_name(i), observer_home_m(i, case.observers)))
+        .collect();
     let mut g = Gathered {
-        homes_m: (0..case.observers)
-            .map(|i| (observer_name(i), observer_home_m(i, case.observers)))
-            .collect(),
+        session: crate::report::record::SessionRecorder::new(homes_m.clone()),
+        homes_m,
         ..Gathered::default()
     };
     let mut kills: Vec<(ObserverId, u64, bool)> = injected
@@ -932,7 +996,11 @@ fn summarise(
     fault_log: Vec<String>,
     interrupted: bool,
     started: Instant,
-) -> Result<(RunSummary, BTreeMap<String, ObserverRecord>)> {
+) -> Result<(
+    RunSummary,
+    BTreeMap<String, ObserverRecord>,
+    crate::report::record::SessionRecord,
+)> {
     let n = case.observers;
     let report = g.report.clone();
     let departures: BTreeMap<(ObserverId, u32), u64> = report
@@ -948,6 +1016,8 @@ fn summarise(
         let mut rec = g.records.remove(&id).unwrap_or_default();
         rec.tokens.sort_by_key(|t| t.seq);
         rec.frames.sort_by_key(|f| f.seq);
+        rec.track.sort_by_key(|t| t.stamp_ns);
+        rec.track.dedup_by_key(|t| t.stamp_ns);
         let frames: Vec<_> = rec.frames.iter().map(|f| f.frame.clone()).collect();
         let services = report
             .as_ref()
@@ -1039,6 +1109,8 @@ fn summarise(
     let startup_s = g
         .clock_started
         .map_or(f64::NAN, |c| (c - started).as_secs_f64());
+    let end_ns = g.tick * proto::TICK_NS;
+    let session_record = std::mem::take(&mut g.session).finish(end_ns);
     Ok((
         RunSummary {
             mission,
@@ -1054,5 +1126,6 @@ fn summarise(
             interrupted,
         },
         records,
+        session_record,
     ))
 }

@@ -3,7 +3,7 @@
 //! The launcher starts the node binaries found next to `waggle`, so build them first:
 //!
 //! ```text
-//! cargo build --release -p deploy -p sim-node -p observer-node -p performer-node -p scheduler-node
+//! cargo build --release -p deploy -p sim-node -p observer-node -p performer-node -p scheduler-node -p recorder-node
 //! cargo test --release -p deploy --test run                 # the short tests (≈ 30 s)
 //! cargo test --release -p deploy --test run -- --ignored    # whole missions (≈ 30 min on 2 cores)
 //! ```
@@ -16,11 +16,12 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
-const NODES: [&str; 4] = [
+const NODES: [&str; 5] = [
     "sim-node",
     "observer-node",
     "performer-node",
     "scheduler-node",
+    "recorder-node",
 ];
 
 fn waggle() -> Command {
@@ -30,7 +31,7 @@ fn waggle() -> Command {
         assert!(
             bin.exists(),
             "{} is missing: cargo build --release -p deploy -p sim-node -p observer-node \
-             -p performer-node -p scheduler-node (same profile as this test)",
+             -p performer-node -p scheduler-node -p recorder-node (same profile as this test)",
             bin.display()
         );
     }
@@ -212,6 +213,28 @@ fn ctrl_c_stops_every_child_and_still_writes_the_summary() {
     assert_eq!(summary["interrupted"], true);
     assert_eq!(summary["pass"], false);
     assert!(summary["mission_time_s"].as_f64().unwrap() > 0.0);
+    // The recorder got SIGTERM and finished its file (summary and footer): audit reads it whole.
+    let audit = Command::new(env!("CARGO_BIN_EXE_waggle"))
+        .arg("audit")
+        .arg(&dir)
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert_ne!(audit.status.code(), Some(101), "audit panicked");
+    let a: Value = serde_json::from_slice(&audit.stdout).unwrap_or_else(|e| {
+        panic!(
+            "audit printed no JSON ({e}): {}",
+            String::from_utf8_lossy(&audit.stderr)
+        )
+    });
+    assert_eq!(a["partial"], false, "{a:#}");
+    assert_eq!(a["case"], "nominal-3");
+    assert_eq!(a["pass"], false, "an interrupted mission has no report");
+    assert!(
+        a["packets_per_observer"]["O1"].as_u64().unwrap() > 0,
+        "{a:#}"
+    );
+    assert!(a["mission_time_s"].as_f64().unwrap() > 0.0);
 }
 
 fn assert_nominal(r: &Run) {

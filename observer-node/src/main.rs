@@ -144,6 +144,9 @@ fn main() -> Result<()> {
             if let Some(d) = &report.decision {
                 bus.put(&keys.observer_decision(&args.id), d)?;
             }
+            if let Some(track) = &report.track {
+                bus.put(&keys.observer_track(&args.id), track)?;
+            }
             bus.put(&keys.observer_status(&args.id), &report.status)?;
             clocks.remove(&next);
             next += 1;

@@ -58,9 +58,24 @@ impl Perception {
 
     /// Feeds the next input of this observer's sensor.
     pub fn push(&mut self, input: SensorInput<'_>) -> Result<DecodeStep, PerceptionError> {
+        self.push_tracked(input).map(|(step, _)| step)
+    }
+
+    /// Like [`Self::push`], also returning the image-plane estimate the receiver placed the
+    /// target at for this input (`None` when it has no target).
+    pub fn push_tracked(
+        &mut self,
+        input: SensorInput<'_>,
+    ) -> Result<(DecodeStep, Option<[f64; 2]>), PerceptionError> {
         match (self, input) {
-            (Self::Events(r), SensorInput::Events(p)) => Ok(r.push_packet(p).step),
-            (Self::Rgb(r), SensorInput::Rgb(f)) => Ok(r.push_frame(f).step),
+            (Self::Events(r), SensorInput::Events(p)) => {
+                let out = r.push_packet(p);
+                Ok((out.step, out.point_px))
+            }
+            (Self::Rgb(r), SensorInput::Rgb(f)) => {
+                let out = r.push_frame(f);
+                Ok((out.step, out.track.and_then(|t| t.point_px)))
+            }
             (Self::Rgb(_), SensorInput::Events(_)) => Err(PerceptionError::WrongSensor {
                 expected: "rgb",
                 got: "events",

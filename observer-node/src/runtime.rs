@@ -9,8 +9,8 @@
 
 use proto::frame::FrameParser;
 use proto::{
-    Decision, FrameEvent, InputState, ObserverId, ObserverPhase, ObserverStatus, Roster,
-    SessionControl, SessionEvent, Site, TICK_NS, TokenEvent,
+    Decision, FrameEvent, InputState, ObserverId, ObserverPhase, ObserverStatus, ObserverTrack,
+    Roster, SessionControl, SessionEvent, Site, TICK_NS, TokenEvent, TrackSample,
 };
 
 use crate::agent::ObserverAgent;
@@ -35,6 +35,8 @@ pub struct TickReport {
     pub frames: Vec<FrameEvent>,
     pub decision: Option<Decision>,
     pub status: ObserverStatus,
+    /// Where perception placed the target this tick (only when it was fed a packet).
+    pub track: Option<ObserverTrack>,
 }
 
 /// One observer's state across the mission.
@@ -109,6 +111,7 @@ impl ObserverRuntime {
             frames: Vec::new(),
             decision: None,
             status: self.status(tick, InputState::Received),
+            track: None,
         };
         let input = match data {
             TickData::Nothing => InputState::Received,
@@ -119,7 +122,15 @@ impl ObserverRuntime {
                     SensorInput::Events(e) => e.valid,
                 };
                 if self.agent.receiving() {
-                    let step = self.perception.push(p)?;
+                    let (step, pos_px) = self.perception.push_tracked(p)?;
+                    report.track = Some(ObserverTrack {
+                        observer: self.id.clone(),
+                        tick,
+                        samples: vec![TrackSample {
+                            stamp_ns: now_ns,
+                            pos_px,
+                        }],
+                    });
                     self.absorb(step, now_ns, &mut report);
                 }
                 if valid {
@@ -270,6 +281,39 @@ mod tests {
             r.step(4, TickData::Nothing).unwrap().status.phase,
             ObserverPhase::Ended
         );
+    }
+
+    #[test]
+    fn a_track_sample_is_reported_only_for_packets_perception_saw() {
+        let mut r = runtime();
+        let p = empty_packet(1);
+        assert_eq!(
+            r.step(1, TickData::Packet(SensorInput::Events(&p)))
+                .unwrap()
+                .track,
+            None,
+            "no window open: perception is not fed"
+        );
+        r.apply_session(&[
+            control(1, SessionEvent::RoundReset { round: 1 }),
+            control(1, SessionEvent::WindowOpen { round: 1 }),
+        ]);
+        let p = empty_packet(2);
+        let track = r
+            .step(2, TickData::Packet(SensorInput::Events(&p)))
+            .unwrap()
+            .track
+            .expect("a track while receiving");
+        assert_eq!((track.tick, track.observer.as_str()), (2, "O1"));
+        assert_eq!(
+            track.samples,
+            [TrackSample {
+                stamp_ns: 2 * TICK_NS,
+                pos_px: None
+            }]
+        );
+        proto::decode::<ObserverTrack>(&proto::encode(&track)).unwrap();
+        assert_eq!(r.step(3, TickData::Missing).unwrap().track, None);
     }
 
     #[test]

@@ -189,6 +189,11 @@ impl Keys {
         self.key(&format!("observer/{o}/status"))
     }
 
+    /// The observer's image-plane track, for the record (`observer/<o>/track`).
+    pub fn observer_track(&self, o: &ObserverId) -> String {
+        self.key(&format!("observer/{o}/track"))
+    }
+
     /// Every observer's decisions (`observer/*/decision`).
     pub fn observer_decision_any(&self) -> String {
         self.key("observer/*/decision")
@@ -306,6 +311,7 @@ mod tests {
             "waggle/run-7/observer/O2/decision"
         );
         assert_eq!(k.observer_status(&o2), "waggle/run-7/observer/O2/status");
+        assert_eq!(k.observer_track(&o2), "waggle/run-7/observer/O2/track");
         assert_eq!(
             k.observer_decision_any(),
             "waggle/run-7/observer/*/decision"

@@ -20,6 +20,7 @@ pub mod sched;
 pub mod sensor;
 pub mod task;
 pub mod token;
+pub mod track;
 pub mod world;
 
 pub use allocation::{Allocation, CachedOffer, OfferCache, Roster, RosterEntry, allocate};
@@ -41,6 +42,7 @@ pub use sched::{
 pub use sensor::{EventPacket, Polarity, RgbFrame};
 pub use task::{TaskError, TaskState};
 pub use token::{Action, Token};
+pub use track::{ObserverTrack, TrackSample};
 pub use world::{
     Contact, DronePose, PerformerActivity, PerformerSetpoint, PerformerTruth, SimContacts, SimState,
 };

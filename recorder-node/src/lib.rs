@@ -1,1 +1,261 @@
-//! Recorder: session recording into MCAP.
+//! Recorder: every message of a Waggle session into one MCAP file, and reading it back.
+//!
+//! - [`topics`]: key → message type and channel topic, decoding with [`proto::decode`], sim
+//!   time of each message;
+//! - [`writer`]: [`SessionWriter`], raw wire bytes per key (lossless, empty event packets
+//!   included) plus Foxglove viewing channels, zstd chunks of bounded size, session metadata;
+//! - [`reader`]: [`read_recording`], chunk-by-chunk streaming that survives a cut file;
+//! - [`views`], [`foxglove`]: event-frame pictures, log lines and Foxglove's JSON schemas.
+//!
+//! Pure apart from the writer's and reader's byte streams: the `recorder-node` binary adds the
+//! Zenoh subscription, the start-up handshake and signal handling.
+
+pub mod foxglove;
+pub mod reader;
+pub mod topics;
+pub mod views;
+pub mod writer;
+
+pub use reader::{ReadError, ReadOutcome, RecordedMessage, leading_metadata, read_recording};
+pub use topics::{Decoded, MessageKind, RAW_ENCODING, Topic, classify, decode};
+pub use writer::{
+    RECORDER_METADATA, RecordError, RecordStats, Recorded, RecorderOptions, SESSION_METADATA,
+    SessionInfo, SessionWriter,
+};
+
+#[cfg(test)]
+mod tests {
+    use std::io::Cursor;
+
+    use proto::{ClockTick, EventPacket, Keys, ObserverId, Polarity, TICK_NS};
+
+    use super::*;
+
+    fn packet(tick: u64, n: usize) -> EventPacket {
+        EventPacket {
+            seq: tick - 1,
+            start_ns: (tick - 1) * TICK_NS,
+            end_ns: tick * TICK_NS,
+            width: 640,
+            height: 480,
+            valid: true,
+            continuous: true,
+            xs: (0..n).map(|i| (i * 7 % 640) as u16).collect(),
+            ys: (0..n).map(|i| (i * 3 % 480) as u16).collect(),
+            dt_ns: (0..n).map(|i| (i as u32 * 1000) % 40_000_000).collect(),
+            on_bits: EventPacket::pack_polarities((0..n).map(|i| {
+                if i % 3 == 0 {
+                    Polarity::On
+                } else {
+                    Polarity::Off
+                }
+            })),
+        }
+    }
+
+    /// A recording of `ticks` ticks: clock and one event packet per tick (every 4th empty),
+    /// plus an unknown key and an undecodable payload.
+    fn record(ticks: u64, options: RecorderOptions) -> (Vec<u8>, Vec<Vec<u8>>) {
+        let keys = Keys::new("t").unwrap();
+        let o1 = ObserverId::new("O1").unwrap();
+        let info = SessionInfo {
+            session: "t".into(),
+            observers: 1,
+            case_name: Some("nominal-3".into()),
+            case_toml: Some("name = 'x'".into()),
+            modality: Some("events".into()),
+        };
+        let mut w = SessionWriter::new(Cursor::new(Vec::new()), &info, options).unwrap();
+        let mut sent = Vec::new();
+        for k in 1..=ticks {
+            w.record(&keys.clock(), &proto::encode(&ClockTick::at(k).unwrap()))
+                .unwrap();
+            let bytes = proto::encode(&packet(k, if k % 4 == 0 { 0 } else { 500 }));
+            assert!(matches!(
+                w.record(&keys.sensor_events(&o1), &bytes).unwrap(),
+                Recorded::Message {
+                    kind: MessageKind::EventPacket,
+                    mission_end: false
+                }
+            ));
+            sent.push(bytes);
+        }
+        assert!(matches!(
+            w.record("waggle/t/what/is/this", b"??").unwrap(),
+            Recorded::UnknownKey
+        ));
+        assert!(matches!(
+            w.record(&keys.clock(), b"\x02\x00garbage").unwrap(),
+            Recorded::Undecodable { .. }
+        ));
+        assert_eq!(w.stats().unknown_keys.len(), 1);
+        assert_eq!(w.stats().undecodable["/clock"], 1);
+        let bytes = w.finish(Default::default()).unwrap().into_inner();
+        (bytes, sent)
+    }
+
+    /// (topic, schema name, log time, bytes) of each message read.
+    type Read = Vec<(String, String, u64, Vec<u8>)>;
+
+    fn read_bytes(bytes: &[u8]) -> (ReadOutcome, Read) {
+        let path = std::env::temp_dir().join(format!(
+            "recorder-test-{}-{}.mcap",
+            std::process::id(),
+            bytes.len()
+        ));
+        std::fs::write(&path, bytes).unwrap();
+        let mut got = Vec::new();
+        let out = read_recording::<ReadError>(&path, |m| {
+            got.push((
+                m.topic.to_string(),
+                m.schema.to_string(),
+                m.log_time_ns,
+                m.data.to_vec(),
+            ));
+            Ok(())
+        });
+        let _ = std::fs::remove_file(&path);
+        (out.unwrap(), got)
+    }
+
+    #[test]
+    fn event_packets_round_trip_byte_for_byte_with_metadata() {
+        let (bytes, sent) = record(
+            30,
+            RecorderOptions {
+                event_view_period_ns: Some(200_000_000),
+                ..RecorderOptions::default()
+            },
+        );
+        let (out, got) = read_bytes(&bytes);
+        assert!(out.complete, "{:?}", out.problem);
+        assert_eq!(out.metadata[SESSION_METADATA]["case"], "nominal-3");
+        assert_eq!(out.metadata[SESSION_METADATA]["modality"], "events");
+        assert!(out.metadata[RECORDER_METADATA]["messages"].contains("/sensor/O1/events"));
+        let packets: Vec<_> = got.iter().filter(|m| m.0 == "/sensor/O1/events").collect();
+        assert_eq!(packets.len(), 30);
+        for (k, (m, s)) in packets.iter().zip(&sent).enumerate() {
+            assert_eq!(&m.3, s, "packet {k}");
+            assert_eq!(m.1, "waggle.EventPacket");
+            assert_eq!(m.2, (k as u64 + 1) * TICK_NS, "log time = end watermark");
+            let p: EventPacket = proto::decode(&m.3).unwrap();
+            assert_eq!(p.is_empty(), (k + 1) % 4 == 0);
+        }
+        // 200 ms view: one picture per 5 packets.
+        let images = got.iter().filter(|m| m.0 == "/view/O1/events").count();
+        assert_eq!(images, 6);
+        assert!(got.iter().any(|m| m.0 == "/unknown/what/is/this"));
+        assert_eq!(got.iter().filter(|m| m.0 == "/clock").count(), 31);
+    }
+
+    #[test]
+    fn rgb_frames_are_recorded_at_the_reduced_rate_raw_and_as_images() {
+        let keys = Keys::new("r").unwrap();
+        let o2 = ObserverId::new("O2").unwrap();
+        let info = SessionInfo {
+            session: "r".into(),
+            observers: 2,
+            ..SessionInfo::default()
+        };
+        let options = RecorderOptions {
+            rgb_every: 25,
+            ..RecorderOptions::default()
+        };
+        let mut w = SessionWriter::new(Cursor::new(Vec::new()), &info, options).unwrap();
+        let mut kept = Vec::new();
+        for k in 1..=60u64 {
+            let f = proto::RgbFrame {
+                seq: k - 1,
+                stamp_ns: k * TICK_NS,
+                width: 2,
+                height: 1,
+                valid: true,
+                continuous: true,
+                rgb: vec![k as u8; 6],
+            };
+            let bytes = proto::encode(&f);
+            match w.record(&keys.sensor_rgb(&o2), &bytes).unwrap() {
+                Recorded::Message { .. } => kept.push(bytes),
+                Recorded::Skipped => {}
+                other => panic!("{other:?}"),
+            }
+        }
+        assert_eq!(kept.len(), 3, "frames 1, 26 and 51");
+        assert_eq!(w.stats().rgb_skipped["O2"], 57);
+        let bytes = w.finish(Default::default()).unwrap().into_inner();
+        let (out, got) = read_bytes(&bytes);
+        assert!(out.complete);
+        let raw: Vec<_> = got.iter().filter(|m| m.0 == "/sensor/O2/rgb").collect();
+        assert_eq!(raw.iter().map(|m| m.3.clone()).collect::<Vec<_>>(), kept);
+        let images: Vec<_> = got.iter().filter(|m| m.0 == "/view/O2/rgb").collect();
+        assert_eq!(images.len(), 3);
+        assert_eq!(images[1].1, "foxglove.RawImage");
+        assert_eq!(images[1].2, 26 * TICK_NS);
+        let json: serde_json::Value = serde_json::from_slice(&images[1].3).unwrap();
+        assert_eq!(json["data"], foxglove::base64(&[26; 6]));
+        assert_eq!(
+            (json["width"].as_u64(), json["height"].as_u64()),
+            (Some(2), Some(1))
+        );
+    }
+
+    #[test]
+    fn a_cut_recording_reads_up_to_its_last_complete_chunk_and_never_panics() {
+        let options = RecorderOptions {
+            chunk_bytes: 16 << 10,
+            ..RecorderOptions::default()
+        };
+        let (bytes, sent) = record(200, options);
+        let (full, _) = read_bytes(&bytes);
+        assert!(full.complete);
+        let mut last = 0;
+        for cut in [
+            0,
+            4,
+            8,
+            20,
+            100,
+            bytes.len() / 7,
+            bytes.len() / 3,
+            bytes.len() / 2,
+            bytes.len() - 40,
+            bytes.len() - 1,
+        ] {
+            let path = std::env::temp_dir()
+                .join(format!("recorder-cut-{}-{cut}.mcap", std::process::id()));
+            std::fs::write(&path, &bytes[..cut]).unwrap();
+            let mut packets = Vec::new();
+            let out = read_recording::<ReadError>(&path, |m| {
+                if m.topic == "/sensor/O1/events" {
+                    packets.push(m.data.to_vec());
+                }
+                Ok(())
+            });
+            let _ = std::fs::remove_file(&path);
+            match out {
+                Err(ReadError::NotMcap { .. }) => assert!(cut < 100, "cut {cut}"),
+                Err(e) => panic!("cut {cut}: {e}"),
+                Ok(out) => {
+                    assert!(!out.complete, "cut {cut}");
+                    assert!(out.problem.is_some());
+                    // What was read is a prefix of what was sent.
+                    assert_eq!(packets[..], sent[..packets.len()], "cut {cut}");
+                    assert!(packets.len() >= last, "cut {cut}");
+                    last = packets.len();
+                }
+            }
+        }
+        assert!(
+            last > 100,
+            "most of the file survives a cut near its end: {last}"
+        );
+        // Flipped bytes inside a chunk: the chunk's CRC fails, reading stops, no panic.
+        let mut bad = bytes.clone();
+        let mid = bad.len() / 2;
+        for b in &mut bad[mid..mid + 16] {
+            *b ^= 0x5a;
+        }
+        let (out, _) = read_bytes(&bad);
+        assert!(!out.complete && out.problem.is_some());
+    }
+}

@@ -1,0 +1,240 @@
+//! `recorder-node --out FILE.mcap --session S …`: records every key of a session
+//! (`waggle/<session>/**`) into one MCAP file.
+//!
+//! It takes part in the start-up handshake (role `recorder`), so with `--recorder` given to
+//! every node the clock starts only once it is subscribed and it records from tick 0. It closes
+//! a chunk and flushes the file every `--flush-ms` of wall time, so a kill loses at most that
+//! much; it finishes the file (summary and footer) after `MissionEnd`, on SIGINT/SIGTERM, or
+//! when the simulator and the scheduler are both gone.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result};
+use bus::{Bus, Inbound, NodeArgs, handshake};
+use clap::Parser;
+use proto::Role;
+use recorder_node::foxglove::LogLevel;
+use recorder_node::{Recorded, RecorderOptions, SessionInfo, SessionWriter};
+
+#[derive(Parser)]
+#[command(
+    name = "recorder-node",
+    version,
+    about = "Records a Waggle session into one MCAP file"
+)]
+struct Args {
+    /// The MCAP file to write (its directory is created).
+    #[arg(long)]
+    out: PathBuf,
+    /// Case name, stored in the recording's metadata.
+    #[arg(long)]
+    case_name: Option<String>,
+    /// Case TOML file, stored (its text) in the recording's metadata.
+    #[arg(long)]
+    case_file: Option<PathBuf>,
+    /// Observer sensor modality (`rgb` or `events`), stored in the metadata.
+    #[arg(long)]
+    modality: Option<String>,
+    /// Rate of the event-frame pictures in the `/view/<o>/events` channels, Hz (0: none).
+    #[arg(long, default_value_t = 2.0)]
+    event_view_hz: f64,
+    /// Record every n-th RGB frame (raw and as an image).
+    #[arg(long, default_value_t = 25)]
+    rgb_every: u64,
+    /// Record every RGB frame (same as `--rgb-every 1`).
+    #[arg(long)]
+    all_rgb: bool,
+    /// Uncompressed chunk size, KiB.
+    #[arg(long, default_value_t = 4096)]
+    chunk_kib: u64,
+    /// Close the current chunk and flush the file at least this often, ms of wall time.
+    #[arg(long, default_value_t = 1000)]
+    flush_ms: u64,
+    /// After `MissionEnd`, stop once nothing arrived for this long, ms.
+    #[arg(long, default_value_t = 1000)]
+    linger_ms: u64,
+    #[command(flatten)]
+    node: NodeArgs,
+}
+
+/// Set on SIGINT or SIGTERM.
+fn install_stop_signals() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let set = flag.clone();
+    std::thread::spawn(move || {
+        use tokio::signal::unix::{SignalKind, signal};
+        let Ok(rt) = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+        else {
+            return;
+        };
+        rt.block_on(async {
+            let (Ok(mut int), Ok(mut term)) = (
+                signal(SignalKind::interrupt()),
+                signal(SignalKind::terminate()),
+            ) else {
+                return;
+            };
+            std::future::poll_fn(|cx| {
+                if int.poll_recv(cx).is_ready() || term.poll_recv(cx).is_ready() {
+                    std::task::Poll::Ready(())
+                } else {
+                    std::task::Poll::Pending
+                }
+            })
+            .await;
+            set.store(true, Ordering::SeqCst);
+        });
+    });
+    flag
+}
+
+fn main() -> Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
+        .with_writer(std::io::stderr)
+        .init();
+    let args = Args::parse();
+    let stop = install_stop_signals();
+    let node = &args.node;
+    let case_toml = match &args.case_file {
+        Some(p) => {
+            Some(std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?)
+        }
+        None => None,
+    };
+    let info = SessionInfo {
+        session: node.session.clone(),
+        observers: node.observers,
+        case_name: args.case_name.clone(),
+        case_toml,
+        modality: args.modality.clone(),
+    };
+    let options = RecorderOptions {
+        chunk_bytes: args.chunk_kib.saturating_mul(1024),
+        event_view_period_ns: (args.event_view_hz > 0.0)
+            .then(|| (1e9 / args.event_view_hz).round() as u64),
+        rgb_every: if args.all_rgb {
+            1
+        } else {
+            args.rgb_every.max(1)
+        },
+        zstd_level: 0,
+    };
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let file =
+        File::create(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let mut writer = SessionWriter::new(BufWriter::with_capacity(1 << 20, file), &info, options)
+        .context("starting the MCAP file")?;
+    writer.flush()?;
+
+    let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
+    let keys = bus.keys().clone();
+    bus.subscribe(&keys.all())?;
+    handshake::join(
+        &mut bus,
+        &handshake::Process::singleton(Role::Recorder),
+        &node.processes(),
+        node.startup_timeout(),
+    )
+    .context("start-up handshake")?;
+    let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
+    let scheduler_alive = keys.alive(Role::Scheduler, Role::Scheduler.as_str())?;
+
+    let flush_every = Duration::from_millis(args.flush_ms.max(1));
+    let linger = Duration::from_millis(args.linger_ms);
+    let mut last_flush = Instant::now();
+    let mut mission_end_at: Option<Instant> = None;
+    let mut peers_gone_at: Option<Instant> = None;
+    let mut last_data = Instant::now();
+    let mut warnings = 0u64;
+    let mut cpu_note = String::new();
+    let why = loop {
+        if stop.load(Ordering::SeqCst) {
+            break "signal";
+        }
+        match bus.recv(Duration::from_millis(50)) {
+            Some(Inbound::Data { key, payload }) => {
+                last_data = Instant::now();
+                match writer.record(&key, &payload)? {
+                    Recorded::Message { mission_end, .. } => {
+                        if mission_end {
+                            mission_end_at.get_or_insert_with(Instant::now);
+                        }
+                    }
+                    Recorded::Skipped => {}
+                    Recorded::UnknownKey => {
+                        warnings += 1;
+                        if warnings <= 20 {
+                            tracing::warn!(key, "message on a key of no known type (recorded raw)");
+                        }
+                    }
+                    Recorded::Undecodable { kind, error } => {
+                        warnings += 1;
+                        if warnings <= 20 {
+                            tracing::warn!(key, ?kind, %error, "undecodable payload (recorded raw)");
+                        }
+                    }
+                }
+            }
+            Some(Inbound::Liveliness { .. }) | None => {
+                if !bus.is_alive(&sim_alive) && !bus.is_alive(&scheduler_alive) {
+                    peers_gone_at.get_or_insert_with(Instant::now);
+                }
+            }
+        }
+        // After the mission end (or once the simulator and the scheduler are gone: liveliness
+        // may overtake their last messages), keep draining until the bus is quiet.
+        let ending = mission_end_at.or(peers_gone_at);
+        if let Some(t) = ending
+            && (last_data.elapsed() >= linger
+                || t.elapsed() >= 10 * linger.max(Duration::from_millis(500)))
+        {
+            break if mission_end_at.is_some() {
+                "mission end"
+            } else {
+                "simulator and scheduler gone"
+            };
+        }
+        if last_flush.elapsed() >= flush_every {
+            writer.flush()?;
+            last_flush = Instant::now();
+        }
+    };
+    if let Some(cpu) = std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|s| {
+            let rest = s[s.rfind(')')? + 2..].to_string();
+            let f: Vec<&str> = rest.split_whitespace().collect();
+            Some((f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?) / 100.0)
+        })
+    {
+        cpu_note = format!("{cpu:.2}");
+    }
+    writer.note(LogLevel::Info, &format!("recorder stopped: {why}"))?;
+    let stats = writer.stats().clone();
+    let mut extra = BTreeMap::new();
+    extra.insert("stopped".to_string(), why.to_string());
+    extra.insert("cpu_s".to_string(), cpu_note);
+    writer.finish(extra).context("finishing the MCAP file")?;
+    let messages: u64 = stats.messages.values().sum();
+    tracing::info!(
+        why,
+        messages,
+        unknown = stats.unknown_keys.values().sum::<u64>(),
+        undecodable = stats.undecodable.values().sum::<u64>(),
+        file = %args.out.display(),
+        "recording finished"
+    );
+    let _ = bus.close();
+    Ok(())
+}

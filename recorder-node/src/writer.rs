@@ -1,0 +1,448 @@
+//! The session writer: every message of a session into one MCAP file.
+//!
+//! - each key's exact wire bytes on a raw channel (`/<key rest>`, schema `waggle.<Type>`,
+//!   encoding [`RAW_ENCODING`]) — event packets losslessly, empty ones included;
+//! - viewing channels in Foxglove's JSON schemas: `/view/<o>/events` (event-frame pictures at a
+//!   viewing rate), `/view/<o>/rgb` (RGB frames), `/view/tf` (poses), `/view/log` (tokens,
+//!   frames, decisions, faults, session controls, the mission report);
+//! - `waggle.session` metadata first (session, case name and TOML, modality, observers) and
+//!   `waggle.recorder` metadata last (message counts, unknown keys, undecodable payloads).
+//!
+//! Log and publish time are the message's sim time in ns (the latest clock for messages without
+//! one). Chunks are zstd-compressed, bounded in size, and buffered whole before they are written
+//! (no seeking), so a file cut anywhere holds every chunk written before the cut.
+
+use std::collections::BTreeMap;
+use std::io::{Seek, Write};
+
+use mcap::records::Metadata;
+use mcap::{Compression, WriteOptions, Writer};
+use proto::{ObserverId, SessionEvent, TICK_NS};
+
+use crate::foxglove::{self, LogLevel};
+use crate::topics::{Decoded, MessageKind, RAW_ENCODING, classify, decode};
+use crate::views::{EventView, log_line};
+
+/// Name of the metadata record describing the session.
+pub const SESSION_METADATA: &str = "waggle.session";
+/// Name of the metadata record the recorder writes when it finishes.
+pub const RECORDER_METADATA: &str = "waggle.recorder";
+/// Topic of the log view.
+pub const LOG_TOPIC: &str = "/view/log";
+/// Topic of the pose view.
+pub const TF_TOPIC: &str = "/view/tf";
+/// Channel encoding of keys of no known type.
+const UNKNOWN_ENCODING: &str = "application/octet-stream";
+
+/// Why the writer failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error("MCAP: {0}")]
+    Mcap(#[from] mcap::McapError),
+    #[error("I/O: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// What to record besides the raw messages.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecorderOptions {
+    /// Uncompressed size at which a chunk is closed, bytes.
+    pub chunk_bytes: u64,
+    /// Sim-time period of the event-frame pictures (`None`: no event view).
+    pub event_view_period_ns: Option<u64>,
+    /// Record every n-th RGB frame (raw and as an image); 1 = all.
+    pub rgb_every: u64,
+    /// zstd level (0 = zstd's default).
+    pub zstd_level: u32,
+}
+
+impl Default for RecorderOptions {
+    fn default() -> Self {
+        Self {
+            chunk_bytes: 4 << 20,
+            event_view_period_ns: Some(500_000_000),
+            rgb_every: 25,
+            zstd_level: 0,
+        }
+    }
+}
+
+/// The session a recording belongs to (the `waggle.session` metadata).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct SessionInfo {
+    pub session: String,
+    pub observers: usize,
+    /// Case name (`nominal-3`, …), if known.
+    pub case_name: Option<String>,
+    /// The case file's TOML text, if known.
+    pub case_toml: Option<String>,
+    /// `rgb` or `events`, if known.
+    pub modality: Option<String>,
+}
+
+impl SessionInfo {
+    pub fn to_metadata(&self) -> BTreeMap<String, String> {
+        let mut m = BTreeMap::new();
+        m.insert("session".into(), self.session.clone());
+        m.insert("observers".into(), self.observers.to_string());
+        m.insert("format_version".into(), proto::FORMAT_VERSION.to_string());
+        for (k, v) in [
+            ("case", &self.case_name),
+            ("case_toml", &self.case_toml),
+            ("modality", &self.modality),
+        ] {
+            if let Some(v) = v {
+                m.insert(k.into(), v.clone());
+            }
+        }
+        m
+    }
+
+    pub fn from_metadata(m: &BTreeMap<String, String>) -> Self {
+        Self {
+            session: m.get("session").cloned().unwrap_or_default(),
+            observers: m.get("observers").and_then(|o| o.parse().ok()).unwrap_or(0),
+            case_name: m.get("case").cloned(),
+            case_toml: m.get("case_toml").cloned(),
+            modality: m.get("modality").cloned(),
+        }
+    }
+}
+
+/// Counters of a recording.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RecordStats {
+    /// Messages written per raw topic.
+    pub messages: BTreeMap<String, u64>,
+    /// Payload bytes received.
+    pub payload_bytes: u64,
+    /// Messages on keys of no known type, per key.
+    pub unknown_keys: BTreeMap<String, u64>,
+    /// Payloads that did not decode, per topic (recorded raw all the same).
+    pub undecodable: BTreeMap<String, u64>,
+    /// RGB frames not recorded because of the reduced rate, per observer.
+    pub rgb_skipped: BTreeMap<String, u64>,
+    pub view_images: u64,
+}
+
+/// What became of one received message.
+#[derive(Debug)]
+pub enum Recorded {
+    /// Decoded and recorded.
+    Message {
+        kind: MessageKind,
+        mission_end: bool,
+    },
+    /// An RGB frame left out by the reduced rate.
+    Skipped,
+    /// Recorded raw on a schema-less channel: the key has no known type.
+    UnknownKey,
+    /// Recorded raw on its channel, but the bytes did not decode.
+    Undecodable {
+        kind: MessageKind,
+        error: proto::DecodeError,
+    },
+}
+
+/// Writes one session into an MCAP file.
+pub struct SessionWriter<W: Write + Seek> {
+    mcap: Writer<W>,
+    prefix: String,
+    options: RecorderOptions,
+    schemas: BTreeMap<String, u16>,
+    channels: BTreeMap<String, u16>,
+    sequence: BTreeMap<u16, u32>,
+    event_views: BTreeMap<ObserverId, EventView>,
+    rgb_seen: BTreeMap<ObserverId, u64>,
+    sim_time_ns: u64,
+    stats: RecordStats,
+}
+
+impl<W: Write + Seek> SessionWriter<W> {
+    /// Starts a recording of `info.session` into `w`, writing the session metadata first.
+    pub fn new(w: W, info: &SessionInfo, options: RecorderOptions) -> Result<Self, RecordError> {
+        let keys = proto::Keys::new(&info.session).map_err(|e| {
+            RecordError::Io(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                e.to_string(),
+            ))
+        })?;
+        let mcap = WriteOptions::new()
+            .compression(Some(Compression::Zstd))
+            .compression_level(options.zstd_level)
+            .compression_threads(0)
+            .chunk_size(Some(options.chunk_bytes.max(1024)))
+            .disable_seeking(true)
+            .profile("waggle")
+            .create(w)?;
+        let mut me = Self {
+            mcap,
+            prefix: keys.prefix().to_string(),
+            options,
+            schemas: BTreeMap::new(),
+            channels: BTreeMap::new(),
+            sequence: BTreeMap::new(),
+            event_views: BTreeMap::new(),
+            rgb_seen: BTreeMap::new(),
+            sim_time_ns: 0,
+            stats: RecordStats::default(),
+        };
+        me.mcap.write_metadata(&Metadata {
+            name: SESSION_METADATA.into(),
+            metadata: info.to_metadata(),
+        })?;
+        Ok(me)
+    }
+
+    pub fn stats(&self) -> &RecordStats {
+        &self.stats
+    }
+
+    fn schema(&mut self, name: &str, encoding: &str, data: &[u8]) -> Result<u16, RecordError> {
+        if let Some(&id) = self.schemas.get(name) {
+            return Ok(id);
+        }
+        let id = self.mcap.add_schema(name, encoding, data)?;
+        self.schemas.insert(name.to_string(), id);
+        Ok(id)
+    }
+
+    fn channel(
+        &mut self,
+        topic: &str,
+        schema: Option<(&str, &str, Vec<u8>)>,
+        encoding: &str,
+        metadata: BTreeMap<String, String>,
+    ) -> Result<u16, RecordError> {
+        if let Some(&id) = self.channels.get(topic) {
+            return Ok(id);
+        }
+        let schema_id = match schema {
+            Some((name, enc, data)) => self.schema(name, enc, &data)?,
+            None => 0,
+        };
+        let id = self
+            .mcap
+            .add_channel(schema_id, topic, encoding, &metadata)?;
+        self.channels.insert(topic.to_string(), id);
+        Ok(id)
+    }
+
+    fn put(&mut self, channel: u16, time_ns: u64, data: &[u8]) -> Result<(), RecordError> {
+        let seq = self.sequence.entry(channel).or_insert(0);
+        *seq = seq.wrapping_add(1);
+        self.mcap.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence: *seq,
+                log_time: time_ns,
+                publish_time: time_ns,
+            },
+            data,
+        )?;
+        Ok(())
+    }
+
+    fn raw_channel(
+        &mut self,
+        topic: &str,
+        kind: MessageKind,
+        key: &str,
+    ) -> Result<u16, RecordError> {
+        let description = format!(
+            "proto::encode of proto::{} (2-byte little-endian format version {}, then bincode \
+             fixint little-endian); decode with proto::decode",
+            kind.schema_name().trim_start_matches("waggle."),
+            proto::FORMAT_VERSION
+        );
+        let mut metadata = BTreeMap::new();
+        metadata.insert("key".to_string(), key.to_string());
+        if kind == MessageKind::RgbFrame {
+            metadata.insert("recorded_every".into(), self.options.rgb_every.to_string());
+        }
+        self.channel(
+            topic,
+            Some((kind.schema_name(), RAW_ENCODING, description.into_bytes())),
+            RAW_ENCODING,
+            metadata,
+        )
+    }
+
+    fn foxglove(
+        &mut self,
+        topic: &str,
+        schema: &str,
+        time_ns: u64,
+        data: &[u8],
+    ) -> Result<(), RecordError> {
+        let schema_data = foxglove::schema(schema).unwrap_or_default();
+        let id = self.channel(
+            topic,
+            Some((schema, foxglove::SCHEMA_ENCODING, schema_data)),
+            foxglove::MESSAGE_ENCODING,
+            BTreeMap::new(),
+        )?;
+        self.put(id, time_ns, data)
+    }
+
+    /// Records one message received on `key`. Never fails on the message itself: unknown keys
+    /// and undecodable payloads are recorded raw and counted.
+    pub fn record(&mut self, key: &str, payload: &[u8]) -> Result<Recorded, RecordError> {
+        self.stats.payload_bytes += payload.len() as u64;
+        let Some(topic) = classify(&self.prefix, key) else {
+            *self.stats.unknown_keys.entry(key.to_string()).or_insert(0) += 1;
+            let name = key.strip_prefix(&self.prefix).unwrap_or(key).to_string();
+            let id = self.channel(
+                &format!(
+                    "/unknown{}",
+                    if name.starts_with('/') {
+                        name
+                    } else {
+                        format!("/{name}")
+                    }
+                ),
+                None,
+                UNKNOWN_ENCODING,
+                BTreeMap::from([("key".to_string(), key.to_string())]),
+            )?;
+            let t = self.sim_time_ns;
+            self.put(id, t, payload)?;
+            return Ok(Recorded::UnknownKey);
+        };
+        // Frames left out by the reduced RGB rate are not even decoded (≈ 1 MB each).
+        if let (MessageKind::RgbFrame, Some(o)) = (topic.kind, &topic.observer) {
+            let n = self.rgb_seen.entry(o.clone()).or_insert(0);
+            *n += 1;
+            if !(*n - 1).is_multiple_of(self.options.rgb_every.max(1)) {
+                *self.stats.rgb_skipped.entry(o.to_string()).or_insert(0) += 1;
+                return Ok(Recorded::Skipped);
+            }
+        }
+        let decoded = match decode(topic.kind, payload) {
+            Ok(d) => d,
+            Err(error) => {
+                *self
+                    .stats
+                    .undecodable
+                    .entry(topic.topic.clone())
+                    .or_insert(0) += 1;
+                let id = self.raw_channel(&topic.topic, topic.kind, key)?;
+                let t = self.sim_time_ns;
+                self.put(id, t, payload)?;
+                return Ok(Recorded::Undecodable {
+                    kind: topic.kind,
+                    error,
+                });
+            }
+        };
+        let time_ns = decoded.sim_time_ns().unwrap_or(self.sim_time_ns);
+        if let Decoded::Clock(c) = &decoded {
+            self.sim_time_ns = self.sim_time_ns.max(c.sim_time_ns);
+        }
+        let id = self.raw_channel(&topic.topic, topic.kind, key)?;
+        self.put(id, time_ns, payload)?;
+        *self.stats.messages.entry(topic.topic.clone()).or_insert(0) += 1;
+        self.views(&decoded, topic.observer.as_ref(), time_ns)?;
+        let mission_end = matches!(&decoded, Decoded::SessionTick(s)
+            if s.controls.iter().any(|c| c.event == SessionEvent::MissionEnd));
+        Ok(Recorded::Message {
+            kind: topic.kind,
+            mission_end,
+        })
+    }
+
+    fn views(
+        &mut self,
+        msg: &Decoded,
+        observer: Option<&ObserverId>,
+        time_ns: u64,
+    ) -> Result<(), RecordError> {
+        match (msg, observer) {
+            (Decoded::EventPacket(p), Some(o)) => {
+                if let Some(period) = self.options.event_view_period_ns {
+                    let view = self
+                        .event_views
+                        .entry(o.clone())
+                        .or_insert_with(|| EventView::new(period));
+                    if let Some(img) = view.push(p) {
+                        let data = foxglove::raw_image(
+                            img.stamp_ns,
+                            o.as_str(),
+                            img.width,
+                            img.height,
+                            &img.rgb,
+                        );
+                        self.foxglove(
+                            &format!("/view/{o}/events"),
+                            foxglove::RAW_IMAGE,
+                            img.stamp_ns,
+                            &data,
+                        )?;
+                        self.stats.view_images += 1;
+                    }
+                }
+            }
+            (Decoded::RgbFrame(f), Some(o)) => {
+                let data = foxglove::raw_image(
+                    f.stamp_ns,
+                    o.as_str(),
+                    u32::from(f.width),
+                    u32::from(f.height),
+                    &f.rgb,
+                );
+                self.foxglove(
+                    &format!("/view/{o}/rgb"),
+                    foxglove::RAW_IMAGE,
+                    f.stamp_ns,
+                    &data,
+                )?;
+                self.stats.view_images += 1;
+            }
+            (Decoded::SimState(s), _) if s.stamp_ns % TICK_NS == 0 => {
+                let data = foxglove::frame_transforms(s);
+                self.foxglove(TF_TOPIC, foxglove::FRAME_TRANSFORMS, s.stamp_ns, &data)?;
+            }
+            _ => {}
+        }
+        if let Some((level, name, text)) = log_line(msg) {
+            let data = foxglove::log(time_ns, level, &name, &text);
+            self.foxglove(LOG_TOPIC, foxglove::LOG, time_ns, &data)?;
+        }
+        Ok(())
+    }
+
+    /// Writes a log line of the recorder itself (e.g. why it stopped) on the log view.
+    pub fn note(&mut self, level: LogLevel, text: &str) -> Result<(), RecordError> {
+        let t = self.sim_time_ns;
+        let data = foxglove::log(t, level, "recorder", text);
+        self.foxglove(LOG_TOPIC, foxglove::LOG, t, &data)
+    }
+
+    /// Closes the current chunk and flushes it to the underlying writer: everything recorded so
+    /// far survives a kill from now on.
+    pub fn flush(&mut self) -> Result<(), RecordError> {
+        self.mcap.flush()?;
+        Ok(())
+    }
+
+    /// Writes the `waggle.recorder` metadata, the summary and the footer; returns the writer.
+    pub fn finish(mut self, extra: BTreeMap<String, String>) -> Result<W, RecordError> {
+        let mut m = extra;
+        let json = |v: &BTreeMap<String, u64>| serde_json::to_string(v).unwrap_or_default();
+        m.insert("messages".into(), json(&self.stats.messages));
+        m.insert("unknown_keys".into(), json(&self.stats.unknown_keys));
+        m.insert("undecodable".into(), json(&self.stats.undecodable));
+        m.insert("rgb_skipped".into(), json(&self.stats.rgb_skipped));
+        m.insert("payload_bytes".into(), self.stats.payload_bytes.to_string());
+        m.insert("view_images".into(), self.stats.view_images.to_string());
+        m.insert("last_sim_time_ns".into(), self.sim_time_ns.to_string());
+        self.mcap.write_metadata(&Metadata {
+            name: RECORDER_METADATA.into(),
+            metadata: m,
+        })?;
+        self.mcap.finish()?;
+        let mut w = self.mcap.into_inner();
+        w.flush()?;
+        Ok(w)
+    }
+}
