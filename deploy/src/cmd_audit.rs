@@ -367,13 +367,7 @@ fn print(r: &AuditReport) {
 pub fn run(args: AuditArgs) -> Result<()> {
     let report = audit_recording(&args.path)?;
     if args.json {
-        // A closed pipe (`| head`) is an error, not a panic.
-        use std::io::Write as _;
-        writeln!(
-            std::io::stdout().lock(),
-            "{}",
-            serde_json::to_string_pretty(&report)?
-        )?;
+        crate::summary::print_json(&report)?;
     } else {
         print(&report);
     }

@@ -329,13 +329,7 @@ fn compare(r: &Replayer, mut l: Live) -> ObserverReplay {
 pub fn run(args: ReplayArgs) -> Result<()> {
     let report = replay_recording(&args.path)?;
     if args.json {
-        // A closed pipe (`| head`) is an error, not a panic.
-        use std::io::Write as _;
-        writeln!(
-            std::io::stdout().lock(),
-            "{}",
-            serde_json::to_string_pretty(&report)?
-        )?;
+        crate::summary::print_json(&report)?;
     } else {
         if report.partial {
             println!("(partial recording: replayed what could be read)");

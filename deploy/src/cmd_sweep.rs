@@ -10,8 +10,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -103,23 +102,6 @@ fn plan(args: &SweepArgs) -> Result<(Vec<Job>, Vec<String>)> {
     Ok((jobs, skipped))
 }
 
-fn install_ctrl_c() -> Arc<AtomicBool> {
-    let flag = Arc::new(AtomicBool::new(false));
-    let set = flag.clone();
-    std::thread::spawn(move || {
-        let Ok(rt) = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-        else {
-            return;
-        };
-        if rt.block_on(tokio::signal::ctrl_c()).is_ok() {
-            set.store(true, Ordering::SeqCst);
-        }
-    });
-    flag
-}
-
 /// Asks a child `waggle run` to stop the way Ctrl-C would (it then stops its own processes).
 fn interrupt(child: &Child) {
     let _ = Command::new("kill")
@@ -184,7 +166,7 @@ fn stderr_tail(out: &Path, job: &Job) -> Option<String> {
 /// Runs the jobs; returns the manifest.
 fn execute(args: &SweepArgs, jobs: &[Job]) -> Result<SweepManifest> {
     let exe = std::env::current_exe().context("locating waggle")?;
-    let stop = install_ctrl_c();
+    let stop = crate::run::install_ctrl_c();
     let started = Instant::now();
     let multi = MultiProgress::new();
     let total = multi.add(ProgressBar::new(jobs.len() as u64));

@@ -502,7 +502,8 @@ fn distance_m(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
-fn install_ctrl_c() -> Arc<AtomicBool> {
+/// A flag set once the user presses Ctrl-C (the caller stops its children and keeps results).
+pub(crate) fn install_ctrl_c() -> Arc<AtomicBool> {
     let flag = Arc::new(AtomicBool::new(false));
     let set = flag.clone();
     std::thread::spawn(move || {

@@ -160,3 +160,14 @@ pub fn audit(decisions: &[Decision], departures: &BTreeMap<(ObserverId, u32), u6
         })
         .collect()
 }
+
+/// Prints `value` as pretty JSON on stdout; a closed pipe (`| head`) is an error, not a panic.
+pub fn print_json(value: &impl Serialize) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    writeln!(
+        std::io::stdout().lock(),
+        "{}",
+        serde_json::to_string_pretty(value)?
+    )?;
+    Ok(())
+}
