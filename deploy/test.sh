@@ -7,6 +7,9 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 bash deploy/setup.sh
+# The cross-process tests in deploy/tests spawn the node binaries; `cargo test` only builds the
+# binaries of the package under test, so build every node first.
+cargo build --release --workspace --bins
 if [ "${1:-}" = "--full" ]; then
   exec cargo test --release --workspace -- --include-ignored
 fi
