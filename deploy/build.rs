@@ -2,10 +2,18 @@
 //! and bench of this crate finds `libmujoco` without `LD_LIBRARY_PATH`.
 
 fn main() {
-    let manifest =
-        std::path::PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
-    let lib = manifest.join("../third_party/mujoco/lib");
+    // `.cargo/config.toml` sets this to the absolute `third_party/mujoco/lib` of this checkout.
+    // Watching it reruns the script when the checkout moves, so the rpath never points at the
+    // old place.
+    println!("cargo::rerun-if-env-changed=MUJOCO_DYNAMIC_LINK_DIR");
+    println!("cargo::rerun-if-changed=build.rs");
+    let lib = match std::env::var_os("MUJOCO_DYNAMIC_LINK_DIR") {
+        Some(dir) => std::path::PathBuf::from(dir),
+        None => {
+            std::path::PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"))
+                .join("../third_party/mujoco/lib")
+        }
+    };
     let lib = lib.canonicalize().unwrap_or(lib);
     println!("cargo::rustc-link-arg=-Wl,-rpath,{}", lib.display());
-    println!("cargo::rerun-if-changed=build.rs");
 }

@@ -2,8 +2,9 @@
 
 use std::time::Duration;
 
+use crate::bus::{Bus, BusError};
 use crate::endpoints::Endpoints;
-use crate::handshake::{Process, mission_processes};
+use crate::handshake::{self, Process, mission_processes};
 
 /// Options of every node process.
 #[derive(Debug, Clone, PartialEq, clap::Args)]
@@ -43,6 +44,11 @@ impl NodeArgs {
 
     pub fn startup_timeout(&self) -> Duration {
         Duration::from_secs_f64(self.startup_timeout_s.clamp(0.0, 86_400.0))
+    }
+
+    /// Runs the start-up handshake as `me`, waiting for every process of this session.
+    pub fn join(&self, bus: &mut Bus, me: &Process) -> Result<(), BusError> {
+        handshake::join(bus, me, &self.processes(), self.startup_timeout())
     }
 
     /// The arguments that reproduce these options in a child process.

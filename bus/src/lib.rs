@@ -9,7 +9,8 @@
 //!   so a token's deletion never means "no more messages will come" (the lockstep therefore
 //!   never relies on cross-key order: every per-tick message names its tick);
 //! - [`handshake`]: the start-up protocol (`alive` then `ready` tokens) that guarantees every
-//!   subscriber exists before the simulator publishes tick 0.
+//!   subscriber exists before the simulator publishes tick 0;
+//! - [`on_stop_signal`]: the SIGINT/SIGTERM flag with which processes end cleanly.
 //!
 //! Key expressions come from [`proto::Keys`] only; payloads go through [`proto::encode`] /
 //! [`proto::decode`] only.
@@ -18,8 +19,10 @@ mod bus;
 pub mod cli;
 mod endpoints;
 pub mod handshake;
+mod stop;
 
 pub use bus::{Bus, BusError, Inbound, decode};
 pub use cli::{NodeArgs, SensorModality};
 pub use endpoints::{Endpoints, config};
 pub use handshake::{Process, mission_processes};
+pub use stop::on_stop_signal;

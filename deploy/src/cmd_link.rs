@@ -15,10 +15,11 @@ use performer_node::{GestureConfig, IdealReceiver, Schedule, broadcast};
 use proto::ReleasedFrame;
 use proto::scene::{MAX_OBSERVERS, observer_name};
 use serde::Serialize;
-use sim_node::control::Reference;
 use sim_node::render::CameraRenderer;
 use sim_node::sensor::{ObserverSensor, SensorKind, SensorOutput};
 use sim_node::world::World;
+
+use crate::performer_flight::step_along;
 
 /// Sensor modality of the observers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -153,18 +154,7 @@ fn fly(
 ) -> Result<f64> {
     let mut max_err_m: f64 = 0.0;
     while world.time_ns() < end_ns {
-        let t = world.time_ns();
-        let sp = schedule.state_at(t);
-        world.set_reference(
-            0,
-            Reference {
-                pos_m: sp.pos_m,
-                vel_mps: sp.vel_m_s,
-                acc_mps2: sp.acc_m_s2,
-                yaw_rad: 0.0,
-            },
-        );
-        world.step();
+        step_along(world, schedule);
         let t = world.time_ns();
         let want = schedule.setpoint_at(t);
         let got = world.position_m(0);

@@ -166,7 +166,7 @@ fn stderr_tail(out: &Path, job: &Job) -> Option<String> {
 /// Runs the jobs; returns the manifest.
 fn execute(args: &SweepArgs, jobs: &[Job]) -> Result<SweepManifest> {
     let exe = std::env::current_exe().context("locating waggle")?;
-    let stop = crate::run::install_ctrl_c();
+    let stop = bus::on_stop_signal();
     let started = Instant::now();
     let multi = MultiProgress::new();
     let total = multi.add(ProgressBar::new(jobs.len() as u64));

@@ -11,6 +11,7 @@ mod cmd_payload;
 mod cmd_replay;
 mod cmd_sweep;
 mod mission;
+mod performer_flight;
 mod recording;
 mod report;
 mod run;

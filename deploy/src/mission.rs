@@ -26,6 +26,7 @@ use sim_node::sensor::{ObserverSensor, SensorKind, SensorOutput};
 use sim_node::world::World;
 
 use crate::case::{Case, CaseModality};
+use crate::performer_flight::performer_reference;
 use crate::summary::{MissionSummary, ObserverSummary, check_expected, ns_s, print_summary};
 
 #[derive(Debug, Args)]
@@ -255,15 +256,7 @@ pub fn fly_case(case: &Case, modality: CaseModality) -> Result<MissionSummary> {
             let t = world.time_ns();
             let performer_ref = performer.as_ref().map_or(
                 Reference::hover(proto::scene::PERFORMER_HOVER_M, 0.0),
-                |s| {
-                    let sp = s.state_at(t);
-                    Reference {
-                        pos_m: sp.pos_m,
-                        vel_mps: sp.vel_m_s,
-                        acc_mps2: sp.acc_m_s2,
-                        yaw_rad: 0.0,
-                    }
-                },
+                |s| performer_reference(s.state_at(t)),
             );
             world.set_reference(0, performer_ref);
             for (i, sp) in scheduler.setpoints_at(t).iter().enumerate() {

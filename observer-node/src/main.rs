@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Inbound, NodeArgs, SensorModality, handshake};
+use bus::{Bus, Inbound, NodeArgs, Process, SensorModality};
 use clap::Parser;
 use observer_node::perception::{Modality, SensorInput};
 use observer_node::runtime::{ObserverRuntime, TickData};
@@ -73,13 +73,8 @@ fn main() -> Result<()> {
     bus.subscribe(&keys.sensor_any(&args.id))?;
     bus.subscribe(&keys.clock())?;
     bus.subscribe(&keys.sched_session())?;
-    handshake::join(
-        &mut bus,
-        &handshake::Process::new(Role::Observer, args.id.as_str()),
-        &node.processes(),
-        node.startup_timeout(),
-    )
-    .context("start-up handshake")?;
+    node.join(&mut bus, &Process::new(Role::Observer, args.id.as_str()))
+        .context("start-up handshake")?;
 
     let camera_alive = keys.alive(Role::Camera, args.id.as_str())?;
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;

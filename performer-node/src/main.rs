@@ -9,7 +9,7 @@
 use std::time::Duration;
 
 use anyhow::{Context, Result};
-use bus::{Bus, Inbound, NodeArgs, handshake};
+use bus::{Bus, Inbound, NodeArgs, Process};
 use clap::Parser;
 use performer_node::{GestureConfig, Schedule, broadcast};
 use proto::scene::PERFORMER_HOVER_M;
@@ -76,13 +76,8 @@ fn main() -> Result<()> {
     let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
     let keys = bus.keys().clone();
     bus.subscribe(&keys.sched_broadcast())?;
-    handshake::join(
-        &mut bus,
-        &handshake::Process::singleton(Role::Performer),
-        &node.processes(),
-        node.startup_timeout(),
-    )
-    .context("start-up handshake")?;
+    node.join(&mut bus, &Process::singleton(Role::Performer))
+        .context("start-up handshake")?;
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
     let scheduler_alive = keys.alive(Role::Scheduler, Role::Scheduler.as_str())?;
     let mut schedule: Option<Schedule> = None;

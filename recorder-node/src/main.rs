@@ -11,12 +11,11 @@ use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use bus::{Bus, Inbound, NodeArgs, handshake};
+use bus::{Bus, Inbound, NodeArgs, Process};
 use clap::Parser;
 use proto::Role;
 use recorder_node::foxglove::LogLevel;
@@ -63,46 +62,13 @@ struct Args {
     node: NodeArgs,
 }
 
-/// Set on SIGINT or SIGTERM.
-fn install_stop_signals() -> Arc<AtomicBool> {
-    let flag = Arc::new(AtomicBool::new(false));
-    let set = flag.clone();
-    std::thread::spawn(move || {
-        use tokio::signal::unix::{SignalKind, signal};
-        let Ok(rt) = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-        else {
-            return;
-        };
-        rt.block_on(async {
-            let (Ok(mut int), Ok(mut term)) = (
-                signal(SignalKind::interrupt()),
-                signal(SignalKind::terminate()),
-            ) else {
-                return;
-            };
-            std::future::poll_fn(|cx| {
-                if int.poll_recv(cx).is_ready() || term.poll_recv(cx).is_ready() {
-                    std::task::Poll::Ready(())
-                } else {
-                    std::task::Poll::Pending
-                }
-            })
-            .await;
-            set.store(true, Ordering::SeqCst);
-        });
-    });
-    flag
-}
-
 fn main() -> Result<()> {
     tracing_subscriber::fmt()
         .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
         .with_writer(std::io::stderr)
         .init();
     let args = Args::parse();
-    let stop = install_stop_signals();
+    let stop = bus::on_stop_signal();
     let node = &args.node;
     let case_toml = match &args.case_file {
         Some(p) => {
@@ -140,13 +106,8 @@ fn main() -> Result<()> {
     let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
     let keys = bus.keys().clone();
     bus.subscribe(&keys.all())?;
-    handshake::join(
-        &mut bus,
-        &handshake::Process::singleton(Role::Recorder),
-        &node.processes(),
-        node.startup_timeout(),
-    )
-    .context("start-up handshake")?;
+    node.join(&mut bus, &Process::singleton(Role::Recorder))
+        .context("start-up handshake")?;
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
     let scheduler_alive = keys.alive(Role::Scheduler, Role::Scheduler.as_str())?;
 

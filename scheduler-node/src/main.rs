@@ -13,7 +13,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Inbound, NodeArgs, SensorModality, handshake};
+use bus::{Bus, Inbound, NodeArgs, Process, SensorModality};
 use clap::Parser;
 use proto::{
     BroadcastTick, ClockTick, Departure, MissionReport, ObserverId, ObserverStatus, Role,
@@ -78,13 +78,8 @@ fn main() -> Result<()> {
     let keys = bus.keys().clone();
     bus.subscribe(&keys.sim_state())?;
     bus.subscribe(&keys.observer_status_any())?;
-    handshake::join(
-        &mut bus,
-        &handshake::Process::singleton(Role::Scheduler),
-        &node.processes(),
-        node.startup_timeout(),
-    )
-    .context("start-up handshake")?;
+    node.join(&mut bus, &Process::singleton(Role::Scheduler))
+        .context("start-up handshake")?;
     let observers: Vec<ObserverId> = (0..node.observers).map(ObserverId::from_index).collect();
     let alive_key: BTreeMap<ObserverId, String> = observers
         .iter()

@@ -11,7 +11,7 @@
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Inbound, NodeArgs, SensorModality, handshake};
+use bus::{Bus, Inbound, NodeArgs, Process, SensorModality};
 use proto::{Fault, FaultKind, ObserverId, Role, SimState};
 use sim_node::render::CameraRenderer;
 use sim_node::sensor::{ObserverSensor, SensorKind, SensorOutput};
@@ -81,11 +81,9 @@ pub fn run(args: CameraArgs) -> Result<()> {
     let keys = bus.keys().clone();
     bus.subscribe(&keys.sim_state())?;
     bus.subscribe(&keys.fault(&args.observer))?;
-    handshake::join(
+    node.join(
         &mut bus,
-        &handshake::Process::new(Role::Camera, args.observer.as_str()),
-        &node.processes(),
-        node.startup_timeout(),
+        &Process::new(Role::Camera, args.observer.as_str()),
     )
     .context("start-up handshake")?;
     let out_key = match args.modality {

@@ -15,11 +15,11 @@ use event_camera::{CameraConfig, EventCamera};
 use performer_node::{GestureConfig, TruthSymbol, broadcast};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, observer_name};
 use proto::{Action, EventPacket, Polarity, TICK_NS};
-use sim_node::control::Reference;
 use sim_node::render::CameraRenderer;
 use sim_node::sensor::EVENT_RENDER_PERIOD_NS;
 use sim_node::world::World;
 
+use crate::performer_flight::step_along;
 use crate::summary::ns_s;
 
 /// The scheduler's first broadcast starts here (tick 125 of every case with a broadcast).
@@ -88,17 +88,7 @@ pub fn sensor_comparison(observers: usize, observer: usize, png_path: &Path) -> 
     let first = renderer.render(&mut world, observer)?.to_vec();
     camera.push_frame(0, &first)?;
     while world.time_ns() < end_ns {
-        let sp = schedule.state_at(world.time_ns());
-        world.set_reference(
-            0,
-            Reference {
-                pos_m: sp.pos_m,
-                vel_mps: sp.vel_m_s,
-                acc_mps2: sp.acc_m_s2,
-                yaw_rad: 0.0,
-            },
-        );
-        world.step();
+        step_along(&mut world, &schedule);
         let t = world.time_ns();
         if !t.is_multiple_of(EVENT_RENDER_PERIOD_NS) {
             continue;

@@ -1,0 +1,26 @@
+//! The performer's broadcast schedule as physics references, for the in-process harnesses
+//! (`waggle link`, `waggle mission`, the report's sensor figure).
+
+use performer_node::{Schedule, Setpoint};
+use sim_node::control::Reference;
+use sim_node::world::{DroneIndex, World};
+
+/// The performer is drone 0 of every generated scene.
+const PERFORMER: DroneIndex = 0;
+
+/// The performer flies level, facing +x, whatever its schedule does.
+pub fn performer_reference(sp: Setpoint) -> Reference {
+    Reference {
+        pos_m: sp.pos_m,
+        vel_mps: sp.vel_m_s,
+        acc_mps2: sp.acc_m_s2,
+        yaw_rad: 0.0,
+    }
+}
+
+/// Commands the performer to where `schedule` has it now, then advances physics one step.
+pub fn step_along(world: &mut World, schedule: &Schedule) {
+    let reference = performer_reference(schedule.state_at(world.time_ns()));
+    world.set_reference(PERFORMER, reference);
+    world.step();
+}
