@@ -5,16 +5,16 @@
 #
 #   bash deploy/opencv-oracle.sh           set up only; prints the interpreter path
 #   bash deploy/opencv-oracle.sh golden    also re-run OpenCV on the fixture and rewrite the
-#                                          golden file observer-node/tests/fixtures/klt/opencv.json
+#                                          golden file libs/perception/tests/fixtures/klt/opencv.json
 #
-# The criterion bench (cargo bench -p observer-node --bench klt) times OpenCV through this venv
+# The criterion bench (cargo bench -p perception --bench klt) times OpenCV through this venv
 # when it exists. The fixture frames come from
-# `cargo run --release -p observer-node --example klt_fixture`.
+# `cargo run --release -p perception --example klt_fixture`.
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 venv="$root/third_party/opencv-oracle/venv"
-fixture="$root/observer-node/tests/fixtures/klt"
+fixture="$root/libs/perception/tests/fixtures/klt"
 
 OPENCV_VERSION="5.0.0.93"
 NUMPY_VERSION="2.4.6"
@@ -39,7 +39,7 @@ case "${1:-}" in
   "") ;;
   golden)
     [ -f "$fixture/fixture.json" ] || die "no fixture in $fixture (run the klt_fixture example)"
-    "$venv/bin/python" "$root/observer-node/benches/opencv_oracle.py" "$fixture" golden \
+    "$venv/bin/python" "$root/libs/perception/benches/opencv_oracle.py" "$fixture" golden \
       "$fixture/opencv.json"
     ;;
   *) die "unknown argument $1 (want nothing or 'golden')" ;;

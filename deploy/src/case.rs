@@ -20,13 +20,7 @@ pub const BUILT_IN: &[(&str, &str)] = &[
     ("dropout-o2", include_str!("../cases/dropout-o2.toml")),
 ];
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum CaseModality {
-    Ideal,
-    Rgb,
-    Events,
-}
+pub use proto::Receiver;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -73,8 +67,8 @@ fn default_rounds() -> u32 {
     2
 }
 
-fn default_modalities() -> Vec<CaseModality> {
-    vec![CaseModality::Rgb, CaseModality::Events]
+fn default_modalities() -> Vec<Receiver> {
+    vec![Receiver::Rgb, Receiver::Events]
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -90,7 +84,7 @@ pub struct Case {
     /// Sensor modalities this case applies to (`rgb`, `events`; default both — every built-in
     /// case states it). The ideal receiver can fly every case.
     #[serde(default = "default_modalities")]
-    pub modalities: Vec<CaseModality>,
+    pub modalities: Vec<Receiver>,
     #[serde(default)]
     pub faults: Vec<FaultSpec>,
     /// Hard limit on simulated time.
@@ -159,7 +153,7 @@ impl Case {
                 .map_err(|e| anyhow::anyhow!("offer_sites: {e}"))?;
         }
         if self.modalities.is_empty()
-            || self.modalities.contains(&CaseModality::Ideal)
+            || self.modalities.contains(&Receiver::Ideal)
             || (1..self.modalities.len())
                 .any(|i| self.modalities[..i].contains(&self.modalities[i]))
         {
@@ -218,7 +212,7 @@ mod tests {
             );
         }
         let events_only = Case::load("dropout-o2").unwrap();
-        assert_eq!(events_only.modalities, [CaseModality::Events]);
+        assert_eq!(events_only.modalities, [Receiver::Events]);
     }
 
     #[test]

@@ -16,11 +16,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Result, bail};
 use clap::Args;
-use performer_node::{GestureConfig, broadcast};
+use proto::{GestureConfig, broadcast};
 use proto::{
     Broadcast, Decision, FrameEvent, MissionReport, ObserverId, Offer, SimContacts, TICK_NS,
 };
-use recorder_node::Decoded;
+use recording::Decoded;
 use serde::{Deserialize, Serialize};
 
 use crate::recording::scan;
@@ -247,7 +247,7 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
 
 /// `O1` from `/sensor/O1/events`.
 fn observer_of(topic: &str) -> String {
-    recorder_node::topics::topic_observer(topic)
+    recording::topics::topic_observer(topic)
         .unwrap_or("?")
         .to_string()
 }

@@ -8,29 +8,19 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clap::{Args, ValueEnum};
-use observer_node::perception::{Modality as PerceptionModality, Perception, SensorInput};
-use observer_node::{SegmentToken, SegmenterConfig};
-use performer_node::{GestureConfig, IdealReceiver, Schedule, broadcast};
+use clap::Args;
+use perception::perception::{Perception, SensorInput};
+use proto::{SegmentToken, SegmenterConfig};
+use evaluation::IdealReceiver;
+use proto::{GestureConfig, Modality, Receiver, Schedule, broadcast};
 use proto::ReleasedFrame;
 use proto::scene::{MAX_OBSERVERS, observer_name};
 use serde::Serialize;
-use sim_node::render::CameraRenderer;
-use sim_node::sensor::{ObserverSensor, SensorKind, SensorOutput};
-use sim_node::world::World;
+use sim::render::CameraRenderer;
+use sim::sensor::{ObserverSensor, SensorOutput};
+use sim::world::World;
 
 use crate::performer_flight::step_along;
-
-/// Sensor modality of the observers.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Modality {
-    /// Ground-truth projection (evaluation baseline, no sensor).
-    Ideal,
-    /// 25 Hz RGB camera with the KLT receiver.
-    Rgb,
-    /// 100 Hz renders converted to synthetic events in 40 ms packets.
-    Events,
-}
 
 #[derive(Debug, Args)]
 pub struct LinkArgs {
@@ -38,8 +28,8 @@ pub struct LinkArgs {
     #[arg(long, default_value_t = 3)]
     observers: usize,
     /// Observer sensor modality.
-    #[arg(long, value_enum, default_value_t = Modality::Ideal)]
-    modality: Modality,
+    #[arg(long, value_enum, default_value_t = Receiver::Ideal)]
+    modality: Receiver,
     /// Six-bit payload to broadcast, e.g. 011010; repeat for back-to-back offers. Without any,
     /// the performer only hovers (a control: nothing may be decoded).
     #[arg(long = "payload", value_parser = parse_bits6)]
@@ -184,7 +174,7 @@ pub fn run(args: LinkArgs) -> Result<()> {
     }
     let started = Instant::now();
     let acquisition =
-        args.modality == Modality::Events && !args.no_acquisition && !args.payloads.is_empty();
+        args.modality == Receiver::Events && !args.no_acquisition && !args.payloads.is_empty();
     if !(args.hover_s.is_finite() && args.hover_s >= 0.0) {
         bail!("--hover-s {} must be a non-negative number", args.hover_s);
     }
@@ -203,7 +193,7 @@ pub fn run(args: LinkArgs) -> Result<()> {
     let end_ns = schedule.end_ns().max(LEAD_IN_NS + hover_ns) + TAIL_NS;
     let mut world = World::new(args.observers).context("building the scene")?;
 
-    let ideal_config = if args.modality == Modality::Events {
+    let ideal_config = if args.modality == Receiver::Events {
         SegmenterConfig::events()
     } else {
         SegmenterConfig::rgb()
@@ -211,13 +201,10 @@ pub fn run(args: LinkArgs) -> Result<()> {
     let mut ideal = IdealReceiver::new(args.observers, ideal_config)?;
     let black: Vec<bool> = names.iter().map(|n| args.black.contains(n)).collect();
     let mut chains = match args.modality {
-        Modality::Ideal => Vec::new(),
-        Modality::Rgb | Modality::Events => {
-            let (kind, modality) = if args.modality == Modality::Rgb {
-                (SensorKind::Rgb, PerceptionModality::Rgb)
-            } else {
-                (SensorKind::Events, PerceptionModality::Events)
-            };
+        Receiver::Ideal => Vec::new(),
+        Receiver::Rgb | Receiver::Events => {
+            let kind = args.modality.sensor().unwrap_or(Modality::Rgb);
+            let modality = kind;
             (0..args.observers)
                 .map(|i| -> Result<Chain> {
                     Ok(Chain {

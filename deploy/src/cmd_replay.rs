@@ -14,13 +14,13 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use observer_node::perception::{Modality, SensorInput};
-use observer_node::runtime::{ObserverRuntime, TickData};
+use perception::perception::{Modality, SensorInput};
+use perception::runtime::{ObserverRuntime, TickData};
 use proto::{
     Decision, EventPacket, FrameEvent, InputState, ObserverId, Roster, SessionControl, TICK_NS,
     TokenEvent,
 };
-use recorder_node::Decoded;
+use recording::Decoded;
 use serde::Serialize;
 
 use crate::recording::scan;
@@ -175,11 +175,11 @@ pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
     let mut sessions_all: BTreeMap<u64, Vec<SessionControl>> = BTreeMap::new();
     let mut last_clock: Option<u64> = None;
     let mut rgb_frames = 0u64;
-    let info = recorder_node::leading_metadata(
+    let info = recording::leading_metadata(
         &crate::recording::resolve(path),
-        recorder_node::SESSION_METADATA,
+        recording::SESSION_METADATA,
     )?
-    .map(|m| recorder_node::SessionInfo::from_metadata(&m));
+    .map(|m| recording::SessionInfo::from_metadata(&m));
     if let Some(info) = info {
         observers = Some(info.observers).filter(|n| *n > 0);
         modality = info.modality;
@@ -272,7 +272,7 @@ fn replayer<'a>(
 }
 
 fn observer_id(topic: &str) -> Result<ObserverId> {
-    let o = recorder_node::topics::topic_observer(topic)
+    let o = recording::topics::topic_observer(topic)
         .with_context(|| format!("no observer in topic {topic}"))?;
     Ok(ObserverId::new(o)?)
 }

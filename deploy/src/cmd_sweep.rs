@@ -17,7 +17,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 
-use crate::case::{BUILT_IN, Case, CaseModality};
+use crate::case::{BUILT_IN, Case, Receiver};
 use crate::report::{self, PlannedRun, RunEntry, SweepManifest};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -76,7 +76,7 @@ fn plan(args: &SweepArgs) -> Result<(Vec<Job>, Vec<String>)> {
     let mut skipped = Vec::new();
     for name in &names {
         let case = Case::load(name)?;
-        for (m, cm) in [("rgb", CaseModality::Rgb), ("events", CaseModality::Events)] {
+        for (m, cm) in [("rgb", Receiver::Rgb), ("events", Receiver::Events)] {
             let wanted = match args.modality {
                 SweepModality::Both => true,
                 SweepModality::Rgb => m == "rgb",

@@ -13,19 +13,19 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use observer_node::agent::{AgentFrame, FrameOutcome, ObserverAgent};
-use observer_node::perception::{Modality as PerceptionModality, SensorInput};
-use observer_node::{DecodeStep, Decoder, Sample, SegmentToken, SegmenterConfig};
-use performer_node::{GestureConfig, Schedule, broadcast};
+use perception::agent::{AgentFrame, FrameOutcome, ObserverAgent};
+use perception::perception::SensorInput;
+use proto::{DecodeStep, Decoder, Sample, SegmentToken, SegmenterConfig};
+use proto::{GestureConfig, Schedule, broadcast};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, observer_name};
-use proto::{ClockTick, ObserverId, Roster, Site, TICK_NS};
-use scheduler_node::{DecisionNotice, EventKind, Modality, Scheduler, SchedulerConfig};
-use sim_node::control::Reference;
-use sim_node::render::CameraRenderer;
-use sim_node::sensor::{ObserverSensor, SensorKind, SensorOutput};
-use sim_node::world::World;
+use proto::{ClockTick, Modality, ObserverId, Roster, Site, TICK_NS};
+use scheduler::{DecisionNotice, EventKind, Scheduler, SchedulerConfig};
+use sim::control::Reference;
+use sim::render::CameraRenderer;
+use sim::sensor::{ObserverSensor, SensorOutput};
+use sim::world::World;
 
-use crate::case::{Case, CaseModality};
+use crate::case::{Case, Receiver};
 use crate::performer_flight::performer_reference;
 use crate::summary::{MissionSummary, ObserverSummary, check_expected, ns_s, print_summary};
 
@@ -35,8 +35,8 @@ pub struct MissionArgs {
     /// only-a, dropout-o2) or a path to a case TOML file.
     case: String,
     /// Observer sensor modality (`ideal` is the ground-truth baseline).
-    #[arg(long, value_enum, default_value_t = CaseModality::Events)]
-    modality: CaseModality,
+    #[arg(long, value_enum, default_value_t = Receiver::Events)]
+    modality: Receiver,
     /// Write DIR/summary.json here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -53,7 +53,7 @@ enum Perception {
         decoder: Box<Decoder>,
     },
     /// The observer's real receiver, fed only by its own sensor.
-    Sensor(Box<observer_node::perception::Perception>),
+    Sensor(Box<perception::perception::Perception>),
 }
 
 impl Perception {
@@ -105,7 +105,7 @@ impl Slot {
 
 pub fn run(args: MissionArgs) -> Result<()> {
     let case = Case::load(&args.case)?;
-    if !case.modalities.contains(&args.modality) && args.modality != CaseModality::Ideal {
+    if !case.modalities.contains(&args.modality) && args.modality != Receiver::Ideal {
         bail!(
             "case {} does not apply to the {:?} modality (it lists {:?})",
             case.name,
@@ -135,15 +135,12 @@ pub fn run(args: MissionArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn fly_case(case: &Case, modality: CaseModality) -> Result<MissionSummary> {
+pub fn fly_case(case: &Case, modality: Receiver) -> Result<MissionSummary> {
     let started = Instant::now();
     let n = case.observers;
     let mut world = World::new(n).context("building the scene")?;
-    let sched_modality = if modality == CaseModality::Events {
-        Modality::Events
-    } else {
-        Modality::Rgb
-    };
+    // The ideal baseline flies the RGB broadcast (no acquisition preamble).
+    let sched_modality = modality.sensor().unwrap_or(Modality::Rgb);
     let sites: Vec<Site> = case
         .offer_sites
         .iter()
@@ -159,8 +156,8 @@ pub fn fly_case(case: &Case, modality: CaseModality) -> Result<MissionSummary> {
     let roster = Roster::default_scene(n);
 
     let mut renderer = match modality {
-        CaseModality::Ideal => None,
-        CaseModality::Rgb | CaseModality::Events => {
+        Receiver::Ideal => None,
+        Receiver::Rgb | Receiver::Events => {
             Some(CameraRenderer::new(&world).context("creating the offscreen renderer")?)
         }
     };
@@ -170,21 +167,18 @@ pub fn fly_case(case: &Case, modality: CaseModality) -> Result<MissionSummary> {
         let id = ObserverId::new(name.clone())?;
         let black = case.black(&name);
         let (perception, sensor) = match modality {
-            CaseModality::Ideal => (
+            Receiver::Ideal => (
                 Perception::Ideal {
                     camera: LevelCamera::at_home(i, n),
                     decoder: Box::new(Decoder::new(SegmenterConfig::rgb())?),
                 },
                 None,
             ),
-            CaseModality::Rgb | CaseModality::Events => {
-                let (kind, m) = if modality == CaseModality::Rgb {
-                    (SensorKind::Rgb, PerceptionModality::Rgb)
-                } else {
-                    (SensorKind::Events, PerceptionModality::Events)
-                };
+            Receiver::Rgb | Receiver::Events => {
+                let kind = sched_modality;
+                let m = kind;
                 (
-                    Perception::Sensor(Box::new(observer_node::perception::Perception::new(m)?)),
+                    Perception::Sensor(Box::new(perception::perception::Perception::new(m)?)),
                     Some(kind),
                 )
             }
@@ -225,7 +219,7 @@ pub fn fly_case(case: &Case, modality: CaseModality) -> Result<MissionSummary> {
         let decisions: Vec<DecisionNotice> =
             slots.iter_mut().flat_map(|s| s.pending.drain(..)).collect();
         let clock = ClockTick::at(tick).context("tick overflow")?;
-        let out = scheduler.step(&scheduler_node::TickInput {
+        let out = scheduler.step(&scheduler::TickInput {
             clock,
             positions_m: &positions,
             decisions: &decisions,

@@ -1,19 +1,19 @@
 //! The performer's broadcast schedule as physics references, for the in-process harnesses
 //! (`waggle link`, `waggle mission`, the report's sensor figure).
 
-use performer_node::{Schedule, Setpoint};
-use sim_node::control::Reference;
-use sim_node::world::{DroneIndex, World};
+use proto::{Kinematics, Schedule};
+use sim::control::Reference;
+use sim::world::{DroneIndex, World};
 
 /// The performer is drone 0 of every generated scene.
 const PERFORMER: DroneIndex = 0;
 
 /// The performer flies level, facing +x, whatever its schedule does.
-pub fn performer_reference(sp: Setpoint) -> Reference {
+pub fn performer_reference(sp: Kinematics) -> Reference {
     Reference {
         pos_m: sp.pos_m,
-        vel_mps: sp.vel_m_s,
-        acc_mps2: sp.acc_m_s2,
+        vel_mps: sp.vel_mps,
+        acc_mps2: sp.acc_mps2,
         yaw_rad: 0.0,
     }
 }

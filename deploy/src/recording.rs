@@ -7,7 +7,7 @@ use std::process::Child;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use recorder_node::{
+use recording::{
     Decoded, MessageKind, RAW_ENCODING, ReadOutcome, SESSION_METADATA, SessionInfo, decode,
     read_recording,
 };

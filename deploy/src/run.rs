@@ -19,7 +19,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, BusError, Endpoints, Inbound, NodeArgs, SensorModality, handshake};
+use bus::{Bus, BusError, Endpoints, Inbound, NodeArgs, handshake};
+use proto::Modality;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use proto::scene::{observer_home_m, observer_name};
@@ -30,7 +31,7 @@ use proto::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::case::{Case, CaseModality, FaultKind as CaseFault};
+use crate::case::{Case, Receiver, FaultKind as CaseFault};
 use crate::summary::{MissionSummary, ObserverSummary, audit, check_expected, ns_s, print_summary};
 
 #[derive(Debug, Args)]
@@ -40,7 +41,7 @@ pub struct RunArgs {
     case: String,
     /// Observer sensor modality (default: events when the case applies to it).
     #[arg(long, value_enum)]
-    modality: Option<SensorModality>,
+    modality: Option<Modality>,
     /// Write DIR/summary.json, DIR/observers.json and the process logs (DIR/logs) here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -510,13 +511,10 @@ pub fn run(args: RunArgs) -> Result<()> {
     let case = Case::load(&args.case)?;
     let modality = match args.modality {
         Some(m) => m,
-        None if case.modalities.contains(&CaseModality::Events) => SensorModality::Events,
-        None => SensorModality::Rgb,
+        None if case.modalities.contains(&Receiver::Events) => Modality::Events,
+        None => Modality::Rgb,
     };
-    let case_modality = match modality {
-        SensorModality::Rgb => CaseModality::Rgb,
-        SensorModality::Events => CaseModality::Events,
-    };
+    let case_modality = Receiver::from(modality);
     if !case.modalities.contains(&case_modality) {
         bail!(
             "case {} does not apply to the {} modality (it lists {:?})",
@@ -561,7 +559,7 @@ fn print_run_figures(s: &RunSummary) {
     }
 }
 
-fn fly(case: &Case, modality: SensorModality, args: &RunArgs) -> Result<RunSummary> {
+fn fly(case: &Case, modality: Modality, args: &RunArgs) -> Result<RunSummary> {
     let started = Instant::now();
     let injected = faults(case, args)?;
     let n = case.observers;
@@ -971,7 +969,7 @@ fn supervise(
 #[allow(clippy::too_many_arguments)]
 fn summarise(
     case: &Case,
-    modality: SensorModality,
+    modality: Modality,
     session: &str,
     mut g: Gathered,
     procs: &[Proc],

@@ -18,7 +18,7 @@ use proto::{
     ClockTick, Decision, Departure, FrameEvent, Keys, MissionReport, ObserverId, Offer,
     SessionControl, SessionEvent, SessionTick, Site, SourceFrame, TICK_NS,
 };
-use recorder_node::{RecorderOptions, SessionInfo, SessionWriter};
+use recording::{RecorderOptions, SessionInfo, SessionWriter};
 use serde_json::Value;
 
 const NODES: [&str; 5] = [
@@ -371,7 +371,7 @@ fn a_recorder_killed_mid_session_leaves_a_recording_audit_reads_as_partial() {
 /// channel with a Foxglove schema; every raw topic carries its Waggle schema.
 fn assert_foxglove_views(path: &Path, modality: &str) {
     let mut seen: BTreeMap<(String, String), u64> = BTreeMap::new();
-    let out = recorder_node::read_recording::<recorder_node::ReadError>(path, |m| {
+    let out = recording::read_recording::<recording::ReadError>(path, |m| {
         *seen
             .entry((m.topic.to_string(), m.schema.to_string()))
             .or_default() += 1;

@@ -13,11 +13,13 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Inbound, NodeArgs, Process, SensorModality};
+use bus::{Bus, Inbound, NodeArgs, Process};
 use clap::Parser;
-use observer_node::perception::{Modality, SensorInput};
-use observer_node::runtime::{ObserverRuntime, TickData};
-use proto::{ClockTick, EventPacket, ObserverId, RgbFrame, Role, Roster, SessionTick, TICK_NS};
+use perception::perception::SensorInput;
+use perception::runtime::{ObserverRuntime, TickData};
+use proto::{
+    ClockTick, EventPacket, Modality, ObserverId, RgbFrame, Role, Roster, SessionTick, TICK_NS,
+};
 
 #[derive(Parser)]
 #[command(name = "observer-node", version, about = "One Waggle observer process")]
@@ -27,7 +29,7 @@ struct Args {
     id: ObserverId,
     /// The sensor it carries.
     #[arg(long, value_enum)]
-    modality: SensorModality,
+    modality: Modality,
     /// Wall-clock time after `clock{k}` at which a packet that has not arrived is missing, ms.
     #[arg(long, default_value_t = 10_000)]
     grace_ms: u64,
@@ -57,10 +59,7 @@ fn main() -> Result<()> {
         .init();
     let args = Args::parse();
     let node = &args.node;
-    let modality = match args.modality {
-        SensorModality::Rgb => Modality::Rgb,
-        SensorModality::Events => Modality::Events,
-    };
+    let modality = args.modality;
     let mut runtime = ObserverRuntime::new(
         args.id.clone(),
         Roster::default_scene(node.observers),
@@ -80,8 +79,8 @@ fn main() -> Result<()> {
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
     let scheduler_alive = keys.alive(Role::Scheduler, Role::Scheduler.as_str())?;
     let sensor_key = match args.modality {
-        SensorModality::Rgb => keys.sensor_rgb(&args.id),
-        SensorModality::Events => keys.sensor_events(&args.id),
+        Modality::Rgb => keys.sensor_rgb(&args.id),
+        Modality::Events => keys.sensor_events(&args.id),
     };
     let grace = Duration::from_millis(args.grace_ms);
     let mut clocks: BTreeMap<u64, Instant> = BTreeMap::new();
@@ -165,14 +164,14 @@ fn main() -> Result<()> {
             }
             Some(Inbound::Data { key, payload }) if key == sensor_key => {
                 let (tick, packet) = match args.modality {
-                    SensorModality::Rgb => match bus::decode::<RgbFrame>(&key, &payload) {
+                    Modality::Rgb => match bus::decode::<RgbFrame>(&key, &payload) {
                         Ok(f) => (f.stamp_ns / TICK_NS, Packet::Rgb(f)),
                         Err(e) => {
                             tracing::warn!(observer = %args.id, "rejected sensor message: {e}");
                             continue;
                         }
                     },
-                    SensorModality::Events => match bus::decode::<EventPacket>(&key, &payload) {
+                    Modality::Events => match bus::decode::<EventPacket>(&key, &payload) {
                         Ok(p) => (p.end_ns / TICK_NS, Packet::Events(p)),
                         Err(e) => {
                             tracing::warn!(observer = %args.id, "rejected sensor message: {e}");

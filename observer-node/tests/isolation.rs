@@ -65,8 +65,10 @@ fn sources(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
 #[test]
 fn no_observer_code_path_names_a_forbidden_key() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    // The process shell and the perception library it runs (the observer's whole code).
     let mut files = Vec::new();
     sources(&root.join("src"), &mut files);
+    sources(&root.join("../libs/perception/src"), &mut files);
     assert!(files.len() > 5, "found only {files:?}");
     for f in &files {
         let text = non_test_source(f);
@@ -93,10 +95,30 @@ fn no_observer_code_path_names_a_forbidden_key() {
     let manifest = std::fs::read_to_string(root.join("Cargo.toml")).unwrap();
     let deps = &manifest[manifest.find("[dependencies]").unwrap()..];
     let deps = &deps[..deps.find("\n[").unwrap_or(deps.len())];
-    for crate_name in ["sim-node", "performer-node", "scheduler-node", "deploy"] {
+    for crate_name in [
+        "sim-node",
+        "performer-node",
+        "scheduler-node",
+        "recorder-node",
+        "deploy",
+        "sim",
+        "scheduler",
+        "recording",
+        "evaluation",
+    ] {
         assert!(
-            !deps.contains(crate_name),
+            !deps.lines().any(|l| l.starts_with(&format!("{crate_name}."))
+                || l.starts_with(&format!("{crate_name} "))),
             "observer-node depends on {crate_name}"
+        );
+    }
+    let lib_manifest = std::fs::read_to_string(root.join("../libs/perception/Cargo.toml")).unwrap();
+    let lib_deps = &lib_manifest[lib_manifest.find("[dependencies]").unwrap()..];
+    let lib_deps = &lib_deps[..lib_deps.find("\n[").unwrap_or(lib_deps.len())];
+    for crate_name in ["sim", "scheduler", "recording", "evaluation", "bus"] {
+        assert!(
+            !lib_deps.lines().any(|l| l.starts_with(&format!("{crate_name}."))),
+            "the perception library depends on {crate_name}"
         );
     }
 }

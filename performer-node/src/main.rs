@@ -11,7 +11,7 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use bus::{Bus, Inbound, NodeArgs, Process};
 use clap::Parser;
-use performer_node::{GestureConfig, Schedule, broadcast};
+use proto::{GestureConfig, Schedule, broadcast};
 use proto::scene::PERFORMER_HOVER_M;
 use proto::{
     BroadcastTick, Offer, PerformerActivity, PerformerSetpoint, PerformerTruth, Role, TICK_NS,
@@ -38,7 +38,7 @@ fn answer(
     let (pos_m, vel_mps, acc_mps2) = match schedule {
         Some(s) => {
             let sp = s.state_at(t);
-            (sp.pos_m, sp.vel_m_s, sp.acc_m_s2)
+            (sp.pos_m, sp.vel_mps, sp.acc_mps2)
         }
         None => (PERFORMER_HOVER_M, [0.0; 3], [0.0; 3]),
     };

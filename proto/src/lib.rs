@@ -1,35 +1,36 @@
-//! Waggle wire contracts.
+//! Waggle's lowest layer: wire contracts and the pure protocol core.
 //!
-//! One crate owns every message exchanged between Waggle processes, the key expressions they are
-//! published under, and the single [`encode`]/[`decode`] pair (serde + bincode with a format
-//! version). Decoding is strict: unknown versions, trailing bytes and internally inconsistent
-//! messages are rejected with a typed [`DecodeError`].
+//! - [`wire`]: every message exchanged between Waggle processes, the key expressions they are
+//!   published under ([`Keys`], whose [`Keys::parse`] is the one key grammar), and the single
+//!   [`encode`]/[`decode`] pair (serde + bincode with a format version). Decoding is strict:
+//!   unknown versions, trailing bytes and internally inconsistent messages are rejected with a
+//!   typed [`DecodeError`].
+//! - [`logic`]: the pure protocol core that performer, observers and scheduler share — alphabet,
+//!   frame parser, payload, gesture timing, min-jerk strokes, broadcast schedule, segmenter,
+//!   decoder, task state, allocation, provenance, scene geometry and camera model.
+//!
+//! No I/O anywhere in this crate. The modules of both layers are re-exported at the root so a
+//! caller writes `proto::alphabet` or `proto::Keys` without naming the layer.
 
-pub mod allocation;
-pub mod alphabet;
-pub mod clock;
-pub mod codec;
-pub mod fault;
-pub mod frame;
-pub mod keys;
-pub mod observer;
-pub mod payload;
-pub mod provenance;
-pub mod scene;
-pub mod sched;
-pub mod sensor;
-pub mod task;
-pub mod token;
-pub mod track;
-pub mod world;
+pub mod logic;
+pub mod wire;
+
+pub use logic::{
+    alphabet, allocation, decoder, frame, gesture, min_jerk, payload, provenance, scene, schedule,
+    segmenter, task,
+};
+pub use wire::{clock, codec, fault, keys, modality, observer, sched, sensor, token, track, world};
 
 pub use allocation::{Allocation, CachedOffer, OfferCache, Roster, RosterEntry, allocate};
 pub use alphabet::{Classification, MatchSettings, Rejection, classify};
 pub use clock::{ClockTick, TICK_NS};
 pub use codec::{DecodeError, FORMAT_VERSION, Validate, decode, encode};
+pub use decoder::{DecodeStep, Decoder};
 pub use fault::{Fault, FaultKind};
 pub use frame::{FrameParser, ReleasedFrame};
-pub use keys::{KeyError, Keys, ObserverId, Role};
+pub use gesture::{GestureConfig, MotionProfile, NS_PER_MS, NS_PER_S};
+pub use keys::{Key, KeyError, Keys, ObserverId, Role};
+pub use modality::{Modality, Receiver, UnknownName};
 pub use observer::{
     Decision, FrameEvent, InputState, ObserverPhase, ObserverStatus, SourceFrame, TokenEvent,
 };
@@ -39,10 +40,17 @@ pub use sched::{
     Broadcast, BroadcastTick, Departure, MissionReport, ObserverSetpoint, SchedCommand,
     SessionControl, SessionEvent, SessionTick,
 };
+pub use schedule::{
+    FrameSlot, Schedule, ScheduleBuilder, ScheduleError, ScheduledOffer, TruthSpan,
+    TruthSymbol, broadcast,
+};
+pub use segmenter::{
+    Interruption, Sample, SegmentToken, Segmenter, SegmenterConfig, SegmenterError, TokenCause,
+};
 pub use sensor::{EventPacket, Polarity, RgbFrame};
 pub use task::{TaskError, TaskState};
 pub use token::{Action, Token};
 pub use track::{ObserverTrack, TrackSample};
 pub use world::{
-    Contact, DronePose, PerformerActivity, PerformerSetpoint, PerformerTruth, SimContacts, SimState,
+    Contact, DronePose, Kinematics, PerformerActivity, PerformerSetpoint, PerformerTruth, SimContacts, SimState,
 };

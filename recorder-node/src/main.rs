@@ -18,8 +18,8 @@ use anyhow::{Context, Result};
 use bus::{Bus, Inbound, NodeArgs, Process};
 use clap::Parser;
 use proto::Role;
-use recorder_node::foxglove::LogLevel;
-use recorder_node::{Recorded, RecorderOptions, SessionInfo, SessionWriter};
+use recording::foxglove::LogLevel;
+use recording::{Recorded, RecorderOptions, SessionInfo, SessionWriter};
 
 #[derive(Parser)]
 #[command(

@@ -13,13 +13,13 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Inbound, NodeArgs, Process, SensorModality};
+use bus::{Bus, Inbound, NodeArgs, Process};
 use clap::Parser;
 use proto::{
     BroadcastTick, ClockTick, Departure, MissionReport, ObserverId, ObserverStatus, Role,
     SessionTick, SimState, Site, TICK_NS,
 };
-use scheduler_node::{
+use scheduler::{
     DecisionNotice, EventKind, Modality, Scheduler, SchedulerConfig, observer_positions,
 };
 
@@ -32,7 +32,7 @@ use scheduler_node::{
 struct Args {
     /// The observers' sensor (the event modality adds the acquisition preamble).
     #[arg(long, value_enum)]
-    modality: SensorModality,
+    modality: Modality,
     /// Sites advertised each round, in order, comma-separated; empty: no broadcast.
     #[arg(long, default_value = "A,B")]
     offers: String,
@@ -64,10 +64,7 @@ fn main() -> Result<()> {
         .init();
     let args = Args::parse();
     let node = &args.node;
-    let modality = match args.modality {
-        SensorModality::Rgb => Modality::Rgb,
-        SensorModality::Events => Modality::Events,
-    };
+    let modality = args.modality;
     let mut config = SchedulerConfig::new(node.observers, modality)
         .with_offer_sites(&parse_sites(&args.offers)?);
     config.rounds = args.rounds;
@@ -138,7 +135,7 @@ fn main() -> Result<()> {
             .collect();
         decisions.sort();
         let positions = observer_positions(&state);
-        let out = scheduler.step(&scheduler_node::TickInput {
+        let out = scheduler.step(&scheduler::TickInput {
             clock: ClockTick::at(tick).context("tick overflow")?,
             positions_m: &positions,
             decisions: &decisions,

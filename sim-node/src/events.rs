@@ -8,10 +8,10 @@ use event_camera::picture::{Inset, encode_png, event_picture};
 use proto::EventPacket;
 use proto::scene::{PERFORMER_HOVER_M, observer_name};
 use serde::Serialize;
-use sim_node::control::Reference;
-use sim_node::render::CameraRenderer;
-use sim_node::sensor::{EVENT_RENDER_PERIOD_NS, ObserverSensor, SensorKind, SensorOutput};
-use sim_node::world::World;
+use sim::control::Reference;
+use sim::render::CameraRenderer;
+use sim::sensor::{EVENT_RENDER_PERIOD_NS, ObserverSensor, Modality, SensorOutput};
+use sim::world::World;
 
 /// Amplitude and period of the left–right motion.
 const SWAY_M: f64 = 0.15;
@@ -59,7 +59,7 @@ pub fn run(observers: usize, seconds: f64, out: &Path, black: &[String]) -> Resu
     let mut world = World::new(observers).context("building the scene")?;
     let mut renderer = CameraRenderer::new(&world).context("creating the offscreen renderer")?;
     let mut sensors = (0..observers)
-        .map(|i| ObserverSensor::new(SensorKind::Events, i, black.contains(&names[i])))
+        .map(|i| ObserverSensor::new(Modality::Events, i, black.contains(&names[i])))
         .collect::<Result<Vec<_>, _>>()?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let end_ns = (seconds * 1e9).round() as u64 / EVENT_RENDER_PERIOD_NS * EVENT_RENDER_PERIOD_NS;

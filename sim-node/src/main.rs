@@ -5,8 +5,8 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
-use sim_node::render::CameraRenderer;
-use sim_node::world::World;
+use sim::render::CameraRenderer;
+use sim::world::World;
 
 mod events;
 mod node_camera;
@@ -90,7 +90,7 @@ fn snapshot(observers: usize, out: &std::path::Path, frames: usize) -> Result<()
     for i in 0..observers {
         let rgb = renderer.render(&mut world, i)?.to_vec();
         let path = out.join(format!("{}.png", proto::scene::observer_name(i)));
-        sim_node::png_io::write_rgb_png(
+        sim::png_io::write_rgb_png(
             &path,
             &rgb,
             proto::scene::IMAGE_WIDTH_PX,

@@ -11,11 +11,11 @@
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Inbound, NodeArgs, Process, SensorModality};
+use bus::{Bus, Inbound, NodeArgs, Process};
 use proto::{Fault, FaultKind, ObserverId, Role, SimState};
-use sim_node::render::CameraRenderer;
-use sim_node::sensor::{ObserverSensor, SensorKind, SensorOutput};
-use sim_node::world::World;
+use sim::render::CameraRenderer;
+use sim::sensor::{ObserverSensor, Modality, SensorOutput};
+use sim::world::World;
 
 #[derive(Debug, clap::Args)]
 pub struct CameraArgs {
@@ -24,7 +24,7 @@ pub struct CameraArgs {
     observer: ObserverId,
     /// The sensor it carries.
     #[arg(long, value_enum)]
-    modality: SensorModality,
+    modality: Modality,
     /// Black input from start-up (the fault of the black-o2 case). Given on the command line so
     /// it is in force before the first render, whatever the arrival order of messages; the
     /// launcher also publishes it on `fault/Oi` for the record.
@@ -69,10 +69,7 @@ pub fn run(args: CameraArgs) -> Result<()> {
         })?;
     let mut world = World::new(node.observers).context("building the scene")?;
     let mut renderer = CameraRenderer::new(&world).context("creating the offscreen renderer")?;
-    let kind = match args.modality {
-        SensorModality::Rgb => SensorKind::Rgb,
-        SensorModality::Events => SensorKind::Events,
-    };
+    let kind = args.modality;
     let mut sensor = ObserverSensor::new(kind, index, false)?;
     let period_ns = sensor.render_period_ns();
     let names: Vec<String> = world.drone_names().to_vec();
@@ -87,8 +84,8 @@ pub fn run(args: CameraArgs) -> Result<()> {
     )
     .context("start-up handshake")?;
     let out_key = match args.modality {
-        SensorModality::Rgb => keys.sensor_rgb(&args.observer),
-        SensorModality::Events => keys.sensor_events(&args.observer),
+        Modality::Rgb => keys.sensor_rgb(&args.observer),
+        Modality::Events => keys.sensor_events(&args.observer),
     };
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
     let mut faults: Vec<Fault> = Vec::new();

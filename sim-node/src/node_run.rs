@@ -20,8 +20,8 @@ use proto::{
     ClockTick, Contact, DronePose, PerformerSetpoint, Role, SchedCommand, SimContacts, SimState,
     TICK_NS,
 };
-use sim_node::control::Reference;
-use sim_node::world::World;
+use sim::control::Reference;
+use sim::world::World;
 
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {

@@ -149,7 +149,7 @@ pub const TIMING_EVENTS: PaperTiming = PaperTiming {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::case::{BUILT_IN, Case, CaseModality};
+    use crate::case::{BUILT_IN, Case, Receiver};
 
     /// The case files' expected outcomes agree with the paper's table wherever the paper has a
     /// run, and each case applies to exactly the modalities the paper ran it in.
@@ -158,7 +158,7 @@ mod tests {
         assert_eq!(CASES.len(), BUILT_IN.len());
         for (name, _) in BUILT_IN {
             let c = Case::load(name).unwrap();
-            for (m, cm) in [("rgb", CaseModality::Rgb), ("events", CaseModality::Events)] {
+            for (m, cm) in [("rgb", Receiver::Rgb), ("events", Receiver::Events)] {
                 let (_, paper) = case(name, m);
                 assert_eq!(paper.is_some(), c.modalities.contains(&cm), "{name} {m}");
                 if let Some(p) = paper {

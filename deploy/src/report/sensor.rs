@@ -12,12 +12,12 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use event_camera::picture::{Inset, RgbImage, encode_png, event_picture, with_inset};
 use event_camera::{CameraConfig, EventCamera};
-use performer_node::{GestureConfig, TruthSymbol, broadcast};
+use proto::{GestureConfig, TruthSymbol, broadcast};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, observer_name};
 use proto::{Action, EventPacket, Polarity, TICK_NS};
-use sim_node::render::CameraRenderer;
-use sim_node::sensor::EVENT_RENDER_PERIOD_NS;
-use sim_node::world::World;
+use sim::render::CameraRenderer;
+use sim::sensor::EVENT_RENDER_PERIOD_NS;
+use sim::world::World;
 
 use crate::performer_flight::step_along;
 use crate::summary::ns_s;

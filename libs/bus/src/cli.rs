@@ -1,0 +1,121 @@
+//! Command-line options every Waggle node shares.
+
+use std::time::Duration;
+
+use crate::bus::{Bus, BusError};
+use crate::endpoints::Endpoints;
+use crate::handshake::{self, Process, mission_processes};
+
+/// Options of every node process.
+#[derive(Debug, Clone, PartialEq, clap::Args)]
+pub struct NodeArgs {
+    /// Session (run) id: every key lives under `waggle/<session>/`.
+    #[arg(long)]
+    pub session: String,
+    /// Number of observers in the mission.
+    #[arg(long, default_value_t = 3)]
+    pub observers: usize,
+    /// No launcher takes part (processes started by hand): nobody waits for it.
+    #[arg(long)]
+    pub standalone: bool,
+    /// A recorder (`recorder-node`) takes part in the start-up handshake: the clock starts only
+    /// once it is ready, so it records from tick 0.
+    #[arg(long)]
+    pub recorder: bool,
+    /// How long to wait for every process of the session at start-up, seconds.
+    #[arg(long, default_value_t = 120.0)]
+    pub startup_timeout_s: f64,
+    /// Key expression this process's links must deny (Zenoh access control); repeatable.
+    #[arg(long = "deny", value_name = "KEYEXPR")]
+    pub deny: Vec<String>,
+    #[command(flatten)]
+    pub endpoints: Endpoints,
+}
+
+impl NodeArgs {
+    /// Every process of the session.
+    pub fn processes(&self) -> Vec<Process> {
+        let mut out = mission_processes(self.observers, !self.standalone);
+        if self.recorder {
+            out.push(Process::singleton(proto::Role::Recorder));
+        }
+        out
+    }
+
+    pub fn startup_timeout(&self) -> Duration {
+        Duration::from_secs_f64(self.startup_timeout_s.clamp(0.0, 86_400.0))
+    }
+
+    /// Runs the start-up handshake as `me`, waiting for every process of this session.
+    pub fn join(&self, bus: &mut Bus, me: &Process) -> Result<(), BusError> {
+        handshake::join(bus, me, &self.processes(), self.startup_timeout())
+    }
+
+    /// The arguments that reproduce these options in a child process.
+    pub fn to_args(&self) -> Vec<String> {
+        let mut out = vec![
+            "--session".to_string(),
+            self.session.clone(),
+            "--observers".to_string(),
+            self.observers.to_string(),
+            "--startup-timeout-s".to_string(),
+            self.startup_timeout_s.to_string(),
+        ];
+        if self.standalone {
+            out.push("--standalone".into());
+        }
+        if self.recorder {
+            out.push("--recorder".into());
+        }
+        for d in &self.deny {
+            out.push("--deny".into());
+            out.push(d.clone());
+        }
+        out.extend(self.endpoints.to_args());
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        node: NodeArgs,
+    }
+
+    #[test]
+    fn node_arguments_survive_a_round_trip_through_a_child_command_line() {
+        let node = NodeArgs {
+            session: "run-1".into(),
+            observers: 2,
+            standalone: true,
+            recorder: false,
+            startup_timeout_s: 30.0,
+            deny: vec!["waggle/run-1/sim/**".into()],
+            endpoints: Endpoints {
+                connect: vec!["tcp/127.0.0.1:7000".into()],
+                listen: vec![],
+            },
+        };
+        let mut argv = vec!["x".to_string()];
+        argv.extend(node.to_args());
+        assert_eq!(Cli::parse_from(argv).node, node);
+        assert_eq!(node.processes().len(), 3 + 4);
+        let recorded = NodeArgs {
+            recorder: true,
+            ..node
+        };
+        let mut argv = vec!["x".to_string()];
+        argv.extend(recorded.to_args());
+        assert_eq!(Cli::parse_from(argv).node, recorded);
+        assert!(
+            recorded
+                .processes()
+                .contains(&Process::singleton(proto::Role::Recorder))
+        );
+    }
+}

@@ -1,0 +1,150 @@
+//! The ideal-message baseline (evaluation only).
+//!
+//! Projects the performer's ground-truth position into each observer's camera and runs the same
+//! segmenter, template matcher and frame parser as the real receivers. It is the upper bound the
+//! paper asks for: perfect tracking, no sensor. It must never run inside an observer process —
+//! it reads ground truth — which is why it lives in the evaluation crate.
+
+use proto::{Decoder, Sample, SegmentToken, SegmenterConfig, SegmenterError};
+use proto::ReleasedFrame;
+use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, MAX_OBSERVERS, observer_name};
+
+use proto::schedule::Schedule;
+
+/// Everything one observer's ideal chain produced so far.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObserverOutput {
+    /// `O1`, `O2`, …
+    pub name: String,
+    pub tokens: Vec<SegmentToken>,
+    pub frames: Vec<ReleasedFrame>,
+}
+
+impl ObserverOutput {
+    /// Released payloads in order.
+    pub fn payloads(&self) -> Vec<u8> {
+        self.frames.iter().map(|f| f.payload).collect()
+    }
+}
+
+/// Why the ideal receiver refused an input.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IdealReceiverError {
+    #[error("observer count {n} is outside 1..={MAX_OBSERVERS}")]
+    BadObserverCount { n: usize },
+    #[error("no observer with index {index}")]
+    UnknownObserver { index: usize },
+    #[error("performer position {position_m:?} is not finite")]
+    NonFinitePosition { position_m: [f64; 3] },
+    #[error("sample period must be positive")]
+    ZeroPeriod,
+    #[error(transparent)]
+    Segmenter(#[from] SegmenterError),
+}
+
+#[derive(Debug, Clone)]
+struct Chain {
+    camera: LevelCamera,
+    decoder: Decoder,
+    output: ObserverOutput,
+}
+
+/// Ideal receivers for every observer at its home.
+#[derive(Debug, Clone)]
+pub struct IdealReceiver {
+    chains: Vec<Chain>,
+}
+
+impl IdealReceiver {
+    /// `n` observers at their homes on the arc, each with the given segmenter settings.
+    pub fn new(n: usize, config: SegmenterConfig) -> Result<Self, IdealReceiverError> {
+        if !(1..=MAX_OBSERVERS).contains(&n) {
+            return Err(IdealReceiverError::BadObserverCount { n });
+        }
+        let chains = (0..n)
+            .map(|i| {
+                Ok(Chain {
+                    camera: LevelCamera::at_home(i, n),
+                    decoder: Decoder::new(config)?,
+                    output: ObserverOutput {
+                        name: observer_name(i),
+                        tokens: Vec::new(),
+                        frames: Vec::new(),
+                    },
+                })
+            })
+            .collect::<Result<_, SegmenterError>>()?;
+        Ok(Self { chains })
+    }
+
+    /// One synchronous camera instant: the performer's true position at `stamp_ns`. A position
+    /// that projects outside an observer's image is a lost sample for that observer.
+    pub fn push(&mut self, stamp_ns: u64, performer_m: [f64; 3]) -> Result<(), IdealReceiverError> {
+        if performer_m.iter().any(|c| !c.is_finite()) {
+            return Err(IdealReceiverError::NonFinitePosition {
+                position_m: performer_m,
+            });
+        }
+        for chain in &mut self.chains {
+            let sample = match chain
+                .camera
+                .project_px(performer_m)
+                .filter(|p| in_image(*p))
+            {
+                Some(p) => Sample::tracked(stamp_ns, p),
+                None => Sample::lost(stamp_ns),
+            };
+            let step = chain.decoder.push(sample)?;
+            chain.output.tokens.extend(step.tokens);
+            chain.output.frames.extend(step.frames);
+        }
+        Ok(())
+    }
+
+    /// Missing input for observer `index` at `stamp_ns` (a fault injected by a test or harness).
+    pub fn interrupt(&mut self, index: usize, stamp_ns: u64) -> Result<(), IdealReceiverError> {
+        let chain = self
+            .chains
+            .get_mut(index)
+            .ok_or(IdealReceiverError::UnknownObserver { index })?;
+        let step = chain.decoder.interrupt(stamp_ns)?;
+        chain.output.tokens.extend(step.tokens);
+        chain.output.frames.extend(step.frames);
+        Ok(())
+    }
+
+    /// Outputs per observer, O1 first.
+    pub fn outputs(&self) -> Vec<&ObserverOutput> {
+        self.chains.iter().map(|c| &c.output).collect()
+    }
+
+    /// Output of observer `index`.
+    pub fn output(&self, index: usize) -> Option<&ObserverOutput> {
+        self.chains.get(index).map(|c| &c.output)
+    }
+
+    /// Feeds the schedule's setpoints (as if flown perfectly) at every multiple of `period_ns`
+    /// in `[from_ns, to_ns)`.
+    pub fn run_setpoints(
+        &mut self,
+        schedule: &Schedule,
+        from_ns: u64,
+        to_ns: u64,
+        period_ns: u64,
+    ) -> Result<(), IdealReceiverError> {
+        if period_ns == 0 {
+            return Err(IdealReceiverError::ZeroPeriod);
+        }
+        let mut t = from_ns.div_ceil(period_ns) * period_ns;
+        while t < to_ns {
+            self.push(t, schedule.setpoint_at(t))?;
+            t += period_ns;
+        }
+        Ok(())
+    }
+}
+
+fn in_image(p: [f64; 2]) -> bool {
+    (0.0..f64::from(IMAGE_WIDTH_PX)).contains(&p[0])
+        && (0.0..f64::from(IMAGE_HEIGHT_PX)).contains(&p[1])
+}

@@ -1,0 +1,18 @@
+//! Observer perception: everything an observer does with its own sensor data, as pure code (no
+//! I/O, no clock but the sim time of the input), so the `observer-node` process, `waggle replay`
+//! and the in-process mission run exactly the same receiver.
+//!
+//! - [`events`]: the event-only receiver (event packets in, tokens and frames out);
+//! - [`rgb`]: the RGB receiver (KLT trajectory extraction; RGB frames in, tokens and frames out);
+//! - [`perception`]: one receiver of either modality behind one interface;
+//! - [`agent`]: offer cache, allocation and the observer's decisions;
+//! - [`runtime`]: perception + frame parser + agent, one step per tick.
+//!
+//! The segmenter and decoder the receivers share with the ideal receiver live in
+//! [`proto::logic`].
+
+pub mod agent;
+pub mod events;
+pub mod perception;
+pub mod rgb;
+pub mod runtime;

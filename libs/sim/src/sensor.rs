@@ -1,0 +1,123 @@
+//! Observer sensors on top of the renderer: a 25 Hz RGB camera or a 100 Hz-rendered synthetic
+//! event camera with 40 ms packets. The black-input fault is applied before anything else (for
+//! events: before conversion, from start-up, as in the paper).
+
+use event_camera::{CameraConfig, EventCamera};
+use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX};
+use proto::{EventPacket, RgbFrame};
+
+use crate::render::{CameraRenderer, RenderError};
+use crate::world::World;
+
+/// RGB frame period (25 Hz).
+pub const RGB_PERIOD_NS: u64 = 40_000_000;
+/// Event-source render period (100 Hz).
+pub const EVENT_RENDER_PERIOD_NS: u64 = 10_000_000;
+
+/// Which sensor an observer carries.
+pub use proto::Modality;
+
+/// What a sensor delivered at one render instant.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SensorOutput {
+    Rgb(RgbFrame),
+    Events(EventPacket),
+}
+
+/// Why a sensor failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SensorError {
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error("event camera: {0}")]
+    Events(#[from] event_camera::CameraError),
+}
+
+/// One observer's sensor.
+pub struct ObserverSensor {
+    observer: usize,
+    black: bool,
+    state: State,
+}
+
+enum State {
+    Rgb { next_seq: u64 },
+    Events(Box<EventCamera>),
+}
+
+impl ObserverSensor {
+    /// A sensor for observer index `observer`; `black` blacks its input out from start-up.
+    pub fn new(kind: Modality, observer: usize, black: bool) -> Result<Self, SensorError> {
+        let state = match kind {
+            Modality::Rgb => State::Rgb { next_seq: 0 },
+            Modality::Events => {
+                let mut config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX);
+                config.black_input = black;
+                State::Events(Box::new(EventCamera::new(config)?))
+            }
+        };
+        Ok(Self {
+            observer,
+            black,
+            state,
+        })
+    }
+
+    /// Switches the black-input fault on or off for subsequent captures (an injected fault).
+    pub fn set_black(&mut self, black: bool) {
+        self.black = black;
+        if let State::Events(camera) = &mut self.state {
+            camera.set_black_input(black);
+        }
+    }
+
+    /// Time between renders.
+    pub fn render_period_ns(&self) -> u64 {
+        match self.state {
+            State::Rgb { .. } => RGB_PERIOD_NS,
+            State::Events(_) => EVENT_RENDER_PERIOD_NS,
+        }
+    }
+
+    /// Renders the current state (call at multiples of [`Self::render_period_ns`]) and returns
+    /// what the sensor delivers now: one RGB frame, or the event packets this render completes.
+    pub fn capture(
+        &mut self,
+        world: &mut World,
+        renderer: &mut CameraRenderer,
+    ) -> Result<Vec<SensorOutput>, SensorError> {
+        let stamp_ns = world.time_ns();
+        match &mut self.state {
+            State::Rgb { next_seq } => {
+                let rgb = if self.black {
+                    vec![0; usize::from(IMAGE_WIDTH_PX) * usize::from(IMAGE_HEIGHT_PX) * 3]
+                } else {
+                    renderer.render(world, self.observer)?.to_vec()
+                };
+                let frame = RgbFrame {
+                    seq: *next_seq,
+                    stamp_ns,
+                    width: IMAGE_WIDTH_PX,
+                    height: IMAGE_HEIGHT_PX,
+                    valid: true,
+                    continuous: true,
+                    rgb,
+                };
+                *next_seq += 1;
+                Ok(vec![SensorOutput::Rgb(frame)])
+            }
+            State::Events(camera) => {
+                // The camera substitutes black frames itself; skip the render it would discard.
+                let packets = if self.black {
+                    let black =
+                        vec![0; usize::from(IMAGE_WIDTH_PX) * usize::from(IMAGE_HEIGHT_PX) * 3];
+                    camera.push_frame(stamp_ns, &black)?
+                } else {
+                    let rgb = renderer.render(world, self.observer)?;
+                    camera.push_frame(stamp_ns, rgb)?
+                };
+                Ok(packets.into_iter().map(SensorOutput::Events).collect())
+            }
+        }
+    }
+}

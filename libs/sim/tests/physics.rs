@@ -1,0 +1,81 @@
+//! Physics: hover accuracy, step response and contact bookkeeping on the real MuJoCo scene.
+
+use proto::scene::PERFORMER_HOVER_M;
+use sim::control::Reference;
+use sim::world::World;
+
+const SECOND_NS: u64 = 1_000_000_000;
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+#[test]
+fn every_drone_holds_its_setpoint_within_a_millimetre() {
+    let mut world = World::new(3).expect("scene");
+    world.step_until(2 * SECOND_NS);
+    for _ in 0..500 {
+        world.step();
+        for i in 0..4 {
+            let err = dist(world.position_m(i), world.reference(i).pos_m);
+            assert!(
+                err < 1e-3,
+                "drone {i} off its setpoint by {err} m at {} ns",
+                world.time_ns()
+            );
+        }
+    }
+    assert_eq!(
+        world.time_ns(),
+        3 * SECOND_NS,
+        "integer clock: 1500 steps of 2 ms"
+    );
+}
+
+#[test]
+fn a_20_cm_step_settles_within_two_seconds_without_overshoot() {
+    let mut world = World::new(1).expect("scene");
+    world.step_until(SECOND_NS);
+    let start = world.position_m(0);
+    let target = [start[0] + 0.2, start[1], start[2]];
+    world.set_reference(0, Reference::hover(target, 0.0));
+    let t0 = world.time_ns();
+    let mut max_x = f64::NEG_INFINITY;
+    let mut settled_at = None;
+    while world.time_ns() < t0 + 3 * SECOND_NS {
+        world.step();
+        let p = world.position_m(0);
+        max_x = max_x.max(p[0]);
+        let err = dist(p, target);
+        if err < 0.02 * 0.2 {
+            settled_at.get_or_insert(world.time_ns() - t0);
+        } else {
+            settled_at = None;
+        }
+    }
+    let overshoot = (max_x - target[0]) / 0.2;
+    assert!(overshoot <= 0.10, "overshoot {:.1} %", overshoot * 100.0);
+    let settled = settled_at.expect("never settled to 2 %");
+    assert!(settled <= 2 * SECOND_NS, "settled after {settled} ns");
+}
+
+#[test]
+fn drones_commanded_into_each_other_register_contact_steps() {
+    let mut world = World::new(1).expect("scene");
+    world.step_until(SECOND_NS);
+    assert_eq!(
+        world.contact_stats().contact_steps,
+        0,
+        "separated drones touch"
+    );
+    let stats = world.contact_stats();
+    assert!(stats.min_separation_m > 1.2, "{stats:?}");
+    // Command the observer onto the performer's hover point.
+    let target = PERFORMER_HOVER_M;
+    let yaw = world.reference(1).yaw_rad;
+    world.set_reference(1, Reference::hover(target, yaw));
+    world.step_until(4 * SECOND_NS);
+    let stats = world.contact_stats();
+    assert!(stats.contact_steps > 0, "no contact recorded: {stats:?}");
+    assert!(stats.min_separation_m < 0.15, "{stats:?}");
+}

@@ -1,0 +1,763 @@
+//! The shared NULL / motion segmenter used by the ideal, RGB and event receivers.
+//!
+//! Input: one image point per receiver step (or none), with a reliability flag and a gate the
+//! receiver uses to veto NULL confirmation. Output: confirmed tokens with their sim-time stamps.
+//!
+//! - **NULL**: the point has stayed within `anchor_radius_px` of an anchor (the first sample of
+//!   the rest) for `null_confirm_ns`, every sample reliable, and the receiver's gate is open at
+//!   the confirming sample. Exactly one NULL is confirmed per rest period: the anchor stays
+//!   fixed until the point leaves its radius.
+//! - **Action**: the motion between two confirmed NULLs is the candidate path. It is classified
+//!   with [`crate::classify`] when the second NULL is confirmed, and the action token (or
+//!   `Unknown` for a rejected path) is emitted just before that NULL, with the same stamp.
+//!   The path runs from the mean point of the previous rest, through every sample of the motion,
+//!   up to the new rest's anchor, and ends at the mean point of the new rest. Using rest means
+//!   instead of raw rest samples keeps tracker jitter during the 3 s hover out of the
+//!   arc-length resampling, while still closing the path where the target settled (the anchor
+//!   alone can sit up to one radius short of it).
+//! - **Interruption**: a missing point, an unreliable sample, a gap between samples longer than
+//!   `max_gap_ns`, or an explicit [`Segmenter::interrupt`] resets the rest timer and the
+//!   candidate path and yields one `Unknown` per interruption episode, so the frame parser drops
+//!   any incomplete frame. Motion that never comes to rest within `max_motion_ns` yields one
+//!   `Unknown` as well (no symbol is that long).
+//!
+//! Motion seen before the first NULL after a reset is not a candidate: there is no delimiter in
+//! front of it.
+
+use crate::{Classification, MatchSettings, Rejection, Token, classify};
+
+/// Segmenter settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SegmenterConfig {
+    /// A rest holds while the point stays within this distance of the rest's first sample.
+    pub anchor_radius_px: f64,
+    /// Rest duration that confirms a NULL.
+    pub null_confirm_ns: u64,
+    /// Larger spacing between consecutive samples is an input gap (an interruption).
+    pub max_gap_ns: u64,
+    /// Motion longer than this without coming to rest is not a symbol.
+    pub max_motion_ns: u64,
+    /// Template acceptance settings for candidate paths.
+    pub match_settings: MatchSettings,
+}
+
+impl SegmenterConfig {
+    /// RGB receiver: 15 px anchor, 3 s NULL, 25 Hz samples (a single missing frame is a gap).
+    pub fn rgb() -> Self {
+        Self {
+            anchor_radius_px: 15.0,
+            null_confirm_ns: 3_000_000_000,
+            max_gap_ns: 60_000_000,
+            max_motion_ns: 30_000_000_000,
+            match_settings: MatchSettings::rgb(),
+        }
+    }
+
+    /// Event receiver: 20 px anchor, 3 s NULL, 25 Hz receiver steps.
+    pub fn events() -> Self {
+        Self {
+            anchor_radius_px: 20.0,
+            match_settings: MatchSettings::events(),
+            ..Self::rgb()
+        }
+    }
+
+    /// Rejects settings no receiver could run with.
+    pub fn validate(&self) -> Result<(), SegmenterError> {
+        let ok = self.anchor_radius_px.is_finite()
+            && self.anchor_radius_px > 0.0
+            && self.null_confirm_ns > 0
+            && self.max_gap_ns > 0
+            && self.max_motion_ns > 0;
+        if ok {
+            Ok(())
+        } else {
+            Err(SegmenterError::BadConfig(*self))
+        }
+    }
+}
+
+/// One receiver step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    pub stamp_ns: u64,
+    /// Target position in the image (x right, y down), if the receiver has one.
+    pub point_px: Option<[f64; 2]>,
+    /// False when the receiver does not trust this measurement (failed tracking, bad packet).
+    pub reliable: bool,
+    /// The receiver's own extra NULL condition (e.g. the event receiver's tracking lease). A
+    /// closed gate defers NULL confirmation; it does not reset the rest.
+    pub null_allowed: bool,
+}
+
+impl Sample {
+    /// A reliable point with the NULL gate open.
+    pub fn tracked(stamp_ns: u64, point_px: [f64; 2]) -> Self {
+        Self {
+            stamp_ns,
+            point_px: Some(point_px),
+            reliable: true,
+            null_allowed: true,
+        }
+    }
+
+    /// No usable measurement at this step.
+    pub fn lost(stamp_ns: u64) -> Self {
+        Self {
+            stamp_ns,
+            point_px: None,
+            reliable: false,
+            null_allowed: false,
+        }
+    }
+}
+
+/// What broke continuity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Interruption {
+    /// Consecutive samples further apart than `max_gap_ns`.
+    Gap { gap_ns: u64 },
+    /// The receiver marked the sample unreliable.
+    Unreliable,
+    /// The receiver had no point.
+    NoPoint,
+    /// The caller reported missing input, a reset or a fault.
+    External,
+}
+
+/// Why a token was emitted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TokenCause {
+    /// A confirmed rest (NULL).
+    Rest,
+    /// An accepted candidate path.
+    Classified(Classification),
+    /// A candidate path the templates rejected (`Unknown`).
+    Rejected(Rejection),
+    /// Continuity broke (`Unknown`).
+    Interrupted(Interruption),
+    /// Motion went on for longer than `max_motion_ns` (`Unknown`).
+    Overlong { motion_ns: u64 },
+}
+
+/// A token confirmed by the segmenter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SegmentToken {
+    pub token: Token,
+    pub stamp_ns: u64,
+    pub cause: TokenCause,
+}
+
+/// Malformed input.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum SegmenterError {
+    #[error("sample stamp {stamp_ns} ns is not after the previous one ({previous_ns} ns)")]
+    NonMonotonicStamp { previous_ns: u64, stamp_ns: u64 },
+    #[error("sample point {point_px:?} is not finite")]
+    NonFinitePoint { point_px: [f64; 2] },
+    #[error("invalid segmenter settings {0:?}")]
+    BadConfig(SegmenterConfig),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Anchor {
+    point_px: [f64; 2],
+    stamp_ns: u64,
+    /// Index of the anchor sample in the candidate path (meaningful after a NULL only).
+    path_index: usize,
+}
+
+/// Incremental segmenter for one observer.
+#[derive(Debug, Clone)]
+pub struct Segmenter {
+    config: SegmenterConfig,
+    last_stamp_ns: Option<u64>,
+    interrupted: bool,
+    anchor: Option<Anchor>,
+    /// Sum and count of the samples of the current rest window (anchor onwards, in radius).
+    rest_sum_px: [f64; 2],
+    rest_count: u32,
+    /// NULL already confirmed for the current anchor.
+    rested: bool,
+    /// A NULL has been confirmed since the last reset, so motion is a candidate symbol.
+    after_null: bool,
+    motion_start_ns: Option<u64>,
+    path_px: Vec<[f64; 2]>,
+    /// Reliable samples since the last interruption, at most one NULL-confirmation span old:
+    /// a new rest starts at the earliest of them that is already within the anchor radius of
+    /// where the target now is, so the rest timer does not depend on where, inside the radius,
+    /// a lagging tracker happened to cross its edge.
+    recent: std::collections::VecDeque<(u64, [f64; 2])>,
+}
+
+impl Segmenter {
+    pub fn new(config: SegmenterConfig) -> Result<Self, SegmenterError> {
+        config.validate()?;
+        Ok(Self::fresh(config))
+    }
+
+    fn fresh(config: SegmenterConfig) -> Self {
+        Self {
+            config,
+            last_stamp_ns: None,
+            interrupted: false,
+            anchor: None,
+            rest_sum_px: [0.0; 2],
+            rest_count: 0,
+            rested: false,
+            after_null: false,
+            motion_start_ns: None,
+            path_px: Vec::new(),
+            recent: std::collections::VecDeque::new(),
+        }
+    }
+
+    /// Forgets everything, including the last stamp, without emitting a token (round reset).
+    pub fn reset(&mut self) {
+        *self = Self::fresh(self.config);
+    }
+
+    pub fn config(&self) -> &SegmenterConfig {
+        &self.config
+    }
+
+    /// True while the current rest has been confirmed as NULL.
+    pub fn is_resting(&self) -> bool {
+        self.rested
+    }
+
+    /// Stamp of the last sample or interruption.
+    pub fn last_stamp_ns(&self) -> Option<u64> {
+        self.last_stamp_ns
+    }
+
+    /// Consumes one sample; returns the tokens it confirms (0, 1 or 2 — an action and its NULL,
+    /// or an interruption). Malformed samples are rejected and leave the state unchanged.
+    pub fn push(&mut self, sample: Sample) -> Result<Vec<SegmentToken>, SegmenterError> {
+        if let Some(previous_ns) = self.last_stamp_ns
+            && sample.stamp_ns <= previous_ns
+        {
+            return Err(SegmenterError::NonMonotonicStamp {
+                previous_ns,
+                stamp_ns: sample.stamp_ns,
+            });
+        }
+        if let Some(p) = sample.point_px
+            && !(p[0].is_finite() && p[1].is_finite())
+        {
+            return Err(SegmenterError::NonFinitePoint { point_px: p });
+        }
+        let mut out = Vec::new();
+        let stamp_ns = sample.stamp_ns;
+        if let Some(previous_ns) = self.last_stamp_ns
+            && stamp_ns - previous_ns > self.config.max_gap_ns
+        {
+            out.extend(self.break_continuity(
+                stamp_ns,
+                Interruption::Gap {
+                    gap_ns: stamp_ns - previous_ns,
+                },
+            ));
+        }
+        self.last_stamp_ns = Some(stamp_ns);
+        let p = match (sample.point_px, sample.reliable) {
+            (Some(p), true) => p,
+            (None, _) => {
+                out.extend(self.break_continuity(stamp_ns, Interruption::NoPoint));
+                return Ok(out);
+            }
+            (Some(_), false) => {
+                out.extend(self.break_continuity(stamp_ns, Interruption::Unreliable));
+                return Ok(out);
+            }
+        };
+        self.interrupted = false;
+        self.recent.push_back((stamp_ns, p));
+        while self
+            .recent
+            .front()
+            .is_some_and(|&(t, _)| stamp_ns - t > self.config.null_confirm_ns)
+        {
+            self.recent.pop_front();
+        }
+        let radius_px = self.config.anchor_radius_px;
+        if self.rested {
+            if self
+                .anchor
+                .is_some_and(|a| dist(a.point_px, p) <= radius_px)
+            {
+                self.rest_sum_px = [self.rest_sum_px[0] + p[0], self.rest_sum_px[1] + p[1]];
+                self.rest_count = self.rest_count.saturating_add(1);
+                return Ok(out);
+            }
+            // The target left its confirmed rest: motion starts here.
+            self.rested = false;
+            // Samples of the confirmed rest must never start the next one.
+            self.recent.clear();
+            self.recent.push_back((stamp_ns, p));
+            self.motion_start_ns = Some(stamp_ns);
+            self.path_px.clear();
+            self.path_px.push(self.rest_mean());
+        }
+        if self.after_null {
+            self.path_px.push(p);
+        }
+        // The rest candidate is anchored on where the target is now: it started at the earliest
+        // recent sample from which every later one lies within the anchor radius of this point.
+        // Anchoring on the current point (not on wherever an earlier candidate happened to
+        // begin) makes the rest start a property of the trajectory's final approach alone, so
+        // receivers whose estimates differ by a few pixels confirm their NULLs together.
+        let (mut start_ns, mut sum_px, mut count) = (stamp_ns, p, 1u32);
+        for &(t, q) in self.recent.iter().rev().skip(1) {
+            if dist(q, p) > radius_px {
+                break;
+            }
+            start_ns = t;
+            sum_px = [sum_px[0] + q[0], sum_px[1] + q[1]];
+            count += 1;
+        }
+        if self.after_null
+            && let Some(motion_ns) = self.motion_start_ns.map(|m| start_ns.saturating_sub(m))
+            && motion_ns > self.config.max_motion_ns
+        {
+            out.push(SegmentToken {
+                token: Token::Unknown,
+                stamp_ns,
+                cause: TokenCause::Overlong { motion_ns },
+            });
+            self.after_null = false;
+            self.motion_start_ns = None;
+            self.path_px.clear();
+        }
+        let anchor = Anchor {
+            point_px: p,
+            stamp_ns: start_ns,
+            path_index: self.path_px.len().saturating_sub(count as usize),
+        };
+        self.anchor = Some(anchor);
+        self.rest_sum_px = sum_px;
+        self.rest_count = count;
+        if stamp_ns - start_ns >= self.config.null_confirm_ns && sample.null_allowed {
+            self.confirm_null(stamp_ns, anchor, &mut out);
+        }
+        Ok(out)
+    }
+
+    /// Reports missing input (a lost packet, a fault, a reset) at `stamp_ns`: one `Unknown`
+    /// token unless continuity is already broken.
+    pub fn interrupt(&mut self, stamp_ns: u64) -> Result<Option<SegmentToken>, SegmenterError> {
+        if let Some(previous_ns) = self.last_stamp_ns
+            && stamp_ns < previous_ns
+        {
+            return Err(SegmenterError::NonMonotonicStamp {
+                previous_ns,
+                stamp_ns,
+            });
+        }
+        self.last_stamp_ns = Some(stamp_ns);
+        Ok(self.break_continuity(stamp_ns, Interruption::External))
+    }
+
+    fn break_continuity(&mut self, stamp_ns: u64, why: Interruption) -> Option<SegmentToken> {
+        self.anchor = None;
+        self.recent.clear();
+        self.rested = false;
+        self.after_null = false;
+        self.motion_start_ns = None;
+        self.path_px.clear();
+        self.rest_count = 0;
+        if self.interrupted {
+            return None;
+        }
+        self.interrupted = true;
+        Some(SegmentToken {
+            token: Token::Unknown,
+            stamp_ns,
+            cause: TokenCause::Interrupted(why),
+        })
+    }
+
+    fn confirm_null(&mut self, stamp_ns: u64, anchor: Anchor, out: &mut Vec<SegmentToken>) {
+        if self.after_null && self.motion_start_ns.is_some() {
+            let mut candidate = self.path_px[..=anchor.path_index].to_vec();
+            candidate.push(self.rest_mean());
+            out.push(match classify(&candidate, &self.config.match_settings) {
+                Ok(c) => SegmentToken {
+                    token: c.action.token(),
+                    stamp_ns,
+                    cause: TokenCause::Classified(c),
+                },
+                Err(r) => SegmentToken {
+                    token: Token::Unknown,
+                    stamp_ns,
+                    cause: TokenCause::Rejected(r),
+                },
+            });
+        }
+        out.push(SegmentToken {
+            token: Token::Null,
+            stamp_ns,
+            cause: TokenCause::Rest,
+        });
+        self.rested = true;
+        self.after_null = true;
+        self.motion_start_ns = None;
+        self.path_px.clear();
+    }
+
+    fn rest_mean(&self) -> [f64; 2] {
+        let n = f64::from(self.rest_count.max(1));
+        [self.rest_sum_px[0] / n, self.rest_sum_px[1] / n]
+    }
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::Action;
+
+    pub const PERIOD_NS: u64 = 40_000_000;
+    pub const S: u64 = 1_000_000_000;
+    pub const CENTRE: [f64; 2] = [320.0, 240.0];
+
+    /// A receiver's sample stream, built step by step at 25 Hz.
+    pub struct Script {
+        pub samples: Vec<Sample>,
+        pub next_ns: u64,
+    }
+
+    impl Script {
+        pub fn new(start_ns: u64) -> Self {
+            Self {
+                samples: Vec::new(),
+                next_ns: start_ns,
+            }
+        }
+
+        fn push(&mut self, s: Sample) {
+            self.samples.push(s);
+            self.next_ns += PERIOD_NS;
+        }
+
+        /// Hover at `p` for `duration_ns` with ±2 px deterministic jitter.
+        pub fn hover(&mut self, p: [f64; 2], duration_ns: u64) -> &mut Self {
+            for k in 0..duration_ns / PERIOD_NS {
+                let j = [((k * 7) % 5) as f64 - 2.0, ((k * 3) % 5) as f64 - 2.0];
+                self.push(Sample::tracked(self.next_ns, [p[0] + j[0], p[1] + j[1]]));
+            }
+            self
+        }
+
+        /// Draw `action`'s image polyline at `scale_px` from `p` at constant speed.
+        pub fn draw(
+            &mut self,
+            action: Action,
+            p: [f64; 2],
+            scale_px: f64,
+            duration_ns: u64,
+        ) -> &mut Self {
+            let poly: Vec<[f64; 2]> = action
+                .image_polyline()
+                .iter()
+                .map(|q| [p[0] + scale_px * q[0], p[1] + scale_px * q[1]])
+                .collect();
+            self.polyline(&poly, duration_ns)
+        }
+
+        /// Traverse `poly` at constant speed in `duration_ns` (end point excluded).
+        pub fn polyline(&mut self, poly: &[[f64; 2]], duration_ns: u64) -> &mut Self {
+            let lens: Vec<f64> = poly.windows(2).map(|w| dist(w[0], w[1])).collect();
+            let total: f64 = lens.iter().sum();
+            let n = duration_ns / PERIOD_NS;
+            for k in 0..n {
+                let mut d = total * k as f64 / n as f64;
+                let mut seg = 0;
+                while seg + 1 < lens.len() && d > lens[seg] {
+                    d -= lens[seg];
+                    seg += 1;
+                }
+                let t = if lens[seg] > 0.0 { d / lens[seg] } else { 0.0 };
+                let (a, b) = (poly[seg], poly[seg + 1]);
+                self.push(Sample::tracked(
+                    self.next_ns,
+                    [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])],
+                ));
+            }
+            self
+        }
+
+        pub fn sample(&mut self, s: impl Fn(u64) -> Sample) -> &mut Self {
+            let s = s(self.next_ns);
+            self.push(s);
+            self
+        }
+    }
+
+    pub fn run(seg: &mut Segmenter, samples: &[Sample]) -> Vec<SegmentToken> {
+        samples.iter().flat_map(|&s| seg.push(s).unwrap()).collect()
+    }
+
+    fn tokens(t: &[SegmentToken]) -> Vec<Token> {
+        t.iter().map(|t| t.token).collect()
+    }
+
+    fn rgb() -> Segmenter {
+        Segmenter::new(SegmenterConfig::rgb()).unwrap()
+    }
+
+    #[test]
+    fn a_still_point_confirms_exactly_one_null_after_3_s() {
+        let mut sc = Script::new(S);
+        sc.hover(CENTRE, 60 * S);
+        let out = run(&mut rgb(), &sc.samples);
+        assert_eq!(tokens(&out), vec![Token::Null]);
+        assert_eq!(out[0].stamp_ns, 4 * S, "3 s after the first sample");
+        assert_eq!(out[0].cause, TokenCause::Rest);
+    }
+
+    #[test]
+    fn leaving_the_anchor_radius_restarts_the_rest_timer() {
+        for (jump_px, want_ns) in [(10.0, 3 * S), (20.0, 5 * S)] {
+            let mut sc = Script::new(0);
+            sc.hover(CENTRE, 2 * S)
+                .hover([CENTRE[0] + jump_px, CENTRE[1]], 10 * S);
+            // The jittered samples sit up to 2√2 px off; a 10 px jump stays within 15 px.
+            let out = run(&mut rgb(), &sc.samples);
+            assert_eq!(tokens(&out), vec![Token::Null], "jump {jump_px}");
+            assert_eq!(out[0].stamp_ns, want_ns, "jump {jump_px}");
+        }
+        // The event receiver's 20 px anchor tolerates a step the RGB one does not: with the
+        // jitter, the points after a 15.5 px step lie 15.5–19.9 px from the anchor.
+        let mut sc = Script::new(0);
+        sc.hover(CENTRE, 2 * S)
+            .hover([CENTRE[0] + 15.5, CENTRE[1]], 10 * S);
+        let rgb_out = run(&mut rgb(), &sc.samples);
+        let ev_out = run(
+            &mut Segmenter::new(SegmenterConfig::events()).unwrap(),
+            &sc.samples,
+        );
+        // The RGB rest restarts at the step, give or take the one jittered sample before it
+        // that already lay within 15 px of where the target settled.
+        assert!(
+            (4_900_000_000..=5 * S).contains(&rgb_out[0].stamp_ns),
+            "{rgb_out:?}"
+        );
+        assert_eq!(ev_out[0].stamp_ns, 3 * S);
+    }
+
+    #[test]
+    fn the_rest_starts_where_the_final_approach_entered_the_radius_whatever_came_before() {
+        // Two receivers see the same slow 20 px/s approach to the same hover point; one saw it
+        // from 10 px further out. A rest anchored on an earlier candidate would begin wherever
+        // the chain of candidates happened to fall (≈ 0.5 s apart here); anchored on the
+        // current point it begins 20 px out in both.
+        let end_ns = 20 * S;
+        let approach = |from_px: f64| {
+            let mut samples = Vec::new();
+            let travel_ns = (from_px / 20.0 * 1e9) as u64;
+            let mut t = end_ns - travel_ns;
+            while t < end_ns + 6 * S {
+                let left_px = from_px * (end_ns.saturating_sub(t)) as f64 / travel_ns as f64;
+                samples.push(Sample::tracked(t, [CENTRE[0] + left_px, CENTRE[1]]));
+                t += PERIOD_NS;
+            }
+            samples
+        };
+        let nulls = |from_px: f64| {
+            let out = run(
+                &mut Segmenter::new(SegmenterConfig::events()).unwrap(),
+                &approach(from_px),
+            );
+            assert_eq!(tokens(&out), vec![Token::Null], "from {from_px} px");
+            out[0].stamp_ns
+        };
+        let want_ns = end_ns - S + 3 * S;
+        // 20 px out at 20 px/s is 1 s before arrival; the NULL follows 3 s after that (the
+        // farther approach is sampled at other instants: one sample period of play).
+        for from_px in [200.0, 210.0] {
+            let null_ns = nulls(from_px);
+            assert!(
+                null_ns.abs_diff(want_ns) <= PERIOD_NS,
+                "from {from_px} px: {null_ns}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_symbol_between_two_nulls_is_classified_before_its_null() {
+        for action in Action::ALL {
+            let mut sc = Script::new(0);
+            sc.hover(CENTRE, 4 * S)
+                .draw(action, CENTRE, 90.0, 4 * S)
+                .hover(CENTRE, 4 * S);
+            let out = run(&mut rgb(), &sc.samples);
+            assert_eq!(
+                tokens(&out),
+                vec![Token::Null, action.token(), Token::Null],
+                "{action}"
+            );
+            assert_eq!(out[1].stamp_ns, out[2].stamp_ns);
+            // The rest starts once the point is within 15 px of where it settles, just before
+            // the drawing ends at 8 s, and is confirmed 3 s later.
+            assert!(
+                (10_700_000_000..=11 * S).contains(&out[2].stamp_ns),
+                "{action}: {out:?}"
+            );
+            let TokenCause::Classified(c) = out[1].cause else {
+                panic!("{:?}", out[1])
+            };
+            assert!(c.error < 0.03 && c.closure < 0.03, "{action}: {c:?}");
+        }
+    }
+
+    #[test]
+    fn motion_before_the_first_null_is_not_a_candidate() {
+        let mut sc = Script::new(0);
+        sc.draw(Action::Start, CENTRE, 90.0, 4 * S)
+            .hover(CENTRE, 4 * S);
+        assert_eq!(tokens(&run(&mut rgb(), &sc.samples)), vec![Token::Null]);
+    }
+
+    #[test]
+    fn lost_or_unreliable_input_interrupts_once_and_discards_the_path() {
+        let mut sc = Script::new(0);
+        sc.hover(CENTRE, 4 * S)
+            .draw(Action::Bit0, CENTRE, 90.0, 2 * S);
+        for k in 0..5 {
+            if k % 2 == 0 {
+                sc.sample(|t| Sample {
+                    reliable: false,
+                    ..Sample::tracked(t, CENTRE)
+                });
+            } else {
+                sc.sample(Sample::lost);
+            }
+        }
+        let resume_ns = sc.next_ns;
+        sc.draw(Action::Bit0, CENTRE, 90.0, 2 * S)
+            .hover(CENTRE, 4 * S);
+        let out = run(&mut rgb(), &sc.samples);
+        assert_eq!(tokens(&out), vec![Token::Null, Token::Unknown, Token::Null]);
+        assert_eq!(
+            out[1].cause,
+            TokenCause::Interrupted(Interruption::Unreliable)
+        );
+        assert_eq!(out[1].stamp_ns, 6 * S);
+        // The rest after the interruption needs its own full 3 s and yields no symbol.
+        assert!(out[2].stamp_ns >= resume_ns + 3 * S);
+    }
+
+    #[test]
+    fn an_input_gap_interrupts_even_during_a_confirmed_rest() {
+        let mut sc = Script::new(0);
+        sc.hover(CENTRE, 4 * S);
+        sc.next_ns += PERIOD_NS; // one missing sample
+        sc.hover(CENTRE, 4 * S);
+        let out = run(&mut rgb(), &sc.samples);
+        assert_eq!(tokens(&out), vec![Token::Null, Token::Unknown, Token::Null]);
+        assert_eq!(
+            out[1].cause,
+            TokenCause::Interrupted(Interruption::Gap {
+                gap_ns: 2 * PERIOD_NS
+            })
+        );
+        assert_eq!(out[2].stamp_ns, out[1].stamp_ns + 3 * S);
+    }
+
+    #[test]
+    fn explicit_interrupts_count_once_per_episode() {
+        let mut seg = rgb();
+        let mut sc = Script::new(0);
+        sc.hover(CENTRE, 4 * S);
+        run(&mut seg, &sc.samples);
+        let t = sc.next_ns;
+        let first = seg.interrupt(t).unwrap().expect("one Unknown");
+        assert_eq!(first.cause, TokenCause::Interrupted(Interruption::External));
+        assert_eq!(seg.interrupt(t).unwrap(), None);
+        assert!(matches!(
+            seg.interrupt(t - 1),
+            Err(SegmenterError::NonMonotonicStamp { .. })
+        ));
+    }
+
+    #[test]
+    fn a_closed_gate_defers_the_null_without_resetting_the_rest() {
+        let gated = |open_after_ns: u64| {
+            let mut sc = Script::new(0);
+            sc.hover(CENTRE, 10 * S);
+            for s in &mut sc.samples {
+                s.null_allowed = s.stamp_ns >= open_after_ns;
+            }
+            run(&mut rgb(), &sc.samples)
+        };
+        let out = gated(5 * S);
+        assert_eq!(tokens(&out), vec![Token::Null]);
+        assert_eq!(out[0].stamp_ns, 5 * S);
+        assert!(gated(u64::MAX).is_empty());
+        assert_eq!(gated(0)[0].stamp_ns, 3 * S);
+    }
+
+    #[test]
+    fn overlong_motion_is_unknown_and_not_classified_later() {
+        let mut sc = Script::new(0);
+        sc.hover(CENTRE, 4 * S);
+        for _ in 0..10 {
+            sc.draw(Action::End, CENTRE, 90.0, 4 * S);
+        }
+        sc.hover(CENTRE, 4 * S);
+        let out = run(&mut rgb(), &sc.samples);
+        assert_eq!(tokens(&out), vec![Token::Null, Token::Unknown, Token::Null]);
+        assert!(matches!(out[1].cause, TokenCause::Overlong { motion_ns } if motion_ns > 30 * S));
+    }
+
+    #[test]
+    fn a_rejected_path_is_unknown_followed_by_its_null() {
+        let mut sc = Script::new(0);
+        let wiggle = [CENTRE, [CENTRE[0] + 22.0, CENTRE[1]], CENTRE];
+        sc.hover(CENTRE, 4 * S)
+            .polyline(&wiggle, S)
+            .hover(CENTRE, 4 * S);
+        let out = run(&mut rgb(), &sc.samples);
+        assert_eq!(tokens(&out), vec![Token::Null, Token::Unknown, Token::Null]);
+        assert!(matches!(
+            out[1].cause,
+            TokenCause::Rejected(Rejection::TooSmallSpan { .. })
+        ));
+    }
+
+    #[test]
+    fn malformed_samples_are_typed_errors_and_leave_the_state_alone() {
+        let mut seg = rgb();
+        let mut sc = Script::new(S);
+        sc.hover(CENTRE, 5 * S);
+        let mut out = Vec::new();
+        for (k, s) in sc.samples.iter().enumerate() {
+            out.extend(seg.push(*s).unwrap());
+            if k == 10 {
+                assert!(matches!(
+                    seg.push(*s),
+                    Err(SegmenterError::NonMonotonicStamp { .. })
+                ));
+                let bad = Sample::tracked(s.stamp_ns + 1, [f64::NAN, 1.0]);
+                assert!(matches!(
+                    seg.push(bad),
+                    Err(SegmenterError::NonFinitePoint { .. })
+                ));
+            }
+        }
+        assert_eq!(tokens(&out), vec![Token::Null]);
+        assert_eq!(out[0].stamp_ns, 4 * S);
+        let bad = SegmenterConfig {
+            anchor_radius_px: -1.0,
+            ..SegmenterConfig::rgb()
+        };
+        assert!(matches!(
+            Segmenter::new(bad),
+            Err(SegmenterError::BadConfig(_))
+        ));
+    }
+}

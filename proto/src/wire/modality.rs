@@ -1,0 +1,142 @@
+//! The observers' sensing modality and the receiver that decodes a run: one type each, shared by
+//! every process, the case files, the command line and the run directory (`"rgb"`, `"events"`,
+//! `"ideal"` wherever they are written).
+
+use serde::{Deserialize, Serialize};
+
+/// The sensor an observer carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Modality {
+    /// 25 Hz RGB camera with the KLT receiver.
+    Rgb,
+    /// 100 Hz renders converted to synthetic events in 40 ms packets.
+    Events,
+}
+
+impl Modality {
+    pub const ALL: [Modality; 2] = [Modality::Rgb, Modality::Events];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Modality::Rgb => "rgb",
+            Modality::Events => "events",
+        }
+    }
+
+    /// Whether the performer's broadcast starts with the event acquisition preamble.
+    pub fn acquisition(self) -> bool {
+        matches!(self, Modality::Events)
+    }
+}
+
+/// What decodes the observers' view in an in-process run: the ideal-message baseline (ground
+/// truth projected into each camera, no sensor) or a real receiver on rendered sensor data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Receiver {
+    /// Ground-truth projection (evaluation baseline, no sensor).
+    Ideal,
+    /// 25 Hz RGB camera with the KLT receiver.
+    Rgb,
+    /// 100 Hz renders converted to synthetic events in 40 ms packets.
+    Events,
+}
+
+impl Receiver {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Receiver::Ideal => "ideal",
+            Receiver::Rgb => "rgb",
+            Receiver::Events => "events",
+        }
+    }
+
+    /// The sensor behind the receiver; `None` for the ideal baseline.
+    pub fn sensor(self) -> Option<Modality> {
+        match self {
+            Receiver::Ideal => None,
+            Receiver::Rgb => Some(Modality::Rgb),
+            Receiver::Events => Some(Modality::Events),
+        }
+    }
+}
+
+impl From<Modality> for Receiver {
+    fn from(m: Modality) -> Self {
+        match m {
+            Modality::Rgb => Receiver::Rgb,
+            Modality::Events => Receiver::Events,
+        }
+    }
+}
+
+/// A name that is not a modality or receiver.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown {what} {value:?} (expected one of: {expected})")]
+pub struct UnknownName {
+    pub what: &'static str,
+    pub value: String,
+    pub expected: &'static str,
+}
+
+impl std::str::FromStr for Modality {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        Modality::ALL
+            .into_iter()
+            .find(|m| m.as_str() == s)
+            .ok_or_else(|| UnknownName {
+                what: "modality",
+                value: s.to_owned(),
+                expected: "rgb, events",
+            })
+    }
+}
+
+impl std::str::FromStr for Receiver {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        [Receiver::Ideal, Receiver::Rgb, Receiver::Events]
+            .into_iter()
+            .find(|m| m.as_str() == s)
+            .ok_or_else(|| UnknownName {
+                what: "receiver",
+                value: s.to_owned(),
+                expected: "ideal, rgb, events",
+            })
+    }
+}
+
+impl std::fmt::Display for Modality {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl std::fmt::Display for Receiver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_through_text_and_json() {
+        for m in Modality::ALL {
+            assert_eq!(m.as_str().parse::<Modality>(), Ok(m));
+            assert_eq!(serde_json::to_string(&m).unwrap(), format!("\"{m}\""));
+            assert_eq!(Receiver::from(m).sensor(), Some(m));
+        }
+        assert_eq!("ideal".parse::<Receiver>(), Ok(Receiver::Ideal));
+        assert_eq!(Receiver::Ideal.sensor(), None);
+        let err = "depth".parse::<Modality>().unwrap_err();
+        assert!(err.to_string().contains("\"depth\""), "{err}");
+        assert!(Modality::Events.acquisition() && !Modality::Rgb.acquisition());
+    }
+}
