@@ -1,15 +1,70 @@
 #!/usr/bin/env bash
-# The test suite from a fresh machine: installs what it needs (idempotent), then runs every test.
-#   deploy/test.sh            default suite (≈ 15 min on 2 cores)
-#   deploy/test.sh --full     also the long whole-mission tests with sensors (≈ 1 h)
-#   deploy/test.sh ARGS…      any other arguments go to `cargo test` (e.g. `-p proto`)
+# The test suite from a fresh machine: installs what it needs (idempotent), checks the code, then
+# runs every test. This is the README's test command and what CI runs (.ci/run).
+#
+#   deploy/test.sh            default suite (≈ 17 min on 2 cores, build included)
+#   deploy/test.sh --full     also the long `#[ignore]`d tests: whole missions as processes with
+#                             sensors, the frozen-behaviour runs of nominal-3 and dropout-o2 (≈ 1 h)
+#   deploy/test.sh ARGS…      any other arguments go to `cargo test --release` instead of
+#                             `--workspace` (e.g. `-p proto`, or `-p waggle-tests --test run`)
+#
+# Steps, in order; the first that fails stops the script with a line saying what to do:
+#   1. setup        deploy/setup.sh (Debian packages, MuJoCo, meshes; cached)
+#   2. format       cargo fmt --all --check
+#   3. audit        cargo-deny (installed once, ≈ 6 min): bans, licenses and sources (deny.toml)
+#                   offline; advisories only when the RustSec database (GitHub) is reachable,
+#                   otherwise a line says they were skipped
+#   4. build        every binary: the cross-process tests in tests/ run them by path
+#   5. clippy       cargo clippy --workspace --all-targets --release -D warnings (after the build,
+#                   whose dependency build scripts and artefacts it reuses)
+#   6. test         cargo test --release
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
+
+# The version deny.toml is written for.
+CARGO_DENY_VERSION="0.20.2"
+
+step() { printf '\n== test.sh: %s (%s)\n' "$1" "$(date +%H:%M:%S)" >&2; }
+fail() {
+  printf '\ntest.sh: FAILED: %s\n' "$1" >&2
+  exit 1
+}
+
+step "setup"
 bash deploy/setup.sh
-# The cross-process tests in deploy/tests spawn the node binaries; `cargo test` only builds the
-# binaries of the package under test, so build every node first.
-cargo build --release --workspace --bins
+
+step "format: cargo fmt --all --check"
+cargo fmt --all --check ||
+  fail "formatting differs from rustfmt (diff above): run \`cargo fmt --all\` and commit the result"
+
+step "audit: cargo deny (deny.toml)"
+if ! cargo deny --version >/dev/null 2>&1; then
+  echo "test.sh: installing cargo-deny $CARGO_DENY_VERSION (once; ≈ 6 min on 2 cores)" >&2
+  cargo install --locked --version "$CARGO_DENY_VERSION" cargo-deny ||
+    fail "could not install cargo-deny (crates.io unreachable?)"
+fi
+cargo deny --offline --log-level error check bans licenses sources ||
+  fail "dependency audit (bans, licenses, sources) failed: see the report above and deny.toml"
+# The advisory database is a git repository on GitHub; where it cannot be fetched (CI has no
+# GitHub), say so rather than fail or silently pass.
+if timeout 300 cargo deny fetch db >/dev/null 2>&1; then
+  cargo deny --offline --log-level error check advisories ||
+    fail "security advisories affect the dependency tree: see the report above; accept one only in deny.toml with a reason"
+else
+  echo "test.sh: advisory database unreachable: skipped (cargo deny check advisories)" >&2
+fi
+
+step "build: cargo build --release --workspace --bins"
+# The cross-process tests in tests/ spawn the binaries; `cargo test` only builds the binaries of
+# the package under test, so build every one first.
+cargo build --release --workspace --bins || fail "the workspace does not build (errors above)"
+
+step "clippy: cargo clippy --workspace --all-targets --release -- -D warnings"
+cargo clippy --workspace --all-targets --release -- -D warnings ||
+  fail "clippy reports warnings (denied, above): fix them, or \`#[expect(lint, reason = \"…\")]\` where the lint is wrong"
+
+step "test"
 if [ "${1:-}" = "--full" ]; then
   exec cargo test --release --workspace -- --include-ignored
 fi

@@ -22,6 +22,16 @@ pub const BUILT_IN: &[(&str, &str)] = &[
 
 pub use proto::Receiver;
 
+/// The TOML text of a case given by name or path (what [`Case::load`] parses).
+pub fn case_source(name_or_path: &str) -> Result<String> {
+    match BUILT_IN.iter().find(|(n, _)| *n == name_or_path) {
+        Some((_, text)) => Ok((*text).to_string()),
+        None => std::fs::read_to_string(name_or_path)
+            .with_context(|| format!("reading case file {name_or_path}")),
+    }
+}
+
+/// What a case's fault does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum FaultKind {
@@ -34,6 +44,7 @@ pub enum FaultKind {
     Throttle,
 }
 
+/// One `[[faults]]` entry of a case.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FaultSpec {
@@ -49,6 +60,7 @@ pub struct FaultSpec {
     pub delay_ms: u32,
 }
 
+/// The `[expected]` outcome of a case.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Expected {
@@ -71,6 +83,7 @@ fn default_modalities() -> Vec<Receiver> {
     vec![Receiver::Rgb, Receiver::Events]
 }
 
+/// A case file.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Case {

@@ -12,8 +12,9 @@ fn main() {
     let lib = match std::env::var_os("MUJOCO_DYNAMIC_LINK_DIR") {
         Some(dir) => std::path::PathBuf::from(dir),
         None => {
-            let manifest =
-                std::path::PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
+            let manifest = std::path::PathBuf::from(
+                std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"),
+            );
             // The workspace root is the nearest ancestor holding Cargo.lock.
             let root = manifest
                 .ancestors()

@@ -4,21 +4,25 @@
 //! clock and the session controls (`sched/session`) — plus liveliness tokens. It publishes its
 //! tokens, released frames, decisions and one `status{k}` per tick (DESIGN.md §2–§3).
 //!
-//! Tick k is processed once `clock{k}` has arrived, the session controls of tick k−1 are applied
-//! and packet k is in hand — or judged missing: a later packet arrived, the camera's liveliness
-//! token is gone, or `--grace-ms` of wall time passed since `clock{k}` (throttled publishers).
-//! The process ends on `MissionEnd`, or when the simulator and the scheduler are both gone.
+//! The process is a thin shell around [`perception::tick::TickAssembler`] and
+//! [`perception::runtime::ObserverRuntime`]: tick k is processed once `clock{k}` has arrived,
+//! the session controls of tick k−1 are applied and packet k is in hand — or judged missing: a
+//! later packet arrived (decided by the assembler), the camera's liveliness token is gone, or
+//! `--grace-ms` of wall time passed since `clock{k}` (throttled publishers). The wall clock
+//! lives here, in the shell, never in the assembler. Input the decoder rejects is logged and
+//! dropped; it never ends the process. The process ends on `MissionEnd`, or when the simulator
+//! and the scheduler are both gone.
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use bus::{Bus, Inbound, NodeArgs, Process};
 use clap::Parser;
-use perception::perception::SensorInput;
-use perception::runtime::{ObserverRuntime, TickData};
+use perception::runtime::ObserverRuntime;
+use perception::tick::{MissingReason, SensorPacket, Step, TickAssembler, TickInput};
 use proto::{
-    ClockTick, EventPacket, Modality, ObserverId, RgbFrame, Role, Roster, SessionTick, TICK_NS,
+    ClockTick, EventPacket, Keys, Modality, ObserverId, RgbFrame, Role, Roster, SessionTick,
 };
 
 #[derive(Parser)]
@@ -37,21 +41,6 @@ struct Args {
     node: NodeArgs,
 }
 
-/// A sensor packet held until its tick is processed.
-enum Packet {
-    Rgb(RgbFrame),
-    Events(EventPacket),
-}
-
-impl Packet {
-    fn input(&self) -> SensorInput<'_> {
-        match self {
-            Packet::Rgb(f) => SensorInput::Rgb(f),
-            Packet::Events(p) => SensorInput::Events(p),
-        }
-    }
-}
-
 fn main() -> Result<()> {
     tracing_subscriber::fmt()
         .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
@@ -59,11 +48,10 @@ fn main() -> Result<()> {
         .init();
     let args = Args::parse();
     let node = &args.node;
-    let modality = args.modality;
-    let mut runtime = ObserverRuntime::new(
+    let runtime = ObserverRuntime::new(
         args.id.clone(),
         Roster::default_scene(node.observers),
-        modality,
+        args.modality,
     )
     .context("building the receiver")?;
     let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
@@ -75,127 +63,180 @@ fn main() -> Result<()> {
     node.join(&mut bus, &Process::new(Role::Observer, args.id.as_str()))
         .context("start-up handshake")?;
 
-    let camera_alive = keys.alive(Role::Camera, args.id.as_str())?;
-    let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
-    let scheduler_alive = keys.alive(Role::Scheduler, Role::Scheduler.as_str())?;
-    let sensor_key = match args.modality {
-        Modality::Rgb => keys.sensor_rgb(&args.id),
-        Modality::Events => keys.sensor_events(&args.id),
-    };
-    let grace = Duration::from_millis(args.grace_ms);
-    let mut clocks: BTreeMap<u64, Instant> = BTreeMap::new();
-    let mut sessions: BTreeMap<u64, SessionTick> = BTreeMap::new();
-    let mut packets: BTreeMap<u64, Packet> = BTreeMap::new();
-    let mut latest_packet: Option<u64> = None;
-    let mut next = 0u64;
-    let mut sessions_applied = 0u64;
-    let mut missing = 0u64;
-    'run: loop {
-        // Advance as far as what has arrived allows.
+    let mut observer = Observer::new(&args, keys, runtime)?;
+    observer.run(&mut bus)?;
+    tracing::info!(
+        observer = %args.id,
+        ticks = observer.assembler.next_tick(),
+        missing = observer.missing,
+        "observer done"
+    );
+    bus.close()?;
+    Ok(())
+}
+
+/// The process's state: the pure assembler and runtime, plus what only a process has (keys,
+/// the wall-clock arrival time of each pending `clock{k}`).
+struct Observer {
+    id: ObserverId,
+    modality: Modality,
+    keys: Keys,
+    runtime: ObserverRuntime,
+    assembler: TickAssembler,
+    /// When each `clock{k}` not yet processed arrived (for the grace period).
+    clocks: BTreeMap<u64, Instant>,
+    grace: Duration,
+    clock_key: String,
+    session_key: String,
+    sensor_key: String,
+    camera_alive: String,
+    sim_alive: String,
+    scheduler_alive: String,
+    /// Ticks whose packet was judged missing.
+    missing: u64,
+}
+
+impl Observer {
+    fn new(args: &Args, keys: Keys, runtime: ObserverRuntime) -> Result<Self> {
+        let sensor_key = match args.modality {
+            Modality::Rgb => keys.sensor_rgb(&args.id),
+            Modality::Events => keys.sensor_events(&args.id),
+        };
+        Ok(Self {
+            id: args.id.clone(),
+            modality: args.modality,
+            runtime,
+            assembler: TickAssembler::new(),
+            clocks: BTreeMap::new(),
+            grace: Duration::from_millis(args.grace_ms),
+            clock_key: keys.clock(),
+            session_key: keys.sched_session(),
+            sensor_key,
+            camera_alive: keys.alive(Role::Camera, args.id.as_str())?,
+            sim_alive: keys.alive(Role::Sim, Role::Sim.as_str())?,
+            scheduler_alive: keys.alive(Role::Scheduler, Role::Scheduler.as_str())?,
+            keys,
+            missing: 0,
+        })
+    }
+
+    /// Processes what arrives until the mission ends or the simulator and scheduler are gone.
+    fn run(&mut self, bus: &mut Bus) -> Result<()> {
         loop {
-            // The session controls of tick k−1 apply before packet k (DESIGN.md §3).
-            if sessions_applied < next {
-                let Some(s) = sessions.remove(&(next - 1)) else {
-                    break;
-                };
-                runtime.apply_session(&s.controls);
-                sessions_applied = next;
-                if runtime.ended() {
-                    break 'run;
-                }
+            if !self.advance(bus)? {
+                return Ok(());
             }
-            let Some(&since) = clocks.get(&next) else {
-                break;
-            };
-            let packet = packets.remove(&next);
-            let data = match &packet {
-                _ if next == 0 => TickData::Nothing,
-                Some(p) => TickData::Packet(p.input()),
-                None => {
-                    let why = if latest_packet.is_some_and(|l| l > next) {
-                        "a later packet arrived"
-                    } else if !bus.is_alive(&camera_alive) {
-                        "the camera is gone"
-                    } else if since.elapsed() >= grace {
-                        "grace period expired"
-                    } else {
-                        break;
-                    };
-                    missing += 1;
-                    tracing::warn!(observer = %args.id, tick = next, why, "packet missing");
-                    TickData::Missing
-                }
-            };
-            let report = runtime
-                .step(next, data)
-                .with_context(|| format!("tick {next}"))?;
-            for t in &report.tokens {
-                bus.put(&keys.observer_tokens(&args.id), t)?;
-            }
-            for f in &report.frames {
-                bus.put(&keys.observer_frames(&args.id), f)?;
-            }
-            if let Some(d) = &report.decision {
-                bus.put(&keys.observer_decision(&args.id), d)?;
-            }
-            if let Some(track) = &report.track {
-                bus.put(&keys.observer_track(&args.id), track)?;
-            }
-            bus.put(&keys.observer_status(&args.id), &report.status)?;
-            clocks.remove(&next);
-            next += 1;
-            packets.retain(|t, _| *t >= next);
-        }
-        let wait = clocks
-            .get(&next)
-            .map_or(Duration::from_millis(100), |since| {
-                grace
-                    .saturating_sub(since.elapsed())
-                    .clamp(Duration::from_millis(1), Duration::from_millis(100))
-            });
-        match bus.recv(wait) {
-            Some(Inbound::Data { key, payload }) if key == keys.clock() => {
-                let c: ClockTick = bus::decode(&key, &payload)?;
-                clocks.insert(c.tick, Instant::now());
-            }
-            Some(Inbound::Data { key, payload }) if key == keys.sched_session() => {
-                let s: SessionTick = bus::decode(&key, &payload)?;
-                sessions.insert(s.tick, s);
-            }
-            Some(Inbound::Data { key, payload }) if key == sensor_key => {
-                let (tick, packet) = match args.modality {
-                    Modality::Rgb => match bus::decode::<RgbFrame>(&key, &payload) {
-                        Ok(f) => (f.stamp_ns / TICK_NS, Packet::Rgb(f)),
-                        Err(e) => {
-                            tracing::warn!(observer = %args.id, "rejected sensor message: {e}");
-                            continue;
-                        }
-                    },
-                    Modality::Events => match bus::decode::<EventPacket>(&key, &payload) {
-                        Ok(p) => (p.end_ns / TICK_NS, Packet::Events(p)),
-                        Err(e) => {
-                            tracing::warn!(observer = %args.id, "rejected sensor message: {e}");
-                            continue;
-                        }
-                    },
-                };
-                latest_packet = latest_packet.max(Some(tick));
-                if tick >= next {
-                    packets.insert(tick, packet);
-                }
-            }
-            Some(Inbound::Data { key, .. }) => {
-                bail!("observer {} received data on unexpected key {key}", args.id)
-            }
-            Some(Inbound::Liveliness { .. }) | None => {
-                if !bus.is_alive(&sim_alive) && !bus.is_alive(&scheduler_alive) {
-                    tracing::info!(observer = %args.id, "simulator and scheduler gone: exiting");
-                    break 'run;
+            match bus.recv(self.wait()) {
+                Some(Inbound::Data { key, payload }) => self.receive(&key, &payload),
+                Some(Inbound::Liveliness { .. }) | None => {
+                    if !bus.is_alive(&self.sim_alive) && !bus.is_alive(&self.scheduler_alive) {
+                        tracing::info!(observer = %self.id, "simulator and scheduler gone: exiting");
+                        return Ok(());
+                    }
                 }
             }
         }
     }
-    tracing::info!(observer = %args.id, ticks = next, missing, "observer done");
-    bus.close()?;
-    Ok(())
+
+    /// Advances as far as what has arrived allows; false once the session ended the mission.
+    fn advance(&mut self, bus: &mut Bus) -> Result<bool> {
+        loop {
+            let (camera_alive, clocks, grace) = (&self.camera_alive, &self.clocks, self.grace);
+            let step = self.assembler.next_step(|tick| {
+                if !bus.is_alive(camera_alive) {
+                    Some(MissingReason::CameraGone)
+                } else if clocks
+                    .get(&tick)
+                    .is_some_and(|since| since.elapsed() >= grace)
+                {
+                    Some(MissingReason::GraceExpired)
+                } else {
+                    None
+                }
+            });
+            match step {
+                None => return Ok(true),
+                Some(Step::Session { controls, .. }) => {
+                    self.runtime.apply_session(&controls);
+                    if self.runtime.ended() {
+                        return Ok(false);
+                    }
+                }
+                Some(Step::Tick { tick, input }) => self.process(bus, tick, &input)?,
+            }
+        }
+    }
+
+    /// Runs tick `tick` and publishes what it produced.
+    fn process(&mut self, bus: &mut Bus, tick: u64, input: &TickInput) -> Result<()> {
+        if let Some(why) = input.missing() {
+            self.missing += 1;
+            tracing::warn!(observer = %self.id, tick, why = why.as_str(), "packet missing");
+        }
+        let report = self
+            .runtime
+            .step(tick, input.data())
+            .with_context(|| format!("tick {tick}"))?;
+        let keys = &self.keys;
+        for t in &report.tokens {
+            bus.put(&keys.observer_tokens(&self.id), t)?;
+        }
+        for f in &report.frames {
+            bus.put(&keys.observer_frames(&self.id), f)?;
+        }
+        if let Some(d) = &report.decision {
+            bus.put(&keys.observer_decision(&self.id), d)?;
+        }
+        if let Some(track) = &report.track {
+            bus.put(&keys.observer_track(&self.id), track)?;
+        }
+        bus.put(&keys.observer_status(&self.id), &report.status)?;
+        self.clocks.remove(&tick);
+        Ok(())
+    }
+
+    /// How long to wait for the next message: until the grace period of the pending tick
+    /// expires (between 1 and 100 ms), or 100 ms when no clock is pending.
+    fn wait(&self) -> Duration {
+        self.clocks
+            .get(&self.assembler.next_tick())
+            .map_or(Duration::from_millis(100), |since| {
+                self.grace
+                    .saturating_sub(since.elapsed())
+                    .clamp(Duration::from_millis(1), Duration::from_millis(100))
+            })
+    }
+
+    /// Hands one message to the assembler; a message the decoder rejects is logged and dropped.
+    fn receive(&mut self, key: &str, payload: &[u8]) {
+        if key == self.clock_key {
+            match bus::decode::<ClockTick>(key, payload) {
+                Ok(c) => {
+                    if c.tick >= self.assembler.next_tick() {
+                        self.clocks.insert(c.tick, Instant::now());
+                    }
+                    self.assembler.clock(c.tick);
+                }
+                Err(e) => tracing::warn!(observer = %self.id, "rejected clock message: {e}"),
+            }
+        } else if key == self.session_key {
+            match bus::decode::<SessionTick>(key, payload) {
+                Ok(s) => self.assembler.session(s.tick, s.controls),
+                Err(e) => tracing::warn!(observer = %self.id, "rejected session message: {e}"),
+            }
+        } else if key == self.sensor_key {
+            let packet: Result<SensorPacket, _> = match self.modality {
+                Modality::Rgb => bus::decode::<RgbFrame>(key, payload).map(Into::into),
+                Modality::Events => bus::decode::<EventPacket>(key, payload).map(Into::into),
+            };
+            match packet {
+                Ok(p) => {
+                    self.assembler.packet(p);
+                }
+                Err(e) => tracing::warn!(observer = %self.id, "rejected sensor message: {e}"),
+            }
+        } else {
+            tracing::warn!(observer = %self.id, "ignored data on unexpected key {key}");
+        }
+    }
 }

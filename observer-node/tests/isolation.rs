@@ -107,8 +107,10 @@ fn no_observer_code_path_names_a_forbidden_key() {
         "evaluation",
     ] {
         assert!(
-            !deps.lines().any(|l| l.starts_with(&format!("{crate_name}."))
-                || l.starts_with(&format!("{crate_name} "))),
+            !deps
+                .lines()
+                .any(|l| l.starts_with(&format!("{crate_name}."))
+                    || l.starts_with(&format!("{crate_name} "))),
             "observer-node depends on {crate_name}"
         );
     }
@@ -117,7 +119,9 @@ fn no_observer_code_path_names_a_forbidden_key() {
     let lib_deps = &lib_deps[..lib_deps.find("\n[").unwrap_or(lib_deps.len())];
     for crate_name in ["sim", "scheduler", "recording", "evaluation", "bus"] {
         assert!(
-            !lib_deps.lines().any(|l| l.starts_with(&format!("{crate_name}."))),
+            !lib_deps
+                .lines()
+                .any(|l| l.starts_with(&format!("{crate_name}."))),
             "the perception library depends on {crate_name}"
         );
     }

@@ -11,11 +11,12 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use bus::{Bus, Inbound, NodeArgs, Process};
 use clap::Parser;
-use proto::{GestureConfig, Schedule, broadcast};
 use proto::scene::PERFORMER_HOVER_M;
 use proto::{
-    BroadcastTick, Offer, PerformerActivity, PerformerSetpoint, PerformerTruth, Role, TICK_NS,
+    BroadcastTick, Kinematics, Offer, PerformerActivity, PerformerSetpoint, PerformerTruth, Role,
+    TICK_NS,
 };
+use proto::{GestureConfig, Schedule, broadcast};
 
 #[derive(Parser)]
 #[command(
@@ -35,13 +36,7 @@ fn answer(
     tick: u64,
 ) -> (PerformerSetpoint, PerformerTruth) {
     let t = tick * TICK_NS;
-    let (pos_m, vel_mps, acc_mps2) = match schedule {
-        Some(s) => {
-            let sp = s.state_at(t);
-            (sp.pos_m, sp.vel_mps, sp.acc_mps2)
-        }
-        None => (PERFORMER_HOVER_M, [0.0; 3], [0.0; 3]),
-    };
+    let kin = schedule.map_or(Kinematics::rest(PERFORMER_HOVER_M), |s| s.state_at(t));
     let span = schedule.and_then(|s| s.spans_at(t).next().copied());
     let truth = PerformerTruth {
         tick,
@@ -54,13 +49,8 @@ fn answer(
         frame_slot: span.and_then(|s| s.slot).map(|slot| slot.position),
     };
     (
-        PerformerSetpoint {
-            tick,
-            pos_m,
-            vel_mps,
-            acc_mps2,
-            yaw_rad: 0.0,
-        },
+        // The performer flies level, facing +x.
+        PerformerSetpoint::new(tick, kin, 0.0),
         truth,
     )
 }

@@ -16,7 +16,7 @@ pub mod logic;
 pub mod wire;
 
 pub use logic::{
-    alphabet, allocation, decoder, frame, gesture, min_jerk, payload, provenance, scene, schedule,
+    allocation, alphabet, decoder, frame, gesture, min_jerk, payload, provenance, scene, schedule,
     segmenter, task,
 };
 pub use wire::{clock, codec, fault, keys, modality, observer, sched, sensor, token, track, world};
@@ -41,8 +41,8 @@ pub use sched::{
     SessionControl, SessionEvent, SessionTick,
 };
 pub use schedule::{
-    FrameSlot, Schedule, ScheduleBuilder, ScheduleError, ScheduledOffer, TruthSpan,
-    TruthSymbol, broadcast,
+    FrameSlot, Schedule, ScheduleBuilder, ScheduleError, ScheduledOffer, TruthSpan, TruthSymbol,
+    broadcast,
 };
 pub use segmenter::{
     Interruption, Sample, SegmentToken, Segmenter, SegmenterConfig, SegmenterError, TokenCause,
@@ -52,5 +52,6 @@ pub use task::{TaskError, TaskState};
 pub use token::{Action, Token};
 pub use track::{ObserverTrack, TrackSample};
 pub use world::{
-    Contact, DronePose, Kinematics, PerformerActivity, PerformerSetpoint, PerformerTruth, SimContacts, SimState,
+    Contact, DronePose, Kinematics, PerformerActivity, PerformerSetpoint, PerformerTruth,
+    SimContacts, SimState,
 };

@@ -118,6 +118,68 @@ fn frame_event() -> FrameEvent {
     }
 }
 
+fn sim_contacts() -> SimContacts {
+    SimContacts {
+        tick: 1,
+        contacts: vec![Contact {
+            step_ns: 2_000_000,
+            body_a: "O1".into(),
+            body_b: "floor".into(),
+            depth_m: 0.001,
+        }],
+        contact_steps: 1,
+        min_separation_m: 0.35,
+    }
+}
+
+fn observer_status_receiving() -> ObserverStatus {
+    ObserverStatus {
+        observer: oid("O1"),
+        tick: 5,
+        round: 1,
+        phase: ObserverPhase::Receiving,
+        input: InputState::Missing,
+        parser_progress: 16,
+        tokens: 40,
+        frames: 2,
+        assignment: None,
+        decision: None,
+    }
+}
+
+fn observer_status_decided() -> ObserverStatus {
+    ObserverStatus {
+        observer: oid("O2"),
+        tick: 6,
+        round: 1,
+        phase: ObserverPhase::Decided,
+        input: InputState::Received,
+        parser_progress: 0,
+        tokens: 41,
+        frames: 2,
+        assignment: Some(Site::A),
+        decision: Some(decision()),
+    }
+}
+
+fn session_tick() -> SessionTick {
+    SessionTick {
+        tick: 3,
+        controls: vec![
+            SessionControl {
+                tick: 3,
+                stamp_ns: 120_000_000,
+                event: SessionEvent::RoundReset { round: 1 },
+            },
+            SessionControl {
+                tick: 3,
+                stamp_ns: 120_000_000,
+                event: SessionEvent::WindowOpen { round: 1 },
+            },
+        ],
+    }
+}
+
 /// One valid instance of every message type, encoded.
 fn all_encoded() -> Vec<(&'static str, Vec<u8>)> {
     vec![
@@ -125,20 +187,7 @@ fn all_encoded() -> Vec<(&'static str, Vec<u8>)> {
         ("RgbFrame", encode(&rgb_frame())),
         ("ClockTick", encode(&ClockTick::at(9).unwrap())),
         ("SimState", encode(&sim_state())),
-        (
-            "SimContacts",
-            encode(&SimContacts {
-                tick: 1,
-                contacts: vec![Contact {
-                    step_ns: 2_000_000,
-                    body_a: "O1".into(),
-                    body_b: "floor".into(),
-                    depth_m: 0.001,
-                }],
-                contact_steps: 1,
-                min_separation_m: 0.35,
-            }),
-        ),
+        ("SimContacts", encode(&sim_contacts())),
         (
             "PerformerSetpoint",
             encode(&PerformerSetpoint {
@@ -171,36 +220,8 @@ fn all_encoded() -> Vec<(&'static str, Vec<u8>)> {
         ),
         ("FrameEvent", encode(&frame_event())),
         ("Decision", encode(&decision())),
-        (
-            "ObserverStatus",
-            encode(&ObserverStatus {
-                observer: oid("O1"),
-                tick: 5,
-                round: 1,
-                phase: ObserverPhase::Receiving,
-                input: InputState::Missing,
-                parser_progress: 16,
-                tokens: 40,
-                frames: 2,
-                assignment: None,
-                decision: None,
-            }),
-        ),
-        (
-            "ObserverStatus",
-            encode(&ObserverStatus {
-                observer: oid("O2"),
-                tick: 6,
-                round: 1,
-                phase: ObserverPhase::Decided,
-                input: InputState::Received,
-                parser_progress: 0,
-                tokens: 41,
-                frames: 2,
-                assignment: Some(Site::A),
-                decision: Some(decision()),
-            }),
-        ),
+        ("ObserverStatus", encode(&observer_status_receiving())),
+        ("ObserverStatus", encode(&observer_status_decided())),
         (
             "SchedCommand",
             encode(&SchedCommand {
@@ -223,24 +244,7 @@ fn all_encoded() -> Vec<(&'static str, Vec<u8>)> {
                 broadcast: Some(broadcast()),
             }),
         ),
-        (
-            "SessionTick",
-            encode(&SessionTick {
-                tick: 3,
-                controls: vec![
-                    SessionControl {
-                        tick: 3,
-                        stamp_ns: 120_000_000,
-                        event: SessionEvent::RoundReset { round: 1 },
-                    },
-                    SessionControl {
-                        tick: 3,
-                        stamp_ns: 120_000_000,
-                        event: SessionEvent::WindowOpen { round: 1 },
-                    },
-                ],
-            }),
-        ),
+        ("SessionTick", encode(&session_tick())),
         ("MissionReport", encode(&mission_report())),
         (
             "SessionControl",
@@ -382,7 +386,7 @@ fn inconsistent_event_packets_are_rejected() {
 }
 
 #[test]
-fn inconsistent_messages_of_other_types_are_rejected() {
+fn inconsistent_sensor_world_and_frame_messages_are_rejected() {
     let mut rgb = rgb_frame();
     rgb.rgb.pop();
     assert!(matches!(
@@ -423,6 +427,10 @@ fn inconsistent_messages_of_other_types_are_rejected() {
         decode::<FrameEvent>(&encode(&frame)),
         Err(DecodeError::Inconsistent(_))
     ));
+}
+
+#[test]
+fn inconsistent_scheduler_fault_and_observer_messages_are_rejected() {
     let bad_offer = Broadcast {
         tick: 0,
         round: 1,
@@ -507,15 +515,7 @@ fn inconsistent_messages_of_other_types_are_rejected() {
     ));
     let foreign = ObserverStatus {
         observer: oid("O1"),
-        tick: 6,
-        round: 1,
-        phase: ObserverPhase::Decided,
-        input: InputState::Received,
-        parser_progress: 0,
-        tokens: 41,
-        frames: 2,
-        assignment: Some(Site::A),
-        decision: Some(decision()),
+        ..observer_status_decided()
     };
     assert!(matches!(
         decode::<ObserverStatus>(&encode(&foreign)),

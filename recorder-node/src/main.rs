@@ -70,38 +70,7 @@ fn main() -> Result<()> {
     let args = Args::parse();
     let stop = bus::on_stop_signal();
     let node = &args.node;
-    let case_toml = match &args.case_file {
-        Some(p) => {
-            Some(std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?)
-        }
-        None => None,
-    };
-    let info = SessionInfo {
-        session: node.session.clone(),
-        observers: node.observers,
-        case_name: args.case_name.clone(),
-        case_toml,
-        modality: args.modality.clone(),
-    };
-    let options = RecorderOptions {
-        chunk_bytes: args.chunk_kib.saturating_mul(1024),
-        event_view_period_ns: (args.event_view_hz > 0.0)
-            .then(|| (1e9 / args.event_view_hz).round() as u64),
-        rgb_every: if args.all_rgb {
-            1
-        } else {
-            args.rgb_every.max(1)
-        },
-        zstd_level: 0,
-    };
-    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    let file =
-        File::create(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
-    let mut writer = SessionWriter::new(BufWriter::with_capacity(1 << 20, file), &info, options)
-        .context("starting the MCAP file")?;
-    writer.flush()?;
+    let mut writer = session_writer(&args)?;
 
     let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
     let keys = bus.keys().clone();
@@ -118,7 +87,6 @@ fn main() -> Result<()> {
     let mut peers_gone_at: Option<Instant> = None;
     let mut last_data = Instant::now();
     let mut warnings = 0u64;
-    let mut cpu_note = String::new();
     let why = loop {
         if stop.load(Ordering::SeqCst) {
             break "signal";
@@ -171,21 +139,11 @@ fn main() -> Result<()> {
             last_flush = Instant::now();
         }
     };
-    if let Some(cpu) = std::fs::read_to_string("/proc/self/stat")
-        .ok()
-        .and_then(|s| {
-            let rest = s[s.rfind(')')? + 2..].to_string();
-            let f: Vec<&str> = rest.split_whitespace().collect();
-            Some((f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?) / 100.0)
-        })
-    {
-        cpu_note = format!("{cpu:.2}");
-    }
     writer.note(LogLevel::Info, &format!("recorder stopped: {why}"))?;
     let stats = writer.stats().clone();
     let mut extra = BTreeMap::new();
     extra.insert("stopped".to_string(), why.to_string());
-    extra.insert("cpu_s".to_string(), cpu_note);
+    extra.insert("cpu_s".to_string(), cpu_seconds());
     writer.finish(extra).context("finishing the MCAP file")?;
     let messages: u64 = stats.messages.values().sum();
     tracing::info!(
@@ -198,4 +156,54 @@ fn main() -> Result<()> {
     );
     let _ = bus.close();
     Ok(())
+}
+
+/// The MCAP writer for `args.out` (directory created), its header and metadata written.
+fn session_writer(args: &Args) -> Result<SessionWriter<BufWriter<File>>> {
+    let case_toml = match &args.case_file {
+        Some(p) => {
+            Some(std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?)
+        }
+        None => None,
+    };
+    let info = SessionInfo {
+        session: args.node.session.clone(),
+        observers: args.node.observers,
+        case_name: args.case_name.clone(),
+        case_toml,
+        modality: args.modality.clone(),
+    };
+    let options = RecorderOptions {
+        chunk_bytes: args.chunk_kib.saturating_mul(1024),
+        event_view_period_ns: (args.event_view_hz > 0.0)
+            .then(|| (1e9 / args.event_view_hz).round() as u64),
+        rgb_every: if args.all_rgb {
+            1
+        } else {
+            args.rgb_every.max(1)
+        },
+        zstd_level: 0,
+    };
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let file =
+        File::create(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let mut writer = SessionWriter::new(BufWriter::with_capacity(1 << 20, file), &info, options)
+        .context("starting the MCAP file")?;
+    writer.flush()?;
+    Ok(writer)
+}
+
+/// CPU time (user + system) of this process so far, seconds, as text; empty if unknown.
+fn cpu_seconds() -> String {
+    std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|s| {
+            let rest = s[s.rfind(')')? + 2..].to_string();
+            let f: Vec<&str> = rest.split_whitespace().collect();
+            Some((f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?) / 100.0)
+        })
+        .map(|cpu| format!("{cpu:.2}"))
+        .unwrap_or_default()
 }

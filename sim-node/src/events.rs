@@ -10,7 +10,7 @@ use proto::scene::{PERFORMER_HOVER_M, observer_name};
 use serde::Serialize;
 use sim::control::Reference;
 use sim::render::CameraRenderer;
-use sim::sensor::{EVENT_RENDER_PERIOD_NS, ObserverSensor, Modality, SensorOutput};
+use sim::sensor::{EVENT_RENDER_PERIOD_NS, Modality, ObserverSensor, SensorOutput};
 use sim::world::World;
 
 /// Amplitude and period of the left–right motion.

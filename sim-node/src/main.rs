@@ -90,11 +90,13 @@ fn snapshot(observers: usize, out: &std::path::Path, frames: usize) -> Result<()
     for i in 0..observers {
         let rgb = renderer.render(&mut world, i)?.to_vec();
         let path = out.join(format!("{}.png", proto::scene::observer_name(i)));
-        sim::png_io::write_rgb_png(
+        image::save_buffer_with_format(
             &path,
             &rgb,
-            proto::scene::IMAGE_WIDTH_PX,
-            proto::scene::IMAGE_HEIGHT_PX,
+            u32::from(proto::scene::IMAGE_WIDTH_PX),
+            u32::from(proto::scene::IMAGE_HEIGHT_PX),
+            image::ExtendedColorType::Rgb8,
+            image::ImageFormat::Png,
         )
         .with_context(|| format!("writing {}", path.display()))?;
         println!("wrote {}", path.display());

@@ -14,7 +14,7 @@ use anyhow::{Context, Result, bail};
 use bus::{Bus, Inbound, NodeArgs, Process};
 use proto::{Fault, FaultKind, ObserverId, Role, SimState};
 use sim::render::CameraRenderer;
-use sim::sensor::{ObserverSensor, Modality, SensorOutput};
+use sim::sensor::{Modality, ObserverSensor, SensorOutput};
 use sim::world::World;
 
 #[derive(Debug, clap::Args)]
@@ -57,16 +57,28 @@ pub fn throttle_drops(seq: u64, per_mille: u16) -> bool {
     h % 1000 < u64::from(per_mille)
 }
 
+/// The 0-based index of `observer` among the session's `observers`.
+fn observer_index(observer: &ObserverId, observers: usize) -> Result<usize> {
+    (0..observers)
+        .find(|&i| proto::scene::observer_name(i) == observer.as_str())
+        .with_context(|| format!("{observer} is not one of the {observers} observers"))
+}
+
+/// Poses every drone of `world` (named `names`, in index order) as in `state`, at its instant.
+fn pose_world(world: &mut World, names: &[String], state: &SimState) -> Result<()> {
+    for (i, name) in names.iter().enumerate() {
+        let Some(d) = state.drone(name) else {
+            bail!("sim/state at {} ns lacks drone {name}", state.stamp_ns);
+        };
+        world.set_pose(i, d.pos_m, d.quat_wxyz);
+    }
+    world.forward_at(state.stamp_ns);
+    Ok(())
+}
+
 pub fn run(args: CameraArgs) -> Result<()> {
     let node = args.node;
-    let index = (0..node.observers)
-        .find(|&i| proto::scene::observer_name(i) == args.observer.as_str())
-        .with_context(|| {
-            format!(
-                "{} is not one of the {} observers",
-                args.observer, node.observers
-            )
-        })?;
+    let index = observer_index(&args.observer, node.observers)?;
     let mut world = World::new(node.observers).context("building the scene")?;
     let mut renderer = CameraRenderer::new(&world).context("creating the offscreen renderer")?;
     let kind = args.modality;
@@ -116,13 +128,7 @@ pub fn run(args: CameraArgs) -> Result<()> {
                 if state.stamp_ns == 0 || !state.stamp_ns.is_multiple_of(period_ns) {
                     continue;
                 }
-                for (i, name) in names.iter().enumerate() {
-                    let Some(d) = state.drone(name) else {
-                        bail!("sim/state at {} ns lacks drone {name}", state.stamp_ns);
-                    };
-                    world.set_pose(i, d.pos_m, d.quat_wxyz);
-                }
-                world.forward_at(state.stamp_ns);
+                pose_world(&mut world, &names, &state)?;
                 let t = state.stamp_ns;
                 let want_black = faults
                     .iter()

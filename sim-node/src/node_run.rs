@@ -100,27 +100,14 @@ pub fn run(args: RunArgs) -> Result<()> {
             break;
         }
         let t_k = world.time_ns();
-        let performer = Reference {
-            pos_m: setpoint.pos_m,
-            vel_mps: setpoint.vel_mps,
-            acc_mps2: setpoint.acc_mps2,
-            yaw_rad: setpoint.yaw_rad,
-        };
+        let performer = Reference::new(setpoint.kinematics(), setpoint.yaw_rad);
         let observers: Vec<(usize, Reference)> = cmd
             .setpoints
             .iter()
             .filter_map(|s| {
-                index.get(s.observer.as_str()).map(|&i| {
-                    (
-                        i,
-                        Reference {
-                            pos_m: s.pos_m,
-                            vel_mps: s.vel_mps,
-                            acc_mps2: s.acc_mps2,
-                            yaw_rad: s.yaw_rad,
-                        },
-                    )
-                })
+                index
+                    .get(s.observer.as_str())
+                    .map(|&i| (i, Reference::new(s.kinematics(), s.yaw_rad)))
             })
             .collect();
         let mut contacts = Vec::new();

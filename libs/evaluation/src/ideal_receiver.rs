@@ -5,9 +5,9 @@
 //! paper asks for: perfect tracking, no sensor. It must never run inside an observer process —
 //! it reads ground truth — which is why it lives in the evaluation crate.
 
-use proto::{Decoder, Sample, SegmentToken, SegmenterConfig, SegmenterError};
 use proto::ReleasedFrame;
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, MAX_OBSERVERS, observer_name};
+use proto::{Decoder, Sample, SegmentToken, SegmenterConfig, SegmenterError};
 
 use proto::schedule::Schedule;
 

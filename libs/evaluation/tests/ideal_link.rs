@@ -1,13 +1,13 @@
 //! The gesture generator against the ideal receiver: every observer decodes what was flown.
 
-use proto::{Interruption, SegmenterConfig, TokenCause};
 use evaluation::IdealReceiver;
-use proto::{
-    GestureConfig, NS_PER_MS, NS_PER_S, Schedule, ScheduleBuilder, TruthSymbol, broadcast,
-};
 use proto::frame::frame_tokens;
 use proto::scene::PERFORMER_HOVER_M;
 use proto::{Action, Token};
+use proto::{
+    GestureConfig, NS_PER_MS, NS_PER_S, Schedule, ScheduleBuilder, TruthSymbol, broadcast,
+};
+use proto::{Interruption, SegmenterConfig, TokenCause};
 
 /// RGB receiver rate.
 const PERIOD_NS: u64 = 40 * NS_PER_MS;

@@ -63,12 +63,7 @@ pub enum PictureError {
     MalformedPacket(String),
     #[error("image buffer has {got} bytes, expected {want}")]
     BufferSize { got: usize, want: usize },
-    #[error("image too large to decode into memory")]
-    TooLarge,
-    #[error("PNG encoding failed")]
-    Encode(#[from] png::EncodingError),
-    #[error("PNG decoding failed")]
-    Decode(#[from] png::DecodingError),
-    #[error("unsupported PNG pixel format {0:?} (need 8-bit gray, gray+alpha, RGB or RGBA)")]
-    UnsupportedFormat(png::ColorType),
+    /// PNG encoding or decoding failed (`image` reports which, and why).
+    #[error("PNG: {0}")]
+    Png(#[from] image::ImageError),
 }

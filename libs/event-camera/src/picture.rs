@@ -6,8 +6,8 @@
 //! outlined in the full view. The same [`with_inset`] applies to RGB renders so both rows of the
 //! figure share geometry.
 
-use std::io::Cursor;
-
+use image::codecs::png::PngEncoder;
+use image::{ExtendedColorType, ImageEncoder, ImageFormat};
 use proto::{EventPacket, Polarity};
 
 use crate::error::PictureError;
@@ -17,7 +17,8 @@ pub const OFF_COLOUR: [u8; 3] = [255, 0, 0];
 pub const NO_EVENT_COLOUR: [u8; 3] = [255, 255, 255];
 pub const OUTLINE_COLOUR: [u8; 3] = [0, 0, 0];
 
-/// Row-major 8-bit RGB image.
+/// Row-major 8-bit RGB image with public fields; converts to and from [`image::RgbImage`]
+/// without copying.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RgbImage {
     pub width: u32,
@@ -229,7 +230,27 @@ pub fn event_picture(
     }
 }
 
-/// Encodes an 8-bit RGB PNG.
+impl From<RgbImage> for image::RgbImage {
+    /// The same pixels as an [`image`] buffer (no copy).
+    fn from(img: RgbImage) -> Self {
+        image::RgbImage::from_raw(img.width, img.height, img.rgb)
+            .expect("RgbImage holds width × height × 3 bytes")
+    }
+}
+
+impl From<image::RgbImage> for RgbImage {
+    /// The same pixels (no copy).
+    fn from(img: image::RgbImage) -> Self {
+        let (width, height) = img.dimensions();
+        Self {
+            width,
+            height,
+            rgb: img.into_raw(),
+        }
+    }
+}
+
+/// Encodes an 8-bit RGB PNG (the `image` crate's PNG encoder, default settings).
 pub fn encode_png(image: &RgbImage) -> Result<Vec<u8>, PictureError> {
     let want = image.width as usize * image.height as usize * 3;
     if image.rgb.len() != want {
@@ -239,43 +260,19 @@ pub fn encode_png(image: &RgbImage) -> Result<Vec<u8>, PictureError> {
         });
     }
     let mut bytes = Vec::new();
-    let mut encoder = png::Encoder::new(&mut bytes, image.width, image.height);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    let mut writer = encoder.write_header()?;
-    writer.write_image_data(&image.rgb)?;
-    writer.finish()?;
+    PngEncoder::new(&mut bytes).write_image(
+        &image.rgb,
+        image.width,
+        image.height,
+        ExtendedColorType::Rgb8,
+    )?;
     Ok(bytes)
 }
 
-/// Decodes a PNG into 8-bit RGB. Palette and low bit depths are expanded, 16-bit samples keep
-/// their high byte, gray is replicated to R = G = B and alpha is ignored (renders are opaque).
+/// Decodes a PNG into 8-bit RGB with the `image` crate: palette and low bit depths are expanded,
+/// 16-bit samples are scaled to 8 bits, gray is replicated to R = G = B and alpha is dropped
+/// (renders are opaque).
 pub fn decode_png(bytes: &[u8]) -> Result<RgbImage, PictureError> {
-    let mut decoder = png::Decoder::new(Cursor::new(bytes));
-    decoder.set_transformations(png::Transformations::normalize_to_color8());
-    let mut reader = decoder.read_info()?;
-    let size = reader.output_buffer_size().ok_or(PictureError::TooLarge)?;
-    let mut buf = vec![0; size];
-    let info = reader.next_frame(&mut buf)?;
-    let channels = match info.color_type {
-        png::ColorType::Grayscale => 1,
-        png::ColorType::GrayscaleAlpha => 2,
-        png::ColorType::Rgb => 3,
-        png::ColorType::Rgba => 4,
-        other => return Err(PictureError::UnsupportedFormat(other)),
-    };
-    if info.bit_depth != png::BitDepth::Eight {
-        return Err(PictureError::UnsupportedFormat(info.color_type));
-    }
-    let (w, h) = (info.width as usize, info.height as usize);
-    let mut rgb = Vec::with_capacity(w * h * 3);
-    for row in buf.chunks(info.line_size).take(h) {
-        for px in row[..w * channels].chunks_exact(channels) {
-            match channels {
-                1 | 2 => rgb.extend_from_slice(&[px[0]; 3]),
-                _ => rgb.extend_from_slice(&px[..3]),
-            }
-        }
-    }
-    RgbImage::new(info.width, info.height, rgb)
+    let decoded = image::load_from_memory_with_format(bytes, ImageFormat::Png)?;
+    Ok(decoded.into_rgb8().into())
 }

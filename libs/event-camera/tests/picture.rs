@@ -5,6 +5,8 @@ use event_camera::picture::{
     Corner, Inset, NO_EVENT_COLOUR, OFF_COLOUR, ON_COLOUR, OUTLINE_COLOUR, RgbImage, decode_png,
     encode_png, event_frame, event_picture, with_inset,
 };
+use image::codecs::png::PngEncoder;
+use image::{ExtendedColorType, ImageEncoder};
 use proto::{EventPacket, Polarity};
 
 fn packet(width: u16, height: u16, events: &[(u16, u16, Polarity)]) -> EventPacket {
@@ -205,26 +207,29 @@ fn png_round_trip_and_decoding() {
     assert_eq!(decode_png(&bytes).unwrap(), image);
 
     // Gray and RGBA inputs normalise to RGB (gray replicated, alpha dropped).
-    let encode = |color: png::ColorType, data: &[u8]| {
+    let encode = |color: ExtendedColorType, data: &[u8]| {
         let mut out = Vec::new();
-        let mut enc = png::Encoder::new(&mut out, 2, 1);
-        enc.set_color(color);
-        enc.set_depth(png::BitDepth::Eight);
-        enc.write_header().unwrap().write_image_data(data).unwrap();
+        PngEncoder::new(&mut out)
+            .write_image(data, 2, 1, color)
+            .unwrap();
         out
     };
-    let gray = decode_png(&encode(png::ColorType::Grayscale, &[9, 200])).unwrap();
+    let gray = decode_png(&encode(ExtendedColorType::L8, &[9, 200])).unwrap();
     assert_eq!(gray.rgb, vec![9, 9, 9, 200, 200, 200]);
-    let rgba = decode_png(&encode(png::ColorType::Rgba, &[1, 2, 3, 0, 4, 5, 6, 255])).unwrap();
+    let rgba = decode_png(&encode(
+        ExtendedColorType::Rgba8,
+        &[1, 2, 3, 0, 4, 5, 6, 255],
+    ))
+    .unwrap();
     assert_eq!(rgba.rgb, vec![1, 2, 3, 4, 5, 6]);
 
     assert!(matches!(
         decode_png(b"not a png"),
-        Err(PictureError::Decode(_))
+        Err(PictureError::Png(_))
     ));
     assert!(matches!(
         decode_png(&bytes[..bytes.len() / 2]),
-        Err(PictureError::Decode(_))
+        Err(PictureError::Png(_))
     ));
     assert!(matches!(
         RgbImage::new(2, 2, vec![0; 11]),

@@ -35,9 +35,9 @@ use std::time::{Duration, Instant};
 use criterion::{Criterion, criterion_group, criterion_main};
 use image::GrayImage;
 use klt_fixture::{Clip, Golden, PointSet};
+use optical_flow_lk::{TrackParams, TrackerContext};
 use perception::rgb::klt::{Klt, KltConfig};
 use perception::rgb::{RgbReceiver, RgbReceiverConfig};
-use optical_flow_lk::{TrackParams, TrackerContext};
 use proto::RgbFrame;
 
 /// Passes over the whole fixture for the summary's medians (each pass ≈ 117 pairs).

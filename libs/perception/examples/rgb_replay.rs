@@ -16,8 +16,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use perception::rgb::{RgbReceiver, RgbReceiverConfig, TrackEvent};
-use proto::{Decoder, Sample, SegmenterConfig};
 use proto::RgbFrame;
+use proto::{Decoder, Sample, SegmenterConfig};
 
 fn read_png(path: &Path) -> Result<(u32, u32, Vec<u8>)> {
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
@@ -40,7 +40,15 @@ fn read_png(path: &Path) -> Result<(u32, u32, Vec<u8>)> {
     Ok((info.width, info.height, rgb))
 }
 
-fn main() -> Result<()> {
+/// The command line.
+struct Options {
+    dir: PathBuf,
+    trajectory: Option<std::fs::File>,
+    drop: std::ops::Range<usize>,
+    ideal: Option<String>,
+}
+
+fn parse_args() -> Result<Options> {
     let mut args = std::env::args().skip(1);
     let dir = PathBuf::from(
         args.next()
@@ -69,13 +77,16 @@ fn main() -> Result<()> {
             other => bail!("unknown argument {other}"),
         }
     }
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .with_context(|| format!("listing {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "png"))
-        .collect();
-    paths.sort();
-    // Developer knobs for parameter studies; the defaults are the paper's settings.
+    Ok(Options {
+        dir,
+        trajectory,
+        drop,
+        ideal,
+    })
+}
+
+/// The paper's settings, with the developer knobs for parameter studies applied.
+fn config_from_env() -> RgbReceiverConfig {
     let mut config = RgbReceiverConfig::paper();
     let knob = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f64>().ok());
     if let Some(v) = knob("RGB_KLT_WINDOW_PX") {
@@ -93,11 +104,44 @@ fn main() -> Result<()> {
     if let Some(v) = knob("RGB_MAX_FEATURES") {
         config.tracker.max_features = v as usize;
     }
-    let mut rx = RgbReceiver::new(config)?;
+    config
+}
+
+fn main() -> Result<()> {
+    let mut opts = parse_args()?;
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(&opts.dir)
+        .with_context(|| format!("listing {}", opts.dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        .collect();
+    paths.sort();
+    let mut rx = RgbReceiver::new(config_from_env())?;
     let started = std::time::Instant::now();
+    let acquisitions = replay(&mut rx, &paths, &mut opts)?;
+    let wall = started.elapsed().as_secs_f64();
+    if let Some(text) = &opts.ideal {
+        compare_with_ideal(&rx, text)?;
+    }
+    println!(
+        "{} frames in {:.2} s ({:.3} ms/frame incl. PNG decode); {} acquisitions; released {:?}",
+        paths.len(),
+        wall,
+        wall * 1e3 / paths.len().max(1) as f64,
+        acquisitions,
+        rx.frames()
+            .iter()
+            .map(|f| format!("{:06b}", f.payload))
+            .collect::<Vec<_>>()
+    );
+    Ok(())
+}
+
+/// Feeds every frame not dropped to the receiver, printing as it goes; returns the number of
+/// acquisitions.
+fn replay(rx: &mut RgbReceiver, paths: &[PathBuf], opts: &mut Options) -> Result<usize> {
     let mut acquisitions = 0;
     for (k, path) in paths.iter().enumerate() {
-        if drop.contains(&k) {
+        if opts.drop.contains(&k) {
             continue;
         }
         let (w, h, rgb) = read_png(path)?;
@@ -118,7 +162,7 @@ fn main() -> Result<()> {
             if let TrackEvent::Lost(why) = t.event {
                 println!("{:8.2} s lost: {why:?}", frame.stamp_ns as f64 * 1e-9);
             }
-            if let Some(f) = trajectory.as_mut() {
+            if let Some(f) = opts.trajectory.as_mut() {
                 let p = t.point_px.unwrap_or([f64::NAN; 2]);
                 let b = rx.tracker().box_offset_px().unwrap_or([f64::NAN; 2]);
                 writeln!(
@@ -144,53 +188,45 @@ fn main() -> Result<()> {
             );
         }
     }
-    let wall = started.elapsed().as_secs_f64();
-    if let Some(text) = ideal {
-        let mut decoder = Decoder::new(SegmenterConfig::rgb())?;
-        let mut tokens = Vec::new();
-        for line in text.lines().filter(|l| !l.trim().is_empty()) {
-            let v: Vec<&str> = line.split(',').collect();
-            if v.len() < 4 {
-                bail!("--ideal line {line:?}: want seq,stamp_ns,x_px,y_px");
-            }
-            let stamp_ns: u64 = v[1].trim().parse()?;
-            let p = [v[2].trim().parse()?, v[3].trim().parse()?];
-            tokens.extend(decoder.push(Sample::tracked(stamp_ns, p))?.tokens);
+    Ok(acquisitions)
+}
+
+/// Runs the ideal receiver on the ground-truth points and prints how far the RGB receiver's
+/// tokens are from it.
+fn compare_with_ideal(rx: &RgbReceiver, text: &str) -> Result<()> {
+    let mut decoder = Decoder::new(SegmenterConfig::rgb())?;
+    let mut tokens = Vec::new();
+    for line in text.lines().filter(|l| !l.trim().is_empty()) {
+        let v: Vec<&str> = line.split(',').collect();
+        if v.len() < 4 {
+            bail!("--ideal line {line:?}: want seq,stamp_ns,x_px,y_px");
         }
-        let ours = rx.tokens();
-        let same =
-            ours.len() == tokens.len() && ours.iter().zip(&tokens).all(|(a, b)| a.token == b.token);
-        let worst_s = ours
-            .iter()
-            .zip(&tokens)
-            .map(|(a, b)| a.stamp_ns.abs_diff(b.stamp_ns) as f64 * 1e-9)
-            .fold(0.0, f64::max);
-        if std::env::var_os("RGB_REPLAY_VERBOSE").is_some() {
-            for (a, b) in ours.iter().zip(&tokens) {
-                println!(
-                    "  {:6} {:9.2} s vs ideal {:6} {:9.2} s",
-                    a.token.label(),
-                    a.stamp_ns as f64 * 1e-9,
-                    b.token.label(),
-                    b.stamp_ns as f64 * 1e-9
-                );
-            }
+        let stamp_ns: u64 = v[1].trim().parse()?;
+        let p = [v[2].trim().parse()?, v[3].trim().parse()?];
+        tokens.extend(decoder.push(Sample::tracked(stamp_ns, p))?.tokens);
+    }
+    let ours = rx.tokens();
+    let same =
+        ours.len() == tokens.len() && ours.iter().zip(&tokens).all(|(a, b)| a.token == b.token);
+    let worst_s = ours
+        .iter()
+        .zip(&tokens)
+        .map(|(a, b)| a.stamp_ns.abs_diff(b.stamp_ns) as f64 * 1e-9)
+        .fold(0.0, f64::max);
+    if std::env::var_os("RGB_REPLAY_VERBOSE").is_some() {
+        for (a, b) in ours.iter().zip(&tokens) {
+            println!(
+                "  {:6} {:9.2} s vs ideal {:6} {:9.2} s",
+                a.token.label(),
+                a.stamp_ns as f64 * 1e-9,
+                b.token.label(),
+                b.stamp_ns as f64 * 1e-9
+            );
         }
-        println!(
-            "ideal receiver: {} tokens, same sequence: {same}, worst token offset {worst_s:.3} s",
-            tokens.len()
-        );
     }
     println!(
-        "{} frames in {:.2} s ({:.3} ms/frame incl. PNG decode); {} acquisitions; released {:?}",
-        paths.len(),
-        wall,
-        wall * 1e3 / paths.len().max(1) as f64,
-        acquisitions,
-        rx.frames()
-            .iter()
-            .map(|f| format!("{:06b}", f.payload))
-            .collect::<Vec<_>>()
+        "ideal receiver: {} tokens, same sequence: {same}, worst token offset {worst_s:.3} s",
+        tokens.len()
     );
     Ok(())
 }

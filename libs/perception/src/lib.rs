@@ -6,7 +6,9 @@
 //! - [`rgb`]: the RGB receiver (KLT trajectory extraction; RGB frames in, tokens and frames out);
 //! - [`perception`]: one receiver of either modality behind one interface;
 //! - [`agent`]: offer cache, allocation and the observer's decisions;
-//! - [`runtime`]: perception + frame parser + agent, one step per tick.
+//! - [`runtime`]: perception + frame parser + agent, one step per tick;
+//! - [`tick`]: the sans-IO tick assembler that decides which tick the runtime processes next
+//!   and with what (session controls, packet, or a missing packet).
 //!
 //! The segmenter and decoder the receivers share with the ideal receiver live in
 //! [`proto::logic`].
@@ -16,3 +18,4 @@ pub mod events;
 pub mod perception;
 pub mod rgb;
 pub mod runtime;
+pub mod tick;

@@ -4,9 +4,9 @@
 
 use proto::{EventPacket, RgbFrame};
 
-use proto::decoder::DecodeStep;
 use crate::events::{EventReceiver, EventReceiverConfig, EventReceiverError};
 use crate::rgb::{RgbReceiver, RgbReceiverConfig, RgbReceiverError};
+use proto::decoder::DecodeStep;
 
 pub use proto::Modality;
 

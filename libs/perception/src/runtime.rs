@@ -14,8 +14,8 @@ use proto::{
 };
 
 use crate::agent::ObserverAgent;
-use proto::decoder::DecodeStep;
 use crate::perception::{Modality, Perception, PerceptionError, SensorInput};
+use proto::decoder::DecodeStep;
 
 /// What the observer has for one tick.
 #[derive(Debug, Clone, Copy)]

@@ -10,8 +10,8 @@ use perception::events::{
     AcquisitionEvent, EventReceiver, EventReceiverConfig, InterruptCause, PacketOutcome,
     PacketRejection, SupportScratch, gather,
 };
-use proto::{Decoder, Sample, SegmenterConfig, TokenCause};
 use proto::{Action, EventPacket, Polarity, ReleasedFrame, Token};
+use proto::{Decoder, Sample, SegmenterConfig, TokenCause};
 use scene::{Label, NS_PER_S, Script, Shape};
 
 /// Round 1 offers of the paper: A then B.

@@ -7,23 +7,17 @@ mod rgb_scene;
 use image::GrayImage;
 use perception::rgb::features::{FeatureConfig, FeatureDetector, Region};
 use perception::rgb::klt::{Klt, KltConfig};
-use perception::rgb::{
-    FrameRejection, InterruptCause, RgbReceiver, RgbReceiverConfig, TrackEvent,
-};
-use proto::{Decoder, Interruption, Sample, SegmentToken, SegmenterConfig, TokenCause};
+use perception::rgb::{FrameRejection, InterruptCause, RgbReceiver, RgbReceiverConfig, TrackEvent};
 use proto::frame::frame_tokens;
 use proto::{Action, RgbFrame, Token};
+use proto::{Decoder, Interruption, Sample, SegmentToken, SegmenterConfig, TokenCause};
 use rgb_scene::{Backdrop, Flight, HOVER_PX, PERIOD_NS, REST_NS, Scene, frame};
 
 fn grey(rgb: &[u8]) -> GrayImage {
     let (w, h) = (u32::from(rgb_scene::WIDTH), u32::from(rgb_scene::HEIGHT));
     GrayImage::from_fn(w, h, |x, y| {
         let i = ((y * w + x) * 3) as usize;
-        image::Luma([perception::rgb::luma::luma(
-            rgb[i],
-            rgb[i + 1],
-            rgb[i + 2],
-        )])
+        image::Luma([perception::rgb::luma::luma(rgb[i], rgb[i + 1], rgb[i + 2])])
     })
 }
 

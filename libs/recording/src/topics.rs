@@ -5,9 +5,9 @@
 //! type (`waggle.EventPacket`, …) with schema encoding [`RAW_ENCODING`].
 
 use proto::{
-    BroadcastTick, ClockTick, Decision, DecodeError, EventPacket, Fault, FrameEvent, MissionReport,
-    ObserverId, ObserverStatus, ObserverTrack, PerformerSetpoint, PerformerTruth, RgbFrame,
-    SchedCommand, SessionTick, SimContacts, SimState, TICK_NS, TokenEvent,
+    BroadcastTick, ClockTick, Decision, DecodeError, EventPacket, Fault, FrameEvent, Key,
+    MissionReport, ObserverId, ObserverStatus, ObserverTrack, PerformerSetpoint, PerformerTruth,
+    RgbFrame, SchedCommand, SessionTick, SimContacts, SimState, TICK_NS, TokenEvent,
 };
 
 /// Message (and schema) encoding of raw channels: the exact bytes of [`proto::encode`].
@@ -95,49 +95,53 @@ pub struct Topic {
     pub observer: Option<ObserverId>,
 }
 
-/// Classifies `key` of the session whose key prefix is `prefix` (`waggle/<session>`); `None`
-/// for keys outside the session or of no known message type.
+impl MessageKind {
+    /// The message type carried on `key`; `None` for liveliness and readiness tokens, which
+    /// carry no message.
+    pub fn of_key(key: &Key) -> Option<Self> {
+        Some(match key {
+            Key::Clock => MessageKind::Clock,
+            Key::SimState => MessageKind::SimState,
+            Key::SimContacts => MessageKind::SimContacts,
+            Key::SensorEvents(_) => MessageKind::EventPacket,
+            Key::SensorRgb(_) => MessageKind::RgbFrame,
+            Key::ObserverTokens(_) => MessageKind::TokenEvent,
+            Key::ObserverFrames(_) => MessageKind::FrameEvent,
+            Key::ObserverDecision(_) => MessageKind::Decision,
+            Key::ObserverStatus(_) => MessageKind::ObserverStatus,
+            Key::ObserverTrack(_) => MessageKind::ObserverTrack,
+            Key::PerformerSetpoint => MessageKind::PerformerSetpoint,
+            Key::TruthPerformer => MessageKind::PerformerTruth,
+            Key::SchedCmd => MessageKind::SchedCommand,
+            Key::SchedBroadcast => MessageKind::BroadcastTick,
+            Key::SchedSession => MessageKind::SessionTick,
+            Key::SchedReport => MessageKind::MissionReport,
+            Key::Fault(_) => MessageKind::Fault,
+            Key::Alive(..) | Key::Ready(..) => return None,
+        })
+    }
+}
+
+/// Classifies `key` of the session whose key prefix is `prefix` (`waggle/<session>`) with the
+/// one key grammar ([`Key::parse_rest`]); `None` for keys outside the session or of no known
+/// message type.
 pub fn classify(prefix: &str, key: &str) -> Option<Topic> {
     let rest = key.strip_prefix(prefix)?.strip_prefix('/')?;
-    let parts: Vec<&str> = rest.split('/').collect();
-    let (kind, observer) = match parts.as_slice() {
-        ["clock"] => (MessageKind::Clock, None),
-        ["sim", "state"] => (MessageKind::SimState, None),
-        ["sim", "contacts"] => (MessageKind::SimContacts, None),
-        ["sensor", o, "events"] => (MessageKind::EventPacket, Some(*o)),
-        ["sensor", o, "rgb"] => (MessageKind::RgbFrame, Some(*o)),
-        ["observer", o, "tokens"] => (MessageKind::TokenEvent, Some(*o)),
-        ["observer", o, "frames"] => (MessageKind::FrameEvent, Some(*o)),
-        ["observer", o, "decision"] => (MessageKind::Decision, Some(*o)),
-        ["observer", o, "status"] => (MessageKind::ObserverStatus, Some(*o)),
-        ["observer", o, "track"] => (MessageKind::ObserverTrack, Some(*o)),
-        ["performer", "setpoint"] => (MessageKind::PerformerSetpoint, None),
-        ["truth", "performer"] => (MessageKind::PerformerTruth, None),
-        ["sched", "cmd"] => (MessageKind::SchedCommand, None),
-        ["sched", "broadcast"] => (MessageKind::BroadcastTick, None),
-        ["sched", "session"] => (MessageKind::SessionTick, None),
-        ["sched", "report"] => (MessageKind::MissionReport, None),
-        ["fault", o] => (MessageKind::Fault, Some(*o)),
-        _ => return None,
-    };
-    let observer = match observer {
-        Some(o) => Some(ObserverId::new(o).ok()?),
-        None => None,
-    };
+    let parsed = Key::parse_rest(rest)?;
     Some(Topic {
         topic: format!("/{rest}"),
-        kind,
-        observer,
+        kind: MessageKind::of_key(&parsed)?,
+        observer: parsed.observer().cloned(),
     })
 }
 
-/// The observer named in a channel topic (`/sensor/O1/events` → `O1`), if any.
+/// The observer named in a raw channel's topic (`/sensor/O1/events` → `O1`), if any: the topic
+/// is parsed with the one key grammar ([`Key::parse_rest`]).
 pub fn topic_observer(topic: &str) -> Option<&str> {
-    let mut parts = topic.trim_start_matches('/').split('/');
-    match (parts.next(), parts.next()) {
-        (Some("sensor" | "observer" | "fault"), Some(o)) => Some(o),
-        _ => None,
-    }
+    let rest = topic.trim_start_matches('/');
+    Key::parse_rest(rest)?.observer()?;
+    // Every key that names an observer has it as its second chunk.
+    rest.split('/').nth(1)
 }
 
 /// A decoded message of any kind.
@@ -323,8 +327,13 @@ mod tests {
             "waggle/other/clock",
             "waggle/s1",
             "waggle/s1/sensor/O*/events",
+            "waggle/s1/alive/sim/sim",
+            "waggle/s1/ready/camera/O1",
         ] {
             assert_eq!(classify(k.prefix(), bad), None, "{bad}");
+        }
+        for no_observer in ["/clock", "/view/O1/events", "/sensor/O*/rgb"] {
+            assert_eq!(topic_observer(no_observer), None, "{no_observer}");
         }
     }
 

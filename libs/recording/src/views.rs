@@ -2,18 +2,17 @@
 //! one-line log messages for tokens, frames, decisions, faults and session controls.
 
 use event_camera::picture::{NO_EVENT_COLOUR, OFF_COLOUR, ON_COLOUR};
+use image::{Rgb, RgbImage};
 use proto::{EventPacket, InputState, Polarity, SessionEvent, TICK_NS};
 
 use crate::foxglove::LogLevel;
 use crate::topics::Decoded;
 
-/// An event-frame picture: row-major RGB8.
+/// An event-frame picture closing at `stamp_ns`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct EventImage {
     pub stamp_ns: u64,
-    pub width: u32,
-    pub height: u32,
-    pub rgb: Vec<u8>,
+    pub image: RgbImage,
 }
 
 /// Accumulates one observer's packets into event-frame pictures (ON blue, OFF red, the last
@@ -22,9 +21,7 @@ pub struct EventImage {
 pub struct EventView {
     period_ns: u64,
     window_end_ns: Option<u64>,
-    width: u32,
-    height: u32,
-    rgb: Vec<u8>,
+    image: RgbImage,
 }
 
 impl EventView {
@@ -33,9 +30,7 @@ impl EventView {
         Self {
             period_ns: period_ns.max(1).div_ceil(TICK_NS) * TICK_NS,
             window_end_ns: None,
-            width: 0,
-            height: 0,
-            rgb: Vec::new(),
+            image: RgbImage::new(0, 0),
         }
     }
 
@@ -43,10 +38,8 @@ impl EventView {
     /// the frame are skipped (a decoded packet never has any).
     pub fn push(&mut self, p: &EventPacket) -> Option<EventImage> {
         let (w, h) = (u32::from(p.width), u32::from(p.height));
-        if (w, h) != (self.width, self.height) || self.window_end_ns.is_none() {
-            self.width = w;
-            self.height = h;
-            self.rgb = NO_EVENT_COLOUR.repeat(w as usize * h as usize);
+        if (w, h) != self.image.dimensions() || self.window_end_ns.is_none() {
+            self.image = blank(w, h);
             // Windows are aligned to multiples of the period.
             self.window_end_ns = Some(p.end_ns.div_ceil(self.period_ns).max(1) * self.period_ns);
         }
@@ -59,8 +52,7 @@ impl EventView {
                 Polarity::On => ON_COLOUR,
                 Polarity::Off => OFF_COLOUR,
             };
-            let k = 3 * (y as usize * w as usize + x as usize);
-            self.rgb[k..k + 3].copy_from_slice(&colour);
+            self.image.put_pixel(x, y, Rgb(colour));
         }
         let end = self.window_end_ns?;
         if p.end_ns < end {
@@ -68,16 +60,16 @@ impl EventView {
         }
         let image = EventImage {
             stamp_ns: p.end_ns,
-            width: w,
-            height: h,
-            rgb: std::mem::replace(
-                &mut self.rgb,
-                NO_EVENT_COLOUR.repeat(w as usize * h as usize),
-            ),
+            image: std::mem::replace(&mut self.image, blank(w, h)),
         };
         self.window_end_ns = Some((p.end_ns / self.period_ns + 1) * self.period_ns);
         Some(image)
     }
+}
+
+/// A `w`×`h` picture with no events.
+fn blank(w: u32, h: u32) -> RgbImage {
+    RgbImage::from_pixel(w, h, Rgb(NO_EVENT_COLOUR))
 }
 
 /// A log line for a message worth reading in a log panel: (level, source name, text).
@@ -205,9 +197,8 @@ mod tests {
         }
     }
 
-    fn px(img: &EventImage, x: usize, y: usize) -> [u8; 3] {
-        let k = 3 * (y * img.width as usize + x);
-        [img.rgb[k], img.rgb[k + 1], img.rgb[k + 2]]
+    fn px(img: &EventImage, x: u32, y: u32) -> [u8; 3] {
+        img.image.get_pixel(x, y).0
     }
 
     #[test]
@@ -220,7 +211,10 @@ mod tests {
             .push(&packet(3, &[(0, 0, Polarity::Off), (3, 1, Polarity::On)]))
             .expect("third packet completes the 120 ms window");
         assert_eq!(img.stamp_ns, 3 * TICK_NS);
-        assert_eq!((img.width, img.height, img.rgb.len()), (4, 2, 24));
+        assert_eq!(
+            (img.image.dimensions(), img.image.as_raw().len()),
+            ((4, 2), 24)
+        );
         assert_eq!(px(&img, 0, 0), OFF_COLOUR);
         assert_eq!(px(&img, 1, 1), OFF_COLOUR);
         assert_eq!(px(&img, 3, 1), ON_COLOUR);
@@ -230,7 +224,7 @@ mod tests {
         assert_eq!(v.push(&packet(5, &[])), None);
         let img = v.push(&packet(6, &[])).unwrap();
         assert_eq!(img.stamp_ns, 6 * TICK_NS);
-        assert!(img.rgb.chunks(3).all(|c| c == NO_EVENT_COLOUR));
+        assert!(img.image.pixels().all(|c| c.0 == NO_EVENT_COLOUR));
         // A gap in the stream (dropout) closes the window at the next packet.
         let img = v.push(&packet(20, &[(2, 0, Polarity::On)])).unwrap();
         assert_eq!(px(&img, 2, 0), ON_COLOUR);

@@ -368,9 +368,9 @@ impl<W: Write + Seek> SessionWriter<W> {
                         let data = foxglove::raw_image(
                             img.stamp_ns,
                             o.as_str(),
-                            img.width,
-                            img.height,
-                            &img.rgb,
+                            img.image.width(),
+                            img.image.height(),
+                            img.image.as_raw(),
                         );
                         self.foxglove(
                             &format!("/view/{o}/events"),

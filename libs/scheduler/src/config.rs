@@ -1,10 +1,10 @@
 //! Case options and every timing and flight constant of the scheduler, with the reasons for the
 //! defaults.
 
-use proto::{GestureConfig, NS_PER_S};
 use proto::Site;
 use proto::scene::MAX_OBSERVERS;
 use proto::sched::MAX_BROADCAST_OFFERS;
+use proto::{GestureConfig, NS_PER_S};
 
 use crate::error::ConfigError;
 

@@ -87,11 +87,11 @@ pub mod trajectory;
 pub use config::{FlightLimits, Modality, SchedulerConfig, Timing};
 pub use error::{ConfigError, NavError, SchedulerError};
 pub use log::{EndReason, EventKind, LogEvent, PoseReject, RejectReason};
+pub use proto::Kinematics;
 pub use scheduler::{
     BroadcastPlan, DecisionNotice, Scheduler, Stats, TickInput, TickOutput, observer_positions,
 };
-pub use proto::Kinematics;
-pub use trajectory::{FlightSetpoint, Leg};
+pub use trajectory::Leg;
 
 #[doc(no_inline)]
 pub use proto::TaskState;

@@ -5,14 +5,14 @@ use std::collections::{BTreeMap, BTreeSet};
 use proto::ScheduledOffer;
 use proto::clock::tick_end_ns;
 use proto::scene::{observer_home_m, observer_home_yaw_rad};
-use proto::sched::{Broadcast, SchedCommand, SessionControl, SessionEvent};
+use proto::sched::{Broadcast, ObserverSetpoint, SchedCommand, SessionControl, SessionEvent};
 use proto::{ClockTick, Decision, ObserverId, Offer, SimState, Site, TaskState};
 
 use crate::config::SchedulerConfig;
 use crate::error::{ConfigError, SchedulerError};
 use crate::log::{EndReason, EventKind, LogEvent, PoseReject, RejectReason, waypoints_um};
 use crate::navigation::{obstacles, plan_path};
-use crate::trajectory::{FlightSetpoint, Leg};
+use crate::trajectory::Leg;
 use proto::Kinematics;
 
 /// The part of an observer's decision the scheduler acts on.
@@ -101,7 +101,7 @@ pub struct TickOutput {
     pub broadcast: Option<BroadcastPlan>,
     /// One setpoint per observer, roster order, for sim time `now_ns` (the simulator
     /// extrapolates it over the next tick with the feed-forward terms).
-    pub setpoints: Vec<FlightSetpoint>,
+    pub setpoints: Vec<ObserverSetpoint>,
     /// Session controls, stamped `now_ns`, in the order they must be applied.
     pub session: Vec<SessionControl>,
     /// Everything logged during this tick.
@@ -115,11 +115,7 @@ impl TickOutput {
     pub fn command(&self) -> SchedCommand {
         SchedCommand {
             tick: self.tick,
-            setpoints: self
-                .setpoints
-                .iter()
-                .map(FlightSetpoint::to_proto)
-                .collect(),
+            setpoints: self.setpoints.clone(),
             mission_end: self.mission_end.is_some(),
         }
     }
@@ -202,7 +198,7 @@ pub struct Scheduler {
     queue: BTreeSet<Queued>,
     active: Option<Trip>,
     ended: Option<(EndReason, u64)>,
-    frozen: Option<Vec<FlightSetpoint>>,
+    frozen: Option<Vec<ObserverSetpoint>>,
     stats: Stats,
     log: Vec<LogEvent>,
     broadcasts: Vec<BroadcastPlan>,
@@ -329,7 +325,7 @@ impl Scheduler {
     /// Every observer's setpoint at `t_ns` under the current plan. After `step(k)` this is
     /// exact for any `t_ns` in `[t_k, t_{k+1}]` (all plan transitions fall on tick times), so a
     /// caller may sample it per physics step instead of extrapolating.
-    pub fn setpoints_at(&self, t_ns: u64) -> Vec<FlightSetpoint> {
+    pub fn setpoints_at(&self, t_ns: u64) -> Vec<ObserverSetpoint> {
         if let Some(f) = &self.frozen {
             return f.clone();
         }
@@ -343,13 +339,7 @@ impl Scheduler {
                     },
                     _ => Kinematics::rest(self.homes_m[i]),
                 };
-                FlightSetpoint {
-                    observer: self.ids[i].clone(),
-                    pos_m: k.pos_m,
-                    vel_mps: k.vel_mps,
-                    acc_mps2: k.acc_mps2,
-                    yaw_rad: self.yaws_rad[i],
-                }
+                ObserverSetpoint::new(self.ids[i].clone(), k, self.yaws_rad[i])
             })
             .collect()
     }
@@ -434,7 +424,7 @@ impl Scheduler {
         self.emit(out, now, EventKind::MissionEnded { reason });
         out.mission_end = Some(reason);
         // Whatever was in flight hovers where its setpoint is now.
-        let hold: Vec<FlightSetpoint> = self
+        let hold: Vec<ObserverSetpoint> = self
             .setpoints_at(now)
             .into_iter()
             .map(|mut s| {
@@ -747,8 +737,7 @@ impl Scheduler {
     ) -> Result<(), SchedulerError> {
         let payloads: Vec<u8> = round.offers.iter().map(Offer::to_payload).collect();
         let acquisition = self.config.modality.acquisition();
-        let schedule =
-            proto::broadcast(now, &payloads, acquisition, &self.config.gesture)?;
+        let schedule = proto::broadcast(now, &payloads, acquisition, &self.config.gesture)?;
         let plan = BroadcastPlan {
             round: round.number,
             offers: round.offers.clone(),

@@ -5,36 +5,10 @@
 
 use proto::min_jerk;
 use proto::{Kinematics, TICK_NS};
-use proto::keys::ObserverId;
-use proto::sched::ObserverSetpoint;
 
 use crate::config::FlightLimits;
 use crate::error::NavError;
 use crate::navigation::planar_distance_m;
-
-/// A full flight setpoint (the simulator's controller uses all three feed-forward terms).
-#[derive(Debug, Clone, PartialEq)]
-pub struct FlightSetpoint {
-    pub observer: ObserverId,
-    pub pos_m: [f64; 3],
-    pub vel_mps: [f64; 3],
-    pub acc_mps2: [f64; 3],
-    pub yaw_rad: f64,
-}
-
-impl FlightSetpoint {
-    /// The wire form (the simulator extrapolates it over the next tick with the feed-forward
-    /// velocity and acceleration).
-    pub fn to_proto(&self) -> ObserverSetpoint {
-        ObserverSetpoint {
-            observer: self.observer.clone(),
-            pos_m: self.pos_m,
-            vel_mps: self.vel_mps,
-            acc_mps2: self.acc_mps2,
-            yaw_rad: self.yaw_rad,
-        }
-    }
-}
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Segment {

@@ -4,13 +4,9 @@
 //! out and back.
 
 use proto::Site;
-use proto::scene::{MAX_OBSERVERS, PERFORMER_HOVER_M, observer_home_m};
+use proto::scene::{MAX_OBSERVERS, PERFORMER_HOVER_M, distance_m, observer_home_m};
 use scheduler::navigation::{obstacles, plan_path, segment_distance_m};
 use scheduler::{FlightLimits, Leg};
-
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-}
 
 #[test]
 fn every_trip_keeps_its_clearance_for_one_to_eight_observers() {
@@ -55,13 +51,13 @@ fn every_trip_keeps_its_clearance_for_one_to_eight_observers() {
                     };
                     assert!((p[2] - 1.3).abs() < 1e-12, "altitude {p:?}");
                     for h in &others {
-                        let d = dist(p, *h);
+                        let d = distance_m(p, *h);
                         worst = worst.min(d);
                         assert!(d >= need, "N={n} O{} → {site}: {d:.3} m from {h:?}", i + 1);
                     }
-                    let d = dist(p, other_site.position_m());
+                    let d = distance_m(p, other_site.position_m());
                     assert!(d >= need, "N={n} O{} passes site {other_site}", i + 1);
-                    let dp = dist(p, PERFORMER_HOVER_M);
+                    let dp = distance_m(p, PERFORMER_HOVER_M);
                     worst_performer = worst_performer.min(dp);
                     assert!(
                         dp >= limits.performer_clearance_m,

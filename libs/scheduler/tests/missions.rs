@@ -384,8 +384,7 @@ fn duplicates_late_decisions_and_decisions_after_the_end_are_rejected() {
 #[test]
 fn bad_poses_are_counted_and_ignored() {
     let mut s =
-        scheduler::Scheduler::new(scheduler::SchedulerConfig::new(2, Modality::Rgb))
-            .unwrap();
+        scheduler::Scheduler::new(scheduler::SchedulerConfig::new(2, Modality::Rgb)).unwrap();
     let positions = BTreeMap::from([
         (ObserverId::new("O1").unwrap(), [f64::NAN, 0.0, 1.3]),
         (ObserverId::new("performer").unwrap(), [0.0, 0.0, 1.3]),

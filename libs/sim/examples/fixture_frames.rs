@@ -37,7 +37,14 @@ fn main() -> anyhow::Result<()> {
             ),
         );
         let rgb = renderer.render(&mut world, 0)?.to_vec();
-        sim::png_io::write_rgb_png(&out.join(format!("frame_{k:04}.png")), &rgb, 640, 480)?;
+        image::save_buffer_with_format(
+            out.join(format!("frame_{k:04}.png")),
+            &rgb,
+            640,
+            480,
+            image::ExtendedColorType::Rgb8,
+            image::ImageFormat::Png,
+        )?;
     }
     Ok(())
 }

@@ -5,7 +5,13 @@
 //! acceleration feed-forward plus exact gravity compensation; attitude is a PD loop towards level
 //! flight at the reference yaw.
 
-/// Where a drone should be, with feed-forward terms. World frame, SI units.
+use proto::Kinematics;
+
+/// Where a drone should be: a [`Kinematics`] (position plus velocity and acceleration
+/// feed-forward) and a heading. World frame, SI units.
+///
+/// The kinematic fields mirror [`Kinematics`] field for field (build with [`Reference::new`],
+/// read with [`Reference::kinematics`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Reference {
     pub pos_m: [f64; 3],
@@ -15,24 +21,39 @@ pub struct Reference {
 }
 
 impl Reference {
-    /// A stationary hover at `pos_m` with heading `yaw_rad`.
-    pub fn hover(pos_m: [f64; 3], yaw_rad: f64) -> Self {
+    /// Fly `kin` at heading `yaw_rad`.
+    pub fn new(kin: Kinematics, yaw_rad: f64) -> Self {
+        let Kinematics {
+            pos_m,
+            vel_mps,
+            acc_mps2,
+        } = kin;
         Self {
             pos_m,
-            vel_mps: [0.0; 3],
-            acc_mps2: [0.0; 3],
+            vel_mps,
+            acc_mps2,
             yaw_rad,
         }
     }
 
-    /// The reference advanced by `dt_s` under constant acceleration (used between 40 ms ticks).
-    pub fn extrapolated(&self, dt_s: f64) -> Self {
-        let mut out = *self;
-        for k in 0..3 {
-            out.pos_m[k] += self.vel_mps[k] * dt_s + 0.5 * self.acc_mps2[k] * dt_s * dt_s;
-            out.vel_mps[k] += self.acc_mps2[k] * dt_s;
+    /// A stationary hover at `pos_m` with heading `yaw_rad`.
+    pub fn hover(pos_m: [f64; 3], yaw_rad: f64) -> Self {
+        Self::new(Kinematics::rest(pos_m), yaw_rad)
+    }
+
+    /// Position, velocity and acceleration of the reference.
+    pub fn kinematics(&self) -> Kinematics {
+        Kinematics {
+            pos_m: self.pos_m,
+            vel_mps: self.vel_mps,
+            acc_mps2: self.acc_mps2,
         }
-        out
+    }
+
+    /// The reference advanced by `dt_s` under constant acceleration (used between 40 ms ticks);
+    /// the heading is held.
+    pub fn extrapolated(&self, dt_s: f64) -> Self {
+        Self::new(self.kinematics().extrapolated(dt_s), self.yaw_rad)
     }
 }
 

@@ -12,7 +12,6 @@
 pub mod assets;
 pub mod control;
 pub mod mjcf;
-pub mod png_io;
 pub mod render;
 pub mod sensor;
 pub mod world;

@@ -4,7 +4,9 @@
 use std::rc::Rc;
 
 use mujoco_rs::prelude::*;
-use proto::scene::{PERFORMER_HOVER_M, observer_home_m, observer_home_yaw_rad, observer_name};
+use proto::scene::{
+    PERFORMER_HOVER_M, distance_m, observer_home_m, observer_home_yaw_rad, observer_name,
+};
 
 use crate::control::{DroneState, Gains, Reference, wrench};
 use crate::mjcf::{
@@ -189,9 +191,7 @@ impl World {
             for b in a + 1..self.drones.len() {
                 let pa = xpos[self.drones[a].body];
                 let pb = xpos[self.drones[b].body];
-                let d =
-                    ((pa[0] - pb[0]).powi(2) + (pa[1] - pb[1]).powi(2) + (pa[2] - pb[2]).powi(2))
-                        .sqrt();
+                let d = distance_m(pa, pb);
                 if d < self.stats.min_separation_m {
                     self.stats.min_separation_m = d;
                 }

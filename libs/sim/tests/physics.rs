@@ -1,14 +1,10 @@
 //! Physics: hover accuracy, step response and contact bookkeeping on the real MuJoCo scene.
 
-use proto::scene::PERFORMER_HOVER_M;
+use proto::scene::{PERFORMER_HOVER_M, distance_m};
 use sim::control::Reference;
 use sim::world::World;
 
 const SECOND_NS: u64 = 1_000_000_000;
-
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-}
 
 #[test]
 fn every_drone_holds_its_setpoint_within_a_millimetre() {
@@ -17,7 +13,7 @@ fn every_drone_holds_its_setpoint_within_a_millimetre() {
     for _ in 0..500 {
         world.step();
         for i in 0..4 {
-            let err = dist(world.position_m(i), world.reference(i).pos_m);
+            let err = distance_m(world.position_m(i), world.reference(i).pos_m);
             assert!(
                 err < 1e-3,
                 "drone {i} off its setpoint by {err} m at {} ns",
@@ -46,7 +42,7 @@ fn a_20_cm_step_settles_within_two_seconds_without_overshoot() {
         world.step();
         let p = world.position_m(0);
         max_x = max_x.max(p[0]);
-        let err = dist(p, target);
+        let err = distance_m(p, target);
         if err < 0.02 * 0.2 {
             settled_at.get_or_insert(world.time_ns() - t0);
         } else {

@@ -70,8 +70,8 @@ impl Decoder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::segmenter::tests::{CENTRE, S, Script};
     use crate::frame::frame_tokens;
+    use crate::segmenter::tests::{CENTRE, S, Script};
 
     /// A whole frame drawn in the image: hovers of 5 s, symbols of 4 s at 90 px.
     fn drawn_frame(sc: &mut Script, payload: u8) {

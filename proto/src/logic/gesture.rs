@@ -36,6 +36,7 @@
 
 use crate::Action;
 
+use crate::scene::distance_m;
 use crate::schedule::ScheduleError;
 
 /// Nanoseconds per second.
@@ -157,9 +158,7 @@ pub fn strokes(keypoints: &[[f64; 2]], profile: &MotionProfile, origin_m: [f64; 
         .windows(2)
         .map(|w| {
             let (a, b) = (world(w[0]), world(w[1]));
-            let len =
-                ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt();
-            (a, b, len)
+            (a, b, distance_m(a, b))
         })
         .filter(|&(_, _, len)| len > 0.0)
         .collect();

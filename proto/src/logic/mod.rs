@@ -11,8 +11,8 @@
 //!   [`provenance`] audit;
 //! - geometry: the shared [`scene`] layout and pinhole camera model.
 
-pub mod alphabet;
 pub mod allocation;
+pub mod alphabet;
 pub mod decoder;
 pub mod frame;
 pub mod gesture;

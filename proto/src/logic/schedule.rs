@@ -13,6 +13,7 @@ use crate::{Action, Kinematics, PerformerActivity, Token};
 
 use crate::gesture::{ACQUISITION_KEYPOINTS, GestureConfig, MotionProfile, Stroke, strokes};
 use crate::min_jerk;
+use crate::scene::distance_m;
 
 /// Why a gesture or schedule cannot be built.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
@@ -200,7 +201,7 @@ impl Schedule {
                 continue;
             }
             if let Motion::Stroke { from_m, to_m } = p.motion {
-                let d = dist(from_m, to_m);
+                let d = distance_m(from_m, to_m);
                 let t = (p.end_ns - p.start_ns) as f64 * 1e-9;
                 peaks.0 = peaks.0.max(min_jerk::PEAK_VELOCITY_FACTOR * d / t);
                 peaks.1 = peaks
@@ -444,15 +445,11 @@ pub fn broadcast(
     Ok(b.build())
 }
 
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gesture::{NS_PER_MS, NS_PER_S};
     use crate::frame::{FRAME_TOKENS, frame_tokens};
+    use crate::gesture::{NS_PER_MS, NS_PER_S};
     use crate::scene::PERFORMER_HOVER_M;
 
     fn single(action: Option<Action>) -> (Schedule, u64, u64) {
@@ -488,7 +485,7 @@ mod tests {
                 0,
             ] {
                 let p = s.setpoint_at(t);
-                let d = dist(p, PERFORMER_HOVER_M);
+                let d = distance_m(p, PERFORMER_HOVER_M);
                 assert!(d < 1e-12, "{a:?} at {t}: {p:?} is {d} m from the start");
             }
             assert_eq!(
@@ -504,7 +501,7 @@ mod tests {
             // The motion really leaves the hover point by its amplitude.
             let far = (start..end)
                 .step_by(NS_PER_MS as usize)
-                .map(|t| dist(s.setpoint_at(t), PERFORMER_HOVER_M))
+                .map(|t| distance_m(s.setpoint_at(t), PERFORMER_HOVER_M))
                 .fold(0.0, f64::max);
             assert!(far > 0.149, "{a:?} only reaches {far} m");
         }
@@ -523,7 +520,7 @@ mod tests {
             PERFORMER_HOVER_M[2] + config.amplitude_v_m,
         ];
         assert!(
-            dist(apex, want) < 1e-12,
+            distance_m(apex, want) < 1e-12,
             "inverted V apex {apex:?}, want {want:?}"
         );
         let (s, start, end) = single(Some(Action::Start));

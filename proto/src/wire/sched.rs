@@ -17,6 +17,7 @@ use crate::clock::{check_finite, stamp_in_tick};
 use crate::codec::Validate;
 use crate::keys::ObserverId;
 use crate::payload::{Offer, Site};
+use crate::world::Kinematics;
 
 /// Flight setpoint of one observer, chosen by the safety router.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -28,6 +29,28 @@ pub struct ObserverSetpoint {
     /// Feed-forward acceleration (the simulator extrapolates the setpoint over the next tick).
     pub acc_mps2: [f64; 3],
     pub yaw_rad: f64,
+}
+
+impl ObserverSetpoint {
+    /// `observer`'s setpoint: `kin` flown at heading `yaw_rad`.
+    pub fn new(observer: ObserverId, kin: Kinematics, yaw_rad: f64) -> Self {
+        Self {
+            observer,
+            pos_m: kin.pos_m,
+            vel_mps: kin.vel_mps,
+            acc_mps2: kin.acc_mps2,
+            yaw_rad,
+        }
+    }
+
+    /// Position, velocity and acceleration of the setpoint.
+    pub fn kinematics(&self) -> Kinematics {
+        Kinematics {
+            pos_m: self.pos_m,
+            vel_mps: self.vel_mps,
+            acc_mps2: self.acc_mps2,
+        }
+    }
 }
 
 /// Setpoints for every observer after tick `tick` (`sched/cmd`).

@@ -28,6 +28,17 @@ impl Kinematics {
             acc_mps2: [0.0; 3],
         }
     }
+
+    /// The state advanced by `dt_s` under constant acceleration (the simulator's extrapolation
+    /// of a setpoint between 40 ms ticks).
+    pub fn extrapolated(&self, dt_s: f64) -> Self {
+        let mut out = *self;
+        for k in 0..3 {
+            out.pos_m[k] += self.vel_mps[k] * dt_s + 0.5 * self.acc_mps2[k] * dt_s * dt_s;
+            out.vel_mps[k] += self.acc_mps2[k] * dt_s;
+        }
+        out
+    }
 }
 
 /// Ground-truth pose and velocity of one drone.
@@ -144,6 +155,28 @@ pub struct PerformerSetpoint {
     /// Feed-forward acceleration (the simulator extrapolates the setpoint over the next tick).
     pub acc_mps2: [f64; 3],
     pub yaw_rad: f64,
+}
+
+impl PerformerSetpoint {
+    /// The setpoint of tick `tick`: `kin` flown at heading `yaw_rad`.
+    pub fn new(tick: u64, kin: Kinematics, yaw_rad: f64) -> Self {
+        Self {
+            tick,
+            pos_m: kin.pos_m,
+            vel_mps: kin.vel_mps,
+            acc_mps2: kin.acc_mps2,
+            yaw_rad,
+        }
+    }
+
+    /// Position, velocity and acceleration of the setpoint.
+    pub fn kinematics(&self) -> Kinematics {
+        Kinematics {
+            pos_m: self.pos_m,
+            vel_mps: self.vel_mps,
+            acc_mps2: self.acc_mps2,
+        }
+    }
 }
 
 impl Validate for PerformerSetpoint {

@@ -18,12 +18,12 @@ use std::collections::BTreeMap;
 
 use proto::{DecodeError, EventPacket, ReleasedFrame, Token};
 
-use proto::decoder::{DecodeStep, Decoder};
 use crate::events::acquisition::{Acquisition, AcquisitionConfig, AcquisitionEvent};
 use crate::events::error::EventReceiverError;
 use crate::events::health::{Delivery, DeliveryMonitor, Discontinuity, PacketRejection};
 use crate::events::support::Window;
 use crate::events::tracker::{Observation, SupportTracker, TrackFault, TrackerConfig};
+use proto::decoder::{DecodeStep, Decoder};
 use proto::segmenter::{Sample, SegmentToken, SegmenterConfig, TokenCause};
 
 /// Everything an event receiver is configured with.

@@ -17,12 +17,12 @@ use std::collections::{BTreeMap, VecDeque};
 use image::GrayImage;
 use proto::{ReleasedFrame, RgbFrame, Token};
 
-use proto::decoder::{DecodeStep, Decoder};
 use crate::rgb::error::RgbReceiverError;
 use crate::rgb::features::FeatureConfig;
 use crate::rgb::klt::KltConfig;
 use crate::rgb::luma::luma_into;
 use crate::rgb::tracker::{TargetTracker, TrackEvent, TrackStep, TrackerConfig};
+use proto::decoder::{DecodeStep, Decoder};
 use proto::segmenter::{Sample, SegmentToken, SegmenterConfig, TokenCause};
 
 /// Smallest frame the receiver accepts (the pyramid and search region need room).

@@ -9,8 +9,8 @@
 use std::path::{Path, PathBuf};
 
 use image::GrayImage;
-use perception::rgb::klt::{Klt, KltConfig};
 use optical_flow_lk::{TrackParams, TrackStatus, TrackerContext};
+use perception::rgb::klt::{Klt, KltConfig};
 use serde::Deserialize;
 
 pub fn fixture_dir() -> PathBuf {

@@ -1,0 +1,153 @@
+//! The mission summary shared by `waggle mission` (in-process), `waggle run` (distributed) and
+//! `waggle audit` (from a recording): per-observer messages, payloads, decisions and services,
+//! the provenance audit, the check against the case's expected outcome and the printed table.
+
+use std::collections::BTreeMap;
+
+use proto::{Decision, ObserverId, Offer, ReleasedFrame, Site};
+use serde::Serialize;
+
+use crate::case::Case;
+use crate::run_dir::{MissionSummary, ObserverSummary};
+
+/// Nanoseconds to seconds (a division, so whole milliseconds print exactly).
+pub fn ns_s(ns: u64) -> f64 {
+    ns as f64 / 1e9
+}
+
+/// Why `s` misses `case`'s expected outcome (empty: it meets it).
+pub fn check_expected(case: &Case, s: &MissionSummary) -> Vec<String> {
+    let mut reasons = Vec::new();
+    let got: Vec<usize> = s.observers.values().map(|o| o.complete_messages).collect();
+    if got != case.expected.messages {
+        reasons.push(format!(
+            "complete messages {got:?}, expected {:?}",
+            case.expected.messages
+        ));
+    }
+    if s.work_units != case.expected.work_units {
+        reasons.push(format!(
+            "{} work units, expected {}",
+            s.work_units, case.expected.work_units
+        ));
+    }
+    for (o, want) in &case.expected.services {
+        let have = s
+            .observers
+            .get(o)
+            .map(|x| x.services.clone())
+            .unwrap_or_default();
+        if &have != want {
+            reasons.push(format!("{o} served {have:?}, expected {want:?}"));
+        }
+    }
+    if s.contact_steps != 0 {
+        reasons.push(format!("{} contact steps", s.contact_steps));
+    }
+    reasons.extend(
+        s.provenance_violations
+            .iter()
+            .map(|v| format!("provenance: {v}")),
+    );
+    reasons
+}
+
+/// Prints the summary table (`waggle mission`, `waggle run`).
+pub fn print_summary(s: &MissionSummary) {
+    println!(
+        "case {} ({}) — {}: mission time {:.2} s ({}), {:.1} s wall",
+        s.case,
+        s.modality,
+        if s.pass { "PASS" } else { "FAIL" },
+        s.mission_time_s,
+        s.end_reason,
+        s.wall_seconds
+    );
+    println!(
+        "{:<4} {:>9} {:>24} {:>12} {:>10}",
+        "obs", "messages", "payloads", "decisions", "services"
+    );
+    for (name, o) in &s.observers {
+        println!(
+            "{name:<4} {:>9} {:>24} {:>12} {:>10}",
+            o.complete_messages,
+            o.payloads.join(","),
+            o.decisions.join(","),
+            o.services.join(",")
+        );
+    }
+    println!(
+        "work units {} · contact steps {} · minimum separation {:.3} m · provenance violations {}",
+        s.work_units,
+        s.contact_steps,
+        s.min_separation_m,
+        s.provenance_violations.len()
+    );
+    for r in &s.reasons {
+        println!("  ✗ {r}");
+    }
+}
+
+impl ObserverSummary {
+    /// One observer's summary from what it released and decided (in order), the services the
+    /// scheduler completed for it and its token count. A complete message is a released frame
+    /// whose payload is a valid offer (what the agent caches).
+    pub fn from_record(
+        frames: &[ReleasedFrame],
+        decisions: &[Decision],
+        services: &[(u32, Site)],
+        tokens: usize,
+    ) -> Self {
+        Self {
+            complete_messages: frames
+                .iter()
+                .filter(|f| Offer::from_payload(f.payload).is_ok())
+                .count(),
+            payloads: frames
+                .iter()
+                .map(|f| format!("{:06b}", f.payload))
+                .collect(),
+            final_null_s: frames.iter().map(|f| ns_s(f.final_null_ns())).collect(),
+            decisions: decisions.iter().map(decision_label).collect(),
+            services: services.iter().map(|(_, site)| site.to_string()).collect(),
+            tokens,
+        }
+    }
+}
+
+/// `r<round>:<site>` (`-` when nothing is assigned).
+pub fn decision_label(d: &Decision) -> String {
+    format!(
+        "r{}:{}",
+        d.round,
+        d.assignment.map_or("-".to_string(), |x| x.to_string())
+    )
+}
+
+/// The provenance audit of every accepted assignment against its departure time.
+pub fn provenance_violations(
+    decisions: &[Decision],
+    departures: &BTreeMap<(ObserverId, u32), u64>,
+) -> Vec<String> {
+    decisions
+        .iter()
+        .filter(|d| d.assignment.is_some())
+        .filter_map(|d| {
+            let dep = departures.get(&(d.observer.clone(), d.round))?;
+            proto::audit_assignment(d, *dep)
+                .err()
+                .map(|v| v.to_string())
+        })
+        .collect()
+}
+
+/// Prints `value` as pretty JSON on stdout; a closed pipe (`| head`) is an error, not a panic.
+pub fn print_json(value: &impl Serialize) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    writeln!(
+        std::io::stdout().lock(),
+        "{}",
+        serde_json::to_string_pretty(value)?
+    )?;
+    Ok(())
+}

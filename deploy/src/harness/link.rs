@@ -1,0 +1,314 @@
+//! `waggle link`: the in-process link harness.
+//!
+//! One process steps physics, flies the broadcast, renders each observer's camera at its
+//! modality's rate and feeds each observer's receiver only its own sensor data. It is the fast
+//! bench on which receivers are developed and tested without Zenoh.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use evaluation::IdealReceiver;
+use perception::perception::{Perception, SensorInput};
+use proto::ReleasedFrame;
+use proto::scene::{MAX_OBSERVERS, distance_m, observer_name};
+use proto::{GestureConfig, Receiver, Schedule, broadcast};
+use proto::{SegmentToken, SegmenterConfig};
+use serde::Serialize;
+use sim::render::CameraRenderer;
+use sim::sensor::{ObserverSensor, SensorOutput};
+use sim::world::World;
+
+use crate::harness::performer_flight::step_along;
+
+/// What to fly and decode (the options of `waggle link`).
+#[derive(Debug, Clone)]
+pub struct LinkOptions {
+    /// Number of observers (1..=8).
+    pub observers: usize,
+    /// Observer sensor modality.
+    pub modality: Receiver,
+    /// Six-bit payloads to broadcast back to back; none: the performer only hovers.
+    pub payloads: Vec<u8>,
+    /// Events modality: skip the acquisition sweep before the first offer (a control).
+    pub no_acquisition: bool,
+    /// Seconds to hover when no payload is given.
+    pub hover_s: f64,
+    /// Observers whose camera is black from start-up.
+    pub black: Vec<String>,
+}
+
+/// Parses exactly six characters of '0'/'1' into a number, b1 most significant.
+pub fn parse_bits6(s: &str) -> Result<u8, String> {
+    if s.len() != 6 || !s.bytes().all(|b| b == b'0' || b == b'1') {
+        return Err(format!(
+            "payload {s:?} is not six binary digits (e.g. 011010)"
+        ));
+    }
+    u8::from_str_radix(s, 2).map_err(|e| e.to_string())
+}
+
+fn bits6(payload: u8) -> String {
+    format!("{payload:06b}")
+}
+
+/// Time after the last scheduled symbol that the harness keeps running, so a late NULL can land.
+const TAIL_NS: u64 = 2_000_000_000;
+/// Hover before the first symbol so physics and receivers settle.
+const LEAD_IN_NS: u64 = 1_000_000_000;
+/// The ideal receiver samples at the RGB rate.
+const IDEAL_PERIOD_NS: u64 = 40_000_000;
+
+/// One confirmed token of `waggle link --json`.
+#[derive(Debug, Serialize)]
+pub struct TokenOut {
+    pub token: String,
+    pub t_s: f64,
+}
+
+/// One released frame of `waggle link --json`.
+#[derive(Debug, Serialize)]
+pub struct FrameOut {
+    pub payload: String,
+    pub final_null_s: f64,
+}
+
+/// One observer's decodes.
+#[derive(Debug, Serialize)]
+pub struct ObserverOut {
+    pub payloads: Vec<String>,
+    pub frames: Vec<FrameOut>,
+    pub tokens: Vec<TokenOut>,
+}
+
+/// What `waggle link --json` prints.
+#[derive(Debug, Serialize)]
+pub struct LinkOut {
+    pub modality: String,
+    pub observers: BTreeMap<String, ObserverOut>,
+    pub sim_seconds: f64,
+    pub wall_seconds: f64,
+    pub performer_max_tracking_error_m: f64,
+    /// The ideal receiver's output for the same flight (rgb/events runs only), for comparison.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ideal: Option<BTreeMap<String, ObserverOut>>,
+    pub contact_steps: u64,
+}
+
+/// One observer's sensor and receiver.
+struct Chain {
+    sensor: ObserverSensor,
+    perception: Perception,
+    tokens: Vec<SegmentToken>,
+    frames: Vec<ReleasedFrame>,
+}
+
+fn ns_to_s(ns: u64) -> f64 {
+    ns as f64 * 1e-9
+}
+
+fn observer_out(tokens: &[SegmentToken], frames: &[ReleasedFrame]) -> ObserverOut {
+    ObserverOut {
+        payloads: frames.iter().map(|f| bits6(f.payload)).collect(),
+        frames: frames
+            .iter()
+            .map(|f| FrameOut {
+                payload: bits6(f.payload),
+                final_null_s: ns_to_s(*f.token_stamps_ns.last().unwrap_or(&0)),
+            })
+            .collect(),
+        tokens: tokens
+            .iter()
+            .map(|t| TokenOut {
+                token: format!("{:?}", t.token).to_uppercase(),
+                t_s: ns_to_s(t.stamp_ns),
+            })
+            .collect(),
+    }
+}
+
+/// Flies `schedule` in physics, calling `sample(world)` at every multiple of `period_ns`.
+/// Returns the performer's largest distance from its commanded position.
+fn fly(
+    world: &mut World,
+    schedule: &Schedule,
+    end_ns: u64,
+    period_ns: u64,
+    mut sample: impl FnMut(&mut World) -> Result<()>,
+) -> Result<f64> {
+    let mut max_err_m: f64 = 0.0;
+    while world.time_ns() < end_ns {
+        step_along(world, schedule);
+        let t = world.time_ns();
+        let err = distance_m(schedule.setpoint_at(t), world.position_m(0));
+        max_err_m = max_err_m.max(err);
+        if t.is_multiple_of(period_ns) {
+            sample(world)?;
+        }
+    }
+    Ok(max_err_m)
+}
+
+/// Checks the options; the observers' names.
+fn check(args: &LinkOptions) -> Result<Vec<String>> {
+    if !(1..=MAX_OBSERVERS).contains(&args.observers) {
+        bail!(
+            "--observers {} is outside 1..={MAX_OBSERVERS}",
+            args.observers
+        );
+    }
+    let names: Vec<String> = (0..args.observers).map(observer_name).collect();
+    for b in &args.black {
+        if !names.contains(b) {
+            bail!("--black {b}: no such observer (have {})", names.join(", "));
+        }
+    }
+    if !(args.hover_s.is_finite() && args.hover_s >= 0.0) {
+        bail!("--hover-s {} must be a non-negative number", args.hover_s);
+    }
+    Ok(names)
+}
+
+/// Each observer's sensor and receiver (none for the ideal receiver).
+fn chains(args: &LinkOptions, black: &[bool]) -> Result<Vec<Chain>> {
+    let Some(kind) = args.modality.sensor() else {
+        return Ok(Vec::new());
+    };
+    (0..args.observers)
+        .map(|i| -> Result<Chain> {
+            Ok(Chain {
+                sensor: ObserverSensor::new(kind, i, black[i])?,
+                perception: Perception::new(kind)?,
+                tokens: Vec::new(),
+                frames: Vec::new(),
+            })
+        })
+        .collect()
+}
+
+/// Flies the broadcast and decodes it with every observer's receiver (and the ideal one).
+pub fn fly_link(args: &LinkOptions) -> Result<LinkOut> {
+    let names = check(args)?;
+    let started = Instant::now();
+    let acquisition =
+        args.modality == Receiver::Events && !args.no_acquisition && !args.payloads.is_empty();
+    let schedule = broadcast(
+        LEAD_IN_NS,
+        &args.payloads,
+        acquisition,
+        &GestureConfig::default(),
+    )
+    .context("building the broadcast schedule")?;
+    let hover_ns = if args.payloads.is_empty() {
+        (args.hover_s * 1e9).round() as u64
+    } else {
+        0
+    };
+    let end_ns = schedule.end_ns().max(LEAD_IN_NS + hover_ns) + TAIL_NS;
+    let mut world = World::new(args.observers).context("building the scene")?;
+
+    let ideal_config = if args.modality == Receiver::Events {
+        SegmenterConfig::events()
+    } else {
+        SegmenterConfig::rgb()
+    };
+    let mut ideal = IdealReceiver::new(args.observers, ideal_config)?;
+    let black: Vec<bool> = names.iter().map(|n| args.black.contains(n)).collect();
+    let mut chains = chains(args, &black)?;
+    let mut renderer = if chains.is_empty() {
+        None
+    } else {
+        Some(CameraRenderer::new(&world).context("creating the offscreen renderer")?)
+    };
+    let period_ns = chains
+        .first()
+        .map_or(IDEAL_PERIOD_NS, |c| c.sensor.render_period_ns());
+    let max_err_m = fly(&mut world, &schedule, end_ns, period_ns, |w| {
+        let t = w.time_ns();
+        if t.is_multiple_of(IDEAL_PERIOD_NS) {
+            ideal.push(t, w.position_m(0))?;
+            for (i, &b) in black.iter().enumerate() {
+                if b {
+                    ideal.interrupt(i, t)?;
+                }
+            }
+        }
+        if let Some(renderer) = renderer.as_mut() {
+            for chain in &mut chains {
+                chain.sample(w, renderer)?;
+            }
+        }
+        Ok(())
+    })?;
+    let ideal_outs: Vec<ObserverOut> = ideal
+        .outputs()
+        .iter()
+        .map(|o| observer_out(&o.tokens, &o.frames))
+        .collect();
+    let (outputs, ideal_tokens) = if chains.is_empty() {
+        (ideal_outs, None)
+    } else {
+        let outs = chains
+            .iter()
+            .map(|c| observer_out(&c.tokens, &c.frames))
+            .collect();
+        (outs, Some(names.iter().cloned().zip(ideal_outs).collect()))
+    };
+    Ok(LinkOut {
+        modality: format!("{:?}", args.modality).to_lowercase(),
+        observers: names.iter().cloned().zip(outputs).collect(),
+        sim_seconds: ns_to_s(world.time_ns()),
+        wall_seconds: started.elapsed().as_secs_f64(),
+        performer_max_tracking_error_m: max_err_m,
+        ideal: ideal_tokens,
+        contact_steps: world.contact_stats().contact_steps,
+    })
+}
+
+impl Chain {
+    /// Captures this observer's sensor now and feeds its receiver.
+    fn sample(&mut self, world: &mut World, renderer: &mut CameraRenderer) -> Result<()> {
+        for output in self.sensor.capture(world, renderer)? {
+            let step = match &output {
+                SensorOutput::Rgb(f) => self.perception.push(SensorInput::Rgb(f))?,
+                SensorOutput::Events(p) => self.perception.push(SensorInput::Events(p))?,
+            };
+            self.tokens.extend(step.tokens);
+            self.frames.extend(step.frames);
+        }
+        Ok(())
+    }
+}
+
+/// Prints the link's table (`waggle link` without `--json`).
+pub fn print_table(out: &LinkOut) {
+    println!(
+        "link ({}) — {:.2} s simulated in {:.2} s wall; performer tracking error ≤ {:.2} mm",
+        out.modality,
+        out.sim_seconds,
+        out.wall_seconds,
+        out.performer_max_tracking_error_m * 1e3
+    );
+    for (name, o) in &out.observers {
+        let frames: Vec<String> = o
+            .frames
+            .iter()
+            .map(|f| format!("{} @ {:.2} s", f.payload, f.final_null_s))
+            .collect();
+        println!(
+            "{name}: {} tokens; released: {}",
+            o.tokens.len(),
+            if frames.is_empty() {
+                "none".into()
+            } else {
+                frames.join(", ")
+            }
+        );
+        let toks: Vec<String> = o
+            .tokens
+            .iter()
+            .map(|t| format!("{}@{:.2}", t.token, t.t_s))
+            .collect();
+        println!("    {}", toks.join(" "));
+    }
+}

@@ -1,0 +1,8 @@
+//! In-process harnesses: a whole mission in one process ([`mission`]), the link bench
+//! ([`link`]), the performer's flight as physics references ([`performer_flight`]) and the
+//! offline PNG → events converter ([`convert`]).
+
+pub mod convert;
+pub mod link;
+pub mod mission;
+pub mod performer_flight;

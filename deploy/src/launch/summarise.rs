@@ -1,0 +1,186 @@
+//! The end of `waggle run`: from what was gathered and how each process ended, the run's
+//! `summary.json` ([`RunSummary`]), `observers.json` and `session.json`.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use proto::scene::{distance_m, observer_home_m, observer_name};
+use proto::{MissionReport, Modality, ObserverId};
+
+use super::gather::Gathered;
+use super::process::Proc;
+use super::supervise::Supervised;
+use crate::case::Case;
+use crate::eval::summary::{check_expected, ns_s, provenance_violations};
+use crate::run_dir::session::SessionRecord;
+use crate::run_dir::{MissionSummary, ObserverRecord, ObserverSummary, ProcessFigures, RunSummary};
+
+/// What a run writes into its directory.
+pub struct RunOutputs {
+    pub summary: RunSummary,
+    pub observers: BTreeMap<String, ObserverRecord>,
+    pub session: SessionRecord,
+}
+
+/// The run's identity, for the summary.
+pub struct RunInfo<'a> {
+    pub case: &'a Case,
+    pub modality: Modality,
+    pub session: &'a str,
+    /// When the launcher started.
+    pub started: Instant,
+}
+
+/// Builds the run's outputs.
+pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutputs {
+    let Supervised {
+        gathered: mut g,
+        fault_log,
+        interrupted,
+    } = run;
+    let case = info.case;
+    let report = g.report.clone();
+    let (records, observers, violations) = observer_records(case.observers, &mut g, &report);
+    let mut mission = MissionSummary {
+        case: case.name.clone(),
+        modality: info.modality.as_str().to_string(),
+        observers,
+        work_units: report.as_ref().map_or(0, |r| r.work_units),
+        mission_time_s: report.as_ref().map_or(ns_s(g.now_ns()), |r| ns_s(r.end_ns)),
+        end_reason: report
+            .as_ref()
+            .map_or("none (no mission report)".to_string(), |r| {
+                r.end_reason.clone()
+            }),
+        contact_steps: g.contacts.as_ref().map_or(0, |c| c.contact_steps),
+        min_separation_m: g.contacts.as_ref().map_or(f64::NAN, |c| c.min_separation_m),
+        provenance_violations: violations,
+        pass: false,
+        reasons: Vec::new(),
+        wall_seconds: info.started.elapsed().as_secs_f64(),
+    };
+    mission.reasons = check_expected(case, &mission);
+    if report.is_none() {
+        mission
+            .reasons
+            .push("no mission report from the scheduler".into());
+    }
+    let home_error_m = home_errors(case.observers, &g, &mut mission.reasons);
+    let (processes, sensor_digests) = process_figures(procs, interrupted, &mut mission.reasons);
+    mission.pass = mission.reasons.is_empty() && !interrupted;
+    let sim_s = ns_s(g.now_ns());
+    let wall_over_sim = match (g.clock_started, g.last_tick_at) {
+        (Some(a), Some(b)) if sim_s > 0.0 => (b - a).as_secs_f64() / sim_s,
+        _ => f64::NAN,
+    };
+    let startup_s = g
+        .clock_started
+        .map_or(f64::NAN, |c| (c - info.started).as_secs_f64());
+    let end_ns = g.now_ns();
+    let session = std::mem::take(&mut g.session).finish(end_ns);
+    RunOutputs {
+        summary: RunSummary {
+            mission,
+            session: info.session.to_string(),
+            wall_over_sim,
+            startup_s,
+            missing_packets: g.missing.iter().map(|(o, m)| (o.to_string(), *m)).collect(),
+            home_error_m,
+            max_excursion_m: g.excursion_m.clone(),
+            sensor_digests,
+            processes,
+            faults: fault_log,
+            interrupted,
+        },
+        observers: records,
+        session,
+    }
+}
+
+/// Each observer's record (sorted), its summary line, and the provenance violations.
+fn observer_records(
+    n: usize,
+    g: &mut Gathered,
+    report: &Option<MissionReport>,
+) -> (
+    BTreeMap<String, ObserverRecord>,
+    BTreeMap<String, ObserverSummary>,
+    Vec<String>,
+) {
+    let departures: BTreeMap<(ObserverId, u32), u64> = report
+        .iter()
+        .flat_map(|r| r.departures.iter())
+        .map(|d| ((d.observer.clone(), d.round), d.t_ns))
+        .collect();
+    let mut records = BTreeMap::new();
+    let mut summaries = BTreeMap::new();
+    let mut violations = Vec::new();
+    for i in 0..n {
+        let id = ObserverId::from_index(i);
+        let mut rec = g.records.remove(&id).unwrap_or_default();
+        rec.tokens.sort_by_key(|t| t.seq);
+        rec.frames.sort_by_key(|f| f.seq);
+        rec.track.sort_by_key(|t| t.stamp_ns);
+        rec.track.dedup_by_key(|t| t.stamp_ns);
+        let frames: Vec<_> = rec.frames.iter().map(|f| f.frame.clone()).collect();
+        let services = report
+            .as_ref()
+            .and_then(|r| r.services.get(&id).cloned())
+            .unwrap_or_default();
+        summaries.insert(
+            id.to_string(),
+            ObserverSummary::from_record(&frames, &rec.decisions, &services, rec.tokens.len()),
+        );
+        violations.extend(provenance_violations(&rec.decisions, &departures));
+        records.insert(id.to_string(), rec);
+    }
+    (records, summaries, violations)
+}
+
+/// Each observer's distance from its home at the end; a reason for each beyond 5 cm.
+fn home_errors(n: usize, g: &Gathered, reasons: &mut Vec<String>) -> BTreeMap<String, f64> {
+    let mut out = BTreeMap::new();
+    let Some(state) = &g.state else {
+        return out;
+    };
+    for i in 0..n {
+        let name = observer_name(i);
+        if let Some(d) = state.drone(&name) {
+            let e = distance_m(d.pos_m, observer_home_m(i, n));
+            if e > 0.05 {
+                reasons.push(format!("{name} ends {e:.3} m from its home"));
+            }
+            out.insert(name, e);
+        }
+    }
+    out
+}
+
+/// Per-process figures and the cameras' sensor digests; a reason for each failed process.
+fn process_figures(
+    procs: &[Proc],
+    interrupted: bool,
+    reasons: &mut Vec<String>,
+) -> (BTreeMap<String, ProcessFigures>, BTreeMap<String, String>) {
+    let mut processes = BTreeMap::new();
+    let mut sensor_digests = BTreeMap::new();
+    for p in procs {
+        if !p.success && !p.killed_by_fault && !interrupted {
+            reasons.push(format!(
+                "{} ended with {}",
+                p.name,
+                p.exit.as_deref().unwrap_or("?")
+            ));
+        }
+        processes.insert(
+            p.name.clone(),
+            ProcessFigures {
+                cpu_s: p.cpu_s,
+                exit: p.exit.clone().unwrap_or_else(|| "running".into()),
+                killed_by_fault: p.killed_by_fault,
+            },
+        );
+        sensor_digests.extend(p.sensor_digests());
+    }
+    (processes, sensor_digests)
+}

@@ -1,0 +1,280 @@
+//! The supervisor loop of `waggle run`: waits for every process at start-up, publishes the
+//! fault messages, declares the launcher ready, then gathers from the bus, kills cameras at
+//! their dropout time, watches the children and draws the progress line until the scheduler's
+//! report is in and every child has exited (or a child fails, or Ctrl-C).
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anyhow::{Result, bail};
+use bus::{Bus, BusError, Inbound, handshake};
+use indicatif::{ProgressBar, ProgressStyle};
+use proto::scene::{observer_home_m, observer_name};
+use proto::{Keys, ObserverId, Role};
+
+use super::fault::Injected;
+use super::gather::Gathered;
+use super::process::Proc;
+use crate::case::Case;
+use crate::eval::summary::ns_s;
+
+/// How long every process gets to start and join the handshake.
+const STARTUP_TIMEOUT: Duration = Duration::from_secs(180);
+/// How long the children get to exit once the mission report is in.
+const EXIT_AFTER_REPORT: Duration = Duration::from_secs(20);
+
+/// Everything the supervisor works with.
+pub struct Supervisor<'a> {
+    pub bus: &'a mut Bus,
+    pub procs: &'a mut [Proc],
+    /// The launcher's own handshake identity.
+    pub me: &'a handshake::Process,
+    pub case: &'a Case,
+    pub observers: &'a [ObserverId],
+    pub injected: &'a [Injected],
+    /// Set by SIGINT/SIGTERM.
+    pub stop: &'a AtomicBool,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+/// What a supervised run gathered.
+#[derive(Default)]
+pub struct Supervised {
+    pub gathered: Gathered,
+    /// Injected faults with the sim time they took effect, and supervisor interventions.
+    pub fault_log: Vec<String>,
+    /// Ctrl-C stopped the run.
+    pub interrupted: bool,
+}
+
+/// A camera to SIGKILL at a sim time.
+struct PendingKill {
+    observer: ObserverId,
+    at_ns: u64,
+    done: bool,
+}
+
+impl Supervisor<'_> {
+    /// Runs until the scheduler's report is in and every child has exited (or a child fails,
+    /// or Ctrl-C).
+    pub fn run(mut self) -> Result<Supervised> {
+        if !self.start_up()? {
+            return Ok(Supervised {
+                interrupted: true,
+                ..Supervised::default()
+            });
+        }
+        let mut fault_log = self.publish_faults()?;
+        handshake::declare_ready(self.bus, self.me)?;
+        let bar = progress_bar(self.quiet);
+        let homes_m: BTreeMap<String, [f64; 3]> = (0..self.case.observers)
+            .map(|i| (observer_name(i), observer_home_m(i, self.case.observers)))
+            .collect();
+        let mut g = Gathered::new(homes_m);
+        let outcome = self.mission(&mut g, &mut fault_log, &bar);
+        if outcome.is_err() {
+            bar.finish_and_clear();
+        }
+        let interrupted = outcome?;
+        self.drain(&mut g)?;
+        bar.finish_and_clear();
+        Ok(Supervised {
+            gathered: g,
+            fault_log,
+            interrupted,
+        })
+    }
+
+    /// Waits for every process, checking the children meanwhile; false on Ctrl-C.
+    fn start_up(&mut self) -> Result<bool> {
+        let mut everyone = handshake::mission_processes(self.case.observers, true);
+        if self.procs.iter().any(|p| p.name == "recorder") {
+            everyone.push(handshake::Process::singleton(Role::Recorder));
+        }
+        let deadline = Instant::now() + STARTUP_TIMEOUT;
+        loop {
+            if self.stop.load(Ordering::SeqCst) {
+                return Ok(false);
+            }
+            for p in self.procs.iter_mut() {
+                p.poll()?;
+                if !p.running() {
+                    bail!(
+                        "{} exited during start-up ({})",
+                        p.name,
+                        p.exit.as_deref().unwrap_or("?")
+                    );
+                }
+            }
+            match handshake::await_everyone(self.bus, &everyone, Duration::from_millis(200)) {
+                Ok(()) => return Ok(true),
+                Err(BusError::Timeout { what, .. }) if Instant::now() >= deadline => {
+                    bail!("start-up timed out: {what}")
+                }
+                Err(BusError::Timeout { .. }) => {}
+                Err(e) => return Err(e.into()),
+            }
+        }
+    }
+
+    /// Publishes the fault messages before the clock starts; returns their log lines.
+    fn publish_faults(&mut self) -> Result<Vec<String>> {
+        let keys = self.bus.keys().clone();
+        let mut log = Vec::new();
+        for f in self.injected {
+            if let Injected::Message(fault) = f {
+                self.bus.put(&keys.fault(&fault.observer), fault)?;
+                log.push(format!(
+                    "{:?} on {} from {:.2} s (fault/{} published before the clock started)",
+                    fault.kind,
+                    fault.observer,
+                    ns_s(fault.from_ns),
+                    fault.observer
+                ));
+            }
+        }
+        Ok(log)
+    }
+
+    /// The mission loop; returns whether it was interrupted.
+    fn mission(
+        &mut self,
+        g: &mut Gathered,
+        fault_log: &mut Vec<String>,
+        bar: &ProgressBar,
+    ) -> Result<bool> {
+        let keys = self.bus.keys().clone();
+        let mut kills: Vec<PendingKill> = self
+            .injected
+            .iter()
+            .filter_map(|f| match f {
+                Injected::KillCamera { observer, at_ns } => Some(PendingKill {
+                    observer: observer.clone(),
+                    at_ns: *at_ns,
+                    done: false,
+                }),
+                Injected::Message(_) => None,
+            })
+            .collect();
+        let mut report_at: Option<Instant> = None;
+        let mut last_draw = Instant::now();
+        loop {
+            if self.stop.load(Ordering::SeqCst) {
+                for p in self.procs.iter_mut() {
+                    p.kill();
+                }
+                fault_log.push(format!(
+                    "interrupted (Ctrl-C) at sim {:.2} s: every child stopped",
+                    ns_s(g.now_ns())
+                ));
+                return Ok(true);
+            }
+            self.receive(&keys, g)?;
+            self.kill_cameras(g, &mut kills, fault_log);
+            self.check_children(g)?;
+            if g.report.is_some() {
+                let at = *report_at.get_or_insert_with(Instant::now);
+                if self.procs.iter().all(|p| !p.running()) {
+                    return Ok(false);
+                }
+                if at.elapsed() > EXIT_AFTER_REPORT {
+                    for p in self.procs.iter_mut().filter(|p| p.running()) {
+                        fault_log
+                            .push(format!("{} did not exit after the mission: killed", p.name));
+                        p.kill();
+                    }
+                }
+            } else if self.procs.iter().all(|p| !p.running()) {
+                bail!("every process exited without a mission report");
+            }
+            if last_draw.elapsed() > Duration::from_millis(100) {
+                bar.set_message(g.message(self.observers));
+                bar.tick();
+                last_draw = Instant::now();
+            }
+        }
+    }
+
+    /// Drains what arrived (up to 256 samples; waits up to 20 ms for the first).
+    fn receive(&mut self, keys: &Keys, g: &mut Gathered) -> Result<()> {
+        let mut budget = 256;
+        while let Some(item) =
+            self.bus
+                .recv(Duration::from_millis(if budget == 256 { 20 } else { 0 }))
+        {
+            if let Inbound::Data { key, payload } = item {
+                g.take(keys, &key, &payload)?;
+            }
+            budget -= 1;
+            if budget == 0 {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// SIGKILLs each dropout camera once the clock has passed its time.
+    fn kill_cameras(&mut self, g: &Gathered, kills: &mut [PendingKill], log: &mut Vec<String>) {
+        let now_ns = g.now_ns();
+        for k in kills.iter_mut() {
+            if k.done || g.clock_started.is_none() || now_ns < k.at_ns {
+                continue;
+            }
+            let name = format!("camera-{}", k.observer);
+            if let Some(p) = self.procs.iter_mut().find(|p| p.name == name) {
+                p.killed_by_fault = true;
+                p.kill();
+                log.push(format!(
+                    "SIGKILL {name} at sim {:.2} s (asked {:.2} s)",
+                    ns_s(now_ns),
+                    ns_s(k.at_ns)
+                ));
+            }
+            k.done = true;
+        }
+    }
+
+    /// Fails the run when a child fails before the mission report.
+    fn check_children(&mut self, g: &Gathered) -> Result<()> {
+        for p in self.procs.iter_mut() {
+            p.poll()?;
+            if !p.running() && !p.success && !p.killed_by_fault && g.report.is_none() {
+                bail!(
+                    "{} failed ({}) at sim {:.2} s",
+                    p.name,
+                    p.exit.as_deref().unwrap_or("?"),
+                    ns_s(g.now_ns())
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Messages published just before the publishers exited may still be queued.
+    fn drain(&mut self, g: &mut Gathered) -> Result<()> {
+        let keys = self.bus.keys().clone();
+        let until = Instant::now() + Duration::from_secs(2);
+        while Instant::now() < until
+            && let Some(item) = self.bus.recv(Duration::from_millis(200))
+        {
+            if let Inbound::Data { key, payload } = item {
+                g.take(&keys, &key, &payload)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+fn progress_bar(quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let b = ProgressBar::new_spinner();
+    b.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    b
+}

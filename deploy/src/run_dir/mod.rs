@@ -1,0 +1,197 @@
+//! The run-directory formats, typed: one set of serde structs shared by the writer (the
+//! launcher, `waggle run --out DIR`), the readers (`waggle audit`, `waggle report`, `waggle
+//! replay`, `waggle sweep`) and the tests.
+//!
+//! A run directory holds `summary.json` ([`RunSummary`]), `observers.json` (an
+//! [`ObserverRecord`] per observer), `session.json` ([`session::SessionRecord`]), the
+//! recording `session.mcap` with its `case.toml`, and the process logs in `logs/`. A sweep
+//! directory holds `sweep.json` ([`SweepManifest`]) and one run directory per run. The field
+//! names and the JSON layout are the on-disk format: they do not change.
+
+pub mod audit;
+pub mod session;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use proto::{Decision, FrameEvent, TokenEvent, TrackSample};
+use serde::{Deserialize, Deserializer, Serialize};
+
+use session::SessionRecord;
+
+/// `summary.json`: the mission summary (and, for `waggle run`, the run figures).
+pub const SUMMARY_FILE: &str = "summary.json";
+/// `observers.json`: every token, frame, decision and track sample of each observer.
+pub const OBSERVERS_FILE: &str = "observers.json";
+/// `session.json`: performer spans, session controls, trips, stays and the scheduler's report.
+pub const SESSION_FILE: &str = "session.json";
+/// The session recording written by `recorder-node`.
+pub const RECORDING_FILE: &str = "session.mcap";
+/// The case's TOML text, stored beside the recording (and inside it).
+pub const CASE_FILE: &str = "case.toml";
+/// The process logs of a run.
+pub const LOG_DIR: &str = "logs";
+/// `sweep.json` of a sweep directory.
+pub const SWEEP_FILE: &str = "sweep.json";
+
+/// Reads a number that may have been written as `null` (serde_json writes NaN and the
+/// infinities so) back as NaN.
+pub fn null_as_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// One observer's line of the mission summary.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObserverSummary {
+    pub complete_messages: usize,
+    pub payloads: Vec<String>,
+    pub final_null_s: Vec<f64>,
+    pub decisions: Vec<String>,
+    pub services: Vec<String>,
+    pub tokens: usize,
+}
+
+/// The mission summary shared by `waggle mission` (in-process) and `waggle run` (distributed).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MissionSummary {
+    pub case: String,
+    pub modality: String,
+    pub observers: BTreeMap<String, ObserverSummary>,
+    pub work_units: u32,
+    pub mission_time_s: f64,
+    pub end_reason: String,
+    pub contact_steps: u64,
+    #[serde(deserialize_with = "null_as_nan")]
+    pub min_separation_m: f64,
+    pub provenance_violations: Vec<String>,
+    pub pass: bool,
+    pub reasons: Vec<String>,
+    #[serde(deserialize_with = "null_as_nan")]
+    pub wall_seconds: f64,
+}
+
+/// Per-process figures in the summary.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProcessFigures {
+    pub cpu_s: f64,
+    pub exit: String,
+    pub killed_by_fault: bool,
+}
+
+/// `summary.json` of a distributed run: the shared mission summary plus run figures.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunSummary {
+    #[serde(flatten)]
+    pub mission: MissionSummary,
+    pub session: String,
+    /// Wall time from the first to the last tick divided by the simulated time.
+    #[serde(deserialize_with = "null_as_nan")]
+    pub wall_over_sim: f64,
+    /// Wall time from launch until the clock started, s.
+    #[serde(deserialize_with = "null_as_nan")]
+    pub startup_s: f64,
+    /// Sensor packets each observer judged missing.
+    pub missing_packets: BTreeMap<String, u64>,
+    /// Distance of each observer from its home at the end, m.
+    pub home_error_m: BTreeMap<String, f64>,
+    /// The farthest each observer got from its home during the mission, m.
+    pub max_excursion_m: BTreeMap<String, f64>,
+    /// Each camera's digest of every payload it published (equal across fault-free runs).
+    pub sensor_digests: BTreeMap<String, String>,
+    pub processes: BTreeMap<String, ProcessFigures>,
+    /// Injected faults with the sim time they took effect.
+    pub faults: Vec<String>,
+    pub interrupted: bool,
+}
+
+/// Everything one observer published, for `observers.json`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ObserverRecord {
+    pub tokens: Vec<TokenEvent>,
+    pub frames: Vec<FrameEvent>,
+    pub decisions: Vec<Decision>,
+    /// The observer's image-plane track while receiving (`observer/<o>/track`).
+    #[serde(default)]
+    pub track: Vec<TrackSample>,
+}
+
+/// Everything `waggle run` writes into a run directory as JSON.
+#[derive(Debug, Clone)]
+pub struct RunFiles {
+    pub summary: RunSummary,
+    pub observers: BTreeMap<String, ObserverRecord>,
+    /// Absent for runs made before the launcher wrote it.
+    pub session: Option<SessionRecord>,
+}
+
+impl RunFiles {
+    /// Reads `summary.json`, `observers.json` and (when present) `session.json` of `dir`.
+    pub fn load(dir: &Path) -> Result<Self> {
+        let read = |name: &str| -> Result<String> {
+            let p = dir.join(name);
+            std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))
+        };
+        let summary: RunSummary = serde_json::from_str(&read(SUMMARY_FILE)?)
+            .with_context(|| format!("parsing {}/{SUMMARY_FILE}", dir.display()))?;
+        let observers = serde_json::from_str(&read(OBSERVERS_FILE)?)
+            .with_context(|| format!("parsing {}/{OBSERVERS_FILE}", dir.display()))?;
+        let session = match dir.join(SESSION_FILE).exists() {
+            true => Some(
+                serde_json::from_str(&read(SESSION_FILE)?)
+                    .with_context(|| format!("parsing {}/{SESSION_FILE}", dir.display()))?,
+            ),
+            false => None,
+        };
+        Ok(Self {
+            summary,
+            observers,
+            session,
+        })
+    }
+
+    /// Writes the three files into `dir` (pretty JSON, the on-disk format).
+    pub fn write(
+        dir: &Path,
+        summary: &RunSummary,
+        observers: &BTreeMap<String, ObserverRecord>,
+        session: &SessionRecord,
+    ) -> Result<()> {
+        std::fs::write(
+            dir.join(SUMMARY_FILE),
+            serde_json::to_string_pretty(summary)?,
+        )?;
+        std::fs::write(
+            dir.join(OBSERVERS_FILE),
+            serde_json::to_string_pretty(observers)?,
+        )?;
+        std::fs::write(
+            dir.join(SESSION_FILE),
+            serde_json::to_string_pretty(session)?,
+        )?;
+        Ok(())
+    }
+}
+
+/// One planned run of a sweep, as recorded in `sweep.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlannedRun {
+    pub case: String,
+    pub modality: String,
+    /// Run directory, relative to the sweep directory.
+    pub dir: String,
+    /// How `waggle run` ended (`exit 0`, `exit 1`, `signal 9`, `not started`).
+    pub exit: String,
+    pub wall_s: f64,
+    /// The end of its stderr when it wrote no summary.
+    pub error_tail: Option<String>,
+}
+
+/// `sweep.json`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SweepManifest {
+    pub runs: Vec<PlannedRun>,
+    pub jobs: usize,
+    pub wall_s: f64,
+    pub interrupted: bool,
+}

@@ -1,0 +1,172 @@
+//! Frozen behaviour: `waggle run` reproduces, byte for byte, what the tree did before the crate
+//! restructure.
+//!
+//! `tests/golden/frozen.toml` holds, per (case, modality), the SHA-256 of `observers.json` (every
+//! token with its confirmation time, every frame, every decision) and the summary's
+//! `sensor_digests` (a digest of every sensor packet each camera published), recorded with the
+//! pre-restructure tree. Any change to physics, rendering, the event camera, perception, the
+//! scheduler or the wire shows up here. Both `only-a` runs (≈ 1–2 min each) are in the default
+//! suite; the whole missions are `#[ignore]`d (`deploy/test.sh --full`).
+//!
+//! The SHA-256 comes from the `sha2` crate rather than a `sha256sum` child process: it adds one
+//! small crate (its `digest` and `cpufeatures` dependencies are already in the tree) and keeps
+//! the test free of any assumption about the host's coreutils.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::process::Stdio;
+use std::sync::Mutex;
+
+use serde_json::Value;
+use sha2::{Digest, Sha256};
+use waggle_tests::{waggle_with_nodes, workspace_root};
+
+/// One run at a time: each already keeps both cores busy, and two at once would only invite the
+/// wall-clock grace period into a test that must be exact.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+/// The golden entries: `[[run]]` tables of `tests/golden/frozen.toml`.
+fn golden() -> Vec<toml::Table> {
+    let path = workspace_root().join("tests/golden/frozen.toml");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let table: toml::Table = text
+        .parse()
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    table["run"]
+        .as_array()
+        .expect("[[run]] entries")
+        .iter()
+        .map(|r| r.as_table().expect("a [[run]] table").clone())
+        .collect()
+}
+
+fn golden_entry(case: &str, modality: &str) -> toml::Table {
+    golden()
+        .into_iter()
+        .find(|r| r["case"].as_str() == Some(case) && r["modality"].as_str() == Some(modality))
+        .unwrap_or_else(|| panic!("no [[run]] for {case} ({modality}) in tests/golden/frozen.toml"))
+}
+
+fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// Runs `waggle run CASE --modality M` and compares its outputs with the golden entry. The output
+/// directory is kept when they differ, for a diff against a run of the old tree.
+fn assert_frozen(case: &str, modality: &str) {
+    let want = golden_entry(case, modality);
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir: PathBuf = std::env::temp_dir().join(format!(
+        "waggle-frozen-{}-{case}-{modality}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = waggle_with_nodes()
+        .args(["run", case, "--modality", modality, "--out"])
+        .arg(&dir)
+        .arg("--quiet")
+        .stdin(Stdio::null())
+        .output()
+        .expect("run waggle");
+    let context = || {
+        format!(
+            "{case} ({modality}), outputs in {}\nstatus {}\nstderr:\n{}",
+            dir.display(),
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        )
+    };
+    let read =
+        |f: &str| std::fs::read(dir.join(f)).unwrap_or_else(|e| panic!("{f}: {e}\n{}", context()));
+
+    let summary: Value = serde_json::from_slice(&read("summary.json")).expect("summary.json");
+    let digests = summary["sensor_digests"]
+        .as_object()
+        .unwrap_or_else(|| panic!("no sensor_digests in summary.json\n{}", context()));
+    let got_digests: BTreeMap<String, String> = digests
+        .iter()
+        .map(|(o, d)| (o.clone(), d.as_str().unwrap_or_default().to_string()))
+        .collect();
+    let want_digests: BTreeMap<String, String> = want["sensor_digests"]
+        .as_table()
+        .expect("sensor_digests table")
+        .iter()
+        .map(|(o, d)| (o.clone(), d.as_str().unwrap().to_string()))
+        .collect();
+    assert_eq!(
+        got_digests,
+        want_digests,
+        "sensor digests changed\n{}",
+        context()
+    );
+
+    let got_sha = sha256_hex(&read("observers.json"));
+    assert_eq!(
+        got_sha,
+        want["observers_sha256"].as_str().unwrap(),
+        "observers.json changed\n{}",
+        context()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The (case, modality) pairs with a test below; every golden entry must have one.
+const TESTED: [(&str, &str); 5] = [
+    ("only-a", "events"),
+    ("only-a", "rgb"),
+    ("nominal-3", "events"),
+    ("nominal-3", "rgb"),
+    ("dropout-o2", "events"),
+];
+
+#[test]
+fn every_golden_run_has_a_test() {
+    let mut listed: Vec<(String, String)> = golden()
+        .iter()
+        .map(|r| {
+            (
+                r["case"].as_str().unwrap().to_string(),
+                r["modality"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    let mut tested: Vec<(String, String)> = TESTED
+        .iter()
+        .map(|(c, m)| (c.to_string(), m.to_string()))
+        .collect();
+    listed.sort();
+    tested.sort();
+    assert_eq!(listed, tested);
+    assert_eq!(sha256_hex(b"abc")[..16], *"ba7816bf8f01cfea");
+}
+
+#[test]
+fn only_a_events_is_frozen() {
+    assert_frozen("only-a", "events");
+}
+
+#[test]
+fn only_a_rgb_is_frozen() {
+    assert_frozen("only-a", "rgb");
+}
+
+#[test]
+#[ignore = "whole mission, ≈ 5 min: deploy/test.sh --full"]
+fn nominal_3_events_is_frozen() {
+    assert_frozen("nominal-3", "events");
+}
+
+#[test]
+#[ignore = "whole mission, ≈ 5 min: deploy/test.sh --full"]
+fn nominal_3_rgb_is_frozen() {
+    assert_frozen("nominal-3", "rgb");
+}
+
+#[test]
+#[ignore = "whole mission, ≈ 5 min: deploy/test.sh --full"]
+fn dropout_o2_events_is_frozen() {
+    assert_frozen("dropout-o2", "events");
+}

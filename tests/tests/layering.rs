@@ -1,0 +1,167 @@
+//! The crate graph keeps its layers (ARCHITECTURE.md): proto → libs → node processes → deploy →
+//! tests.
+//!
+//! Reads `cargo metadata --no-deps` and proves, for every dependency edge between workspace crates
+//! (normal, dev and build alike):
+//!
+//! - `proto` depends on no workspace crate;
+//! - a library in `libs/` depends only on `proto` and other libraries;
+//! - a node crate never depends on another node crate, on `deploy` or on the tests;
+//! - nothing depends on the tests.
+//!
+//! Every workspace member must belong to a layer, so a new crate cannot slip past these rules.
+//! A failure names each offending edge.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde_json::Value;
+use waggle_tests::workspace_root;
+
+/// The node crates: one process each, thin shells over the libraries.
+const NODE_CRATES: [&str; 5] = [
+    "sim-node",
+    "performer-node",
+    "observer-node",
+    "scheduler-node",
+    "recorder-node",
+];
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Layer {
+    Proto,
+    Lib,
+    Node,
+    Deploy,
+    Tests,
+}
+
+/// `cargo metadata --format-version 1 --no-deps` of the workspace.
+fn metadata() -> Value {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let out = Command::new(&cargo)
+        .args(["metadata", "--format-version", "1", "--no-deps"])
+        .current_dir(workspace_root())
+        .output()
+        .unwrap_or_else(|e| panic!("run {}: {e}", cargo.to_string_lossy()));
+    assert!(
+        out.status.success(),
+        "cargo metadata failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON")
+}
+
+/// The layer of the workspace member whose manifest is in `dir`, from where it lives.
+fn layer_of(name: &str, dir: &Path, root: &Path) -> Layer {
+    let rel = dir.strip_prefix(root).unwrap_or(dir);
+    if NODE_CRATES.contains(&name) {
+        Layer::Node
+    } else if rel == Path::new("proto") {
+        Layer::Proto
+    } else if rel.parent() == Some(Path::new("libs")) {
+        Layer::Lib
+    } else if rel == Path::new("deploy") {
+        Layer::Deploy
+    } else if rel == Path::new("tests") {
+        Layer::Tests
+    } else {
+        panic!(
+            "workspace member {name} ({}) belongs to no layer: place it (proto, libs/, a node \
+             crate, deploy or tests) and classify it in tests/tests/layering.rs",
+            rel.display()
+        )
+    }
+}
+
+/// Why the edge `from` → `to` breaks the layering, if it does.
+fn violation(from: Layer, to: Layer) -> Option<&'static str> {
+    use Layer::{Deploy, Lib, Node, Proto, Tests};
+    match (from, to) {
+        (Proto, _) => Some("proto depends on no workspace crate"),
+        (Lib, Proto | Lib) => None,
+        (Lib, _) => Some("a library depends only on proto and other libraries"),
+        (Node, Node) => Some("a node crate never depends on another node crate"),
+        (Node, Deploy) => Some("a node crate never depends on deploy"),
+        (_, Tests) => Some("nothing depends on the tests crate"),
+        _ => None,
+    }
+}
+
+#[test]
+fn workspace_crates_depend_only_on_lower_layers() {
+    let meta = metadata();
+    let root = PathBuf::from(meta["workspace_root"].as_str().expect("workspace_root"));
+    let packages = meta["packages"].as_array().expect("packages");
+    let layers: BTreeMap<&str, Layer> = packages
+        .iter()
+        .map(|p| {
+            let name = p["name"].as_str().expect("package name");
+            let manifest = Path::new(p["manifest_path"].as_str().expect("manifest_path"));
+            (name, layer_of(name, manifest.parent().unwrap(), &root))
+        })
+        .collect();
+    for node in NODE_CRATES {
+        assert_eq!(
+            layers.get(node),
+            Some(&Layer::Node),
+            "node crate {node} is not a workspace member: update NODE_CRATES"
+        );
+    }
+    assert_eq!(layers.get("proto"), Some(&Layer::Proto), "no proto crate");
+
+    let mut edges = 0;
+    let mut broken = Vec::new();
+    for p in packages {
+        let from = p["name"].as_str().unwrap();
+        for d in p["dependencies"].as_array().expect("dependencies") {
+            let to = d["name"].as_str().expect("dependency name");
+            // Only edges inside the workspace: path dependencies on a member.
+            let Some(&to_layer) = layers.get(to).filter(|_| d["path"].is_string()) else {
+                continue;
+            };
+            edges += 1;
+            let kind = d["kind"].as_str().unwrap_or("normal");
+            if let Some(rule) = violation(layers[from], to_layer) {
+                broken.push(format!("{from} → {to} ({kind} dependency): {rule}"));
+            }
+        }
+    }
+    assert!(
+        edges > 10,
+        "only {edges} workspace edges: is cargo metadata's output what this test expects?"
+    );
+    assert!(
+        broken.is_empty(),
+        "the crate graph breaks its layering (ARCHITECTURE.md):\n  {}",
+        broken.join("\n  ")
+    );
+}
+
+#[test]
+fn the_layering_rules_reject_the_edges_they_name() {
+    use Layer::{Deploy, Lib, Node, Proto, Tests};
+    for (from, to) in [
+        (Proto, Lib),
+        (Lib, Node),
+        (Lib, Deploy),
+        (Lib, Tests),
+        (Node, Node),
+        (Node, Deploy),
+        (Deploy, Tests),
+    ] {
+        assert!(violation(from, to).is_some(), "{from:?} → {to:?} accepted");
+    }
+    for (from, to) in [
+        (Lib, Proto),
+        (Lib, Lib),
+        (Node, Lib),
+        (Node, Proto),
+        (Deploy, Lib),
+        (Tests, Deploy),
+        (Tests, Node),
+    ] {
+        assert!(violation(from, to).is_none(), "{from:?} → {to:?} rejected");
+    }
+}
