@@ -40,9 +40,9 @@ fn sway(t_ns: u64) -> Reference {
     let t = t_ns as f64 * 1e-9;
     let (s, c) = (w * t).sin_cos();
     let mut r = Reference::hover(PERFORMER_HOVER_M, 0.0);
-    r.pos_m[0] += SWAY_M * s;
-    r.vel_mps[0] = SWAY_M * w * c;
-    r.acc_mps2[0] = -SWAY_M * w * w * s;
+    r.kin.pos_m[0] += SWAY_M * s;
+    r.kin.vel_mps[0] = SWAY_M * w * c;
+    r.kin.acc_mps2[0] = -SWAY_M * w * w * s;
     r
 }
 

@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use event_camera::picture::{RgbImage, encode_png};
+use event_camera::picture::{encode_png, from_rgb};
 use event_camera::{Converter, Polarity};
 
 /// A fresh, empty directory for one test.
@@ -21,7 +21,7 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn write_frame(dir: &Path, name: &str, width: u32, height: u32, rgb: Vec<u8>) {
-    let png = encode_png(&RgbImage::new(width, height, rgb).unwrap()).unwrap();
+    let png = encode_png(&from_rgb(width, height, rgb).unwrap()).unwrap();
     std::fs::write(dir.join(name), png).unwrap();
 }
 

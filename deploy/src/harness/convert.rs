@@ -131,25 +131,25 @@ fn convert_into(args: &ConvertOptions, paths: &[PathBuf], csv: &Path) -> anyhow:
         let converter = match &mut converter {
             Some(c) => {
                 let (w, h) = (u32::from(c.width()), u32::from(c.height()));
-                if (image.width, image.height) != (w, h) {
+                if (image.width(), image.height()) != (w, h) {
                     bail!(
                         "{} is {}x{}, but the first frame {} is {w}x{h}",
                         path.display(),
-                        image.width,
-                        image.height,
+                        image.width(),
+                        image.height(),
                         paths[0].display()
                     );
                 }
                 c
             }
             None => {
-                let (Ok(w), Ok(h)) = (u16::try_from(image.width), u16::try_from(image.height))
+                let (Ok(w), Ok(h)) = (u16::try_from(image.width()), u16::try_from(image.height()))
                 else {
                     bail!(
                         "{} is {}x{}: too large",
                         path.display(),
-                        image.width,
-                        image.height
+                        image.width(),
+                        image.height()
                     );
                 };
                 converter.insert(
@@ -161,7 +161,7 @@ fn convert_into(args: &ConvertOptions, paths: &[PathBuf], csv: &Path) -> anyhow:
         events.clear();
         let started = Instant::now();
         converter
-            .push(stamp_ns(k, args.fps), &image.rgb, &mut events)
+            .push(stamp_ns(k, args.fps), image.as_raw(), &mut events)
             .with_context(|| format!("cannot convert {}", path.display()))?;
         if k > 0 {
             converting += started.elapsed();

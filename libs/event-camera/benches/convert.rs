@@ -30,8 +30,12 @@ fn rendered_frames() -> Option<(u16, u16, Vec<Vec<u8>>)> {
         .map(|p| event_camera::picture::decode_png(&std::fs::read(p).ok()?).ok())
         .collect::<Option<_>>()?;
     let first = images.first()?;
-    let (w, h) = (first.width as u16, first.height as u16);
-    Some((w, h, images.into_iter().map(|i| i.rgb).collect()))
+    let (w, h) = (first.width() as u16, first.height() as u16);
+    Some((
+        w,
+        h,
+        images.into_iter().map(image::RgbImage::into_raw).collect(),
+    ))
 }
 
 fn synthetic_frames(count: u64) -> (u16, u16, Vec<Vec<u8>>) {

@@ -7,7 +7,7 @@
 //! figure share geometry.
 
 use image::codecs::png::PngEncoder;
-use image::{ExtendedColorType, ImageEncoder, ImageFormat};
+use image::{ExtendedColorType, ImageEncoder, ImageFormat, Rgb};
 use proto::{EventPacket, Polarity};
 
 use crate::error::PictureError;
@@ -17,52 +17,19 @@ pub const OFF_COLOUR: [u8; 3] = [255, 0, 0];
 pub const NO_EVENT_COLOUR: [u8; 3] = [255, 255, 255];
 pub const OUTLINE_COLOUR: [u8; 3] = [0, 0, 0];
 
-/// Row-major 8-bit RGB image with public fields; converts to and from [`image::RgbImage`]
-/// without copying.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct RgbImage {
-    pub width: u32,
-    pub height: u32,
-    pub rgb: Vec<u8>,
+/// The 8-bit RGB image type of every picture: the `image` crate's buffer.
+pub use image::RgbImage;
+
+/// An image filled with one colour.
+pub fn filled(width: u32, height: u32, colour: [u8; 3]) -> RgbImage {
+    RgbImage::from_pixel(width, height, Rgb(colour))
 }
 
-impl RgbImage {
-    /// Wraps a buffer, checking its size.
-    pub fn new(width: u32, height: u32, rgb: Vec<u8>) -> Result<Self, PictureError> {
-        let want = width as usize * height as usize * 3;
-        if rgb.len() != want {
-            return Err(PictureError::BufferSize {
-                got: rgb.len(),
-                want,
-            });
-        }
-        Ok(Self { width, height, rgb })
-    }
-
-    /// An image filled with one colour.
-    pub fn filled(width: u32, height: u32, colour: [u8; 3]) -> Self {
-        let rgb = colour.repeat(width as usize * height as usize);
-        Self { width, height, rgb }
-    }
-
-    /// Colour at (x, y); panics outside the image (an internal invariant, not input).
-    pub fn pixel(&self, x: u32, y: u32) -> [u8; 3] {
-        let i = self.index(x, y);
-        [self.rgb[i], self.rgb[i + 1], self.rgb[i + 2]]
-    }
-
-    fn index(&self, x: u32, y: u32) -> usize {
-        assert!(
-            x < self.width && y < self.height,
-            "pixel ({x}, {y}) outside image"
-        );
-        3 * (y as usize * self.width as usize + x as usize)
-    }
-
-    fn set(&mut self, x: u32, y: u32, colour: [u8; 3]) {
-        let i = self.index(x, y);
-        self.rgb[i..i + 3].copy_from_slice(&colour);
-    }
+/// Wraps a row-major RGB buffer, checking its size.
+pub fn from_rgb(width: u32, height: u32, rgb: Vec<u8>) -> Result<RgbImage, PictureError> {
+    let want = width as usize * height as usize * 3;
+    let got = rgb.len();
+    RgbImage::from_raw(width, height, rgb).ok_or(PictureError::BufferSize { got, want })
 }
 
 /// The packet as an event frame: ON blue, OFF red, last polarity per pixel, white elsewhere.
@@ -78,7 +45,7 @@ pub fn event_frame(packet: &EventPacket) -> Result<RgbImage, PictureError> {
         )));
     }
     let (w, h) = (u32::from(packet.width), u32::from(packet.height));
-    let mut image = RgbImage::filled(w, h, NO_EVENT_COLOUR);
+    let mut image = filled(w, h, NO_EVENT_COLOUR);
     // Events are in time order, so painting in order leaves the last polarity.
     for i in 0..n {
         let (x, y) = (u32::from(packet.xs[i]), u32::from(packet.ys[i]));
@@ -92,7 +59,7 @@ pub fn event_frame(packet: &EventPacket) -> Result<RgbImage, PictureError> {
             Polarity::On => ON_COLOUR,
             Polarity::Off => OFF_COLOUR,
         };
-        image.set(x, y, colour);
+        image.put_pixel(x, y, Rgb(colour));
     }
     Ok(image)
 }
@@ -156,12 +123,12 @@ pub fn with_inset(image: &RgbImage, inset: &Inset) -> Result<RgbImage, PictureEr
         y,
         width,
         height,
-        image_width: image.width,
-        image_height: image.height,
+        image_width: image.width(),
+        image_height: image.height(),
     };
     let right = x.checked_add(width).ok_or_else(crop_outside)?;
     let bottom = y.checked_add(height).ok_or_else(crop_outside)?;
-    if right > image.width || bottom > image.height {
+    if right > image.width() || bottom > image.height() {
         return Err(crop_outside());
     }
     let framed = |len: u32| {
@@ -171,33 +138,33 @@ pub fn with_inset(image: &RgbImage, inset: &Inset) -> Result<RgbImage, PictureEr
     let (Some(box_w), Some(box_h)) = (framed(width), framed(height)) else {
         return Err(PictureError::EmptyInset);
     };
-    if box_w + 2 * INSET_MARGIN_PX > image.width || box_h + 2 * INSET_MARGIN_PX > image.height {
+    if box_w + 2 * INSET_MARGIN_PX > image.width() || box_h + 2 * INSET_MARGIN_PX > image.height() {
         return Err(PictureError::InsetTooLarge {
             width: box_w,
             height: box_h,
-            image_width: image.width,
-            image_height: image.height,
+            image_width: image.width(),
+            image_height: image.height(),
         });
     }
     let mut out = image.clone();
     // Outline just outside the crop (clipped to the image) so the crop's pixels stay visible.
     let (ox0, oy0) = (x.saturating_sub(1), y.saturating_sub(1));
-    let (ox1, oy1) = (right.min(image.width - 1), bottom.min(image.height - 1));
+    let (ox1, oy1) = (right.min(image.width() - 1), bottom.min(image.height() - 1));
     for px in ox0..=ox1 {
-        out.set(px, oy0, OUTLINE_COLOUR);
-        out.set(px, oy1, OUTLINE_COLOUR);
+        out.put_pixel(px, oy0, Rgb(OUTLINE_COLOUR));
+        out.put_pixel(px, oy1, Rgb(OUTLINE_COLOUR));
     }
     for py in oy0..=oy1 {
-        out.set(ox0, py, OUTLINE_COLOUR);
-        out.set(ox1, py, OUTLINE_COLOUR);
+        out.put_pixel(ox0, py, Rgb(OUTLINE_COLOUR));
+        out.put_pixel(ox1, py, Rgb(OUTLINE_COLOUR));
     }
     let bx = match corner {
         Corner::TopLeft | Corner::BottomLeft => INSET_MARGIN_PX,
-        Corner::TopRight | Corner::BottomRight => image.width - INSET_MARGIN_PX - box_w,
+        Corner::TopRight | Corner::BottomRight => image.width() - INSET_MARGIN_PX - box_w,
     };
     let by = match corner {
         Corner::TopLeft | Corner::TopRight => INSET_MARGIN_PX,
-        Corner::BottomLeft | Corner::BottomRight => image.height - INSET_MARGIN_PX - box_h,
+        Corner::BottomLeft | Corner::BottomRight => image.height() - INSET_MARGIN_PX - box_h,
     };
     for py in 0..box_h {
         for px in 0..box_w {
@@ -205,14 +172,16 @@ pub fn with_inset(image: &RgbImage, inset: &Inset) -> Result<RgbImage, PictureEr
                 && (INSET_BORDER_PX..box_h - INSET_BORDER_PX).contains(&py);
             let colour = if inside {
                 // Sample the original image: the outline must not leak into the magnified view.
-                image.pixel(
-                    x + (px - INSET_BORDER_PX) / scale,
-                    y + (py - INSET_BORDER_PX) / scale,
-                )
+                image
+                    .get_pixel(
+                        x + (px - INSET_BORDER_PX) / scale,
+                        y + (py - INSET_BORDER_PX) / scale,
+                    )
+                    .0
             } else {
                 OUTLINE_COLOUR
             };
-            out.set(bx + px, by + py, colour);
+            out.put_pixel(bx + px, by + py, Rgb(colour));
         }
     }
     Ok(out)
@@ -230,40 +199,13 @@ pub fn event_picture(
     }
 }
 
-impl From<RgbImage> for image::RgbImage {
-    /// The same pixels as an [`image`] buffer (no copy).
-    fn from(img: RgbImage) -> Self {
-        image::RgbImage::from_raw(img.width, img.height, img.rgb)
-            .expect("RgbImage holds width × height × 3 bytes")
-    }
-}
-
-impl From<image::RgbImage> for RgbImage {
-    /// The same pixels (no copy).
-    fn from(img: image::RgbImage) -> Self {
-        let (width, height) = img.dimensions();
-        Self {
-            width,
-            height,
-            rgb: img.into_raw(),
-        }
-    }
-}
-
 /// Encodes an 8-bit RGB PNG (the `image` crate's PNG encoder, default settings).
 pub fn encode_png(image: &RgbImage) -> Result<Vec<u8>, PictureError> {
-    let want = image.width as usize * image.height as usize * 3;
-    if image.rgb.len() != want {
-        return Err(PictureError::BufferSize {
-            got: image.rgb.len(),
-            want,
-        });
-    }
     let mut bytes = Vec::new();
     PngEncoder::new(&mut bytes).write_image(
-        &image.rgb,
-        image.width,
-        image.height,
+        image.as_raw(),
+        image.width(),
+        image.height(),
         ExtendedColorType::Rgb8,
     )?;
     Ok(bytes)
@@ -274,5 +216,5 @@ pub fn encode_png(image: &RgbImage) -> Result<Vec<u8>, PictureError> {
 /// (renders are opaque).
 pub fn decode_png(bytes: &[u8]) -> Result<RgbImage, PictureError> {
     let decoded = image::load_from_memory_with_format(bytes, ImageFormat::Png)?;
-    Ok(decoded.into_rgb8().into())
+    Ok(decoded.into_rgb8())
 }

@@ -183,14 +183,14 @@ fn fast_matches_reference_on_rendered_frames_when_present() {
     for (k, path) in paths.iter().enumerate() {
         let image = event_camera::picture::decode_png(&std::fs::read(path).unwrap())
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let dims = (image.width as u16, image.height as u16);
+        let dims = (image.width() as u16, image.height() as u16);
         assert_eq!(
             *size.get_or_insert(dims),
             dims,
             "{}: size differs",
             path.display()
         );
-        frames.push((k as u64 * 10_000_000, image.rgb));
+        frames.push((k as u64 * 10_000_000, image.into_raw()));
     }
     if let Some((w, h)) = size {
         let total = assert_identical(w, h, DEFAULT_THRESHOLD, &frames);

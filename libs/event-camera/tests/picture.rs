@@ -3,26 +3,22 @@
 use event_camera::PictureError;
 use event_camera::picture::{
     Corner, Inset, NO_EVENT_COLOUR, OFF_COLOUR, ON_COLOUR, OUTLINE_COLOUR, RgbImage, decode_png,
-    encode_png, event_frame, event_picture, with_inset,
+    encode_png, event_frame, event_picture, filled, from_rgb, with_inset,
 };
 use image::codecs::png::PngEncoder;
 use image::{ExtendedColorType, ImageEncoder};
 use proto::{EventPacket, Polarity};
 
 fn packet(width: u16, height: u16, events: &[(u16, u16, Polarity)]) -> EventPacket {
-    EventPacket {
-        seq: 3,
-        start_ns: 0,
-        end_ns: 40_000_000,
-        width,
-        height,
-        valid: true,
-        continuous: true,
-        xs: events.iter().map(|e| e.0).collect(),
-        ys: events.iter().map(|e| e.1).collect(),
-        dt_ns: (1..=events.len() as u32).collect(),
-        on_bits: EventPacket::pack_polarities(events.iter().map(|e| e.2)),
-    }
+    let events: Vec<_> = (1..)
+        .zip(events)
+        .map(|(dt_ns, &(x, y, p))| (x, y, dt_ns, p))
+        .collect();
+    EventPacket::from_events(3, (0, 40_000_000), (width, height), &events)
+}
+
+fn pixel(image: &RgbImage, x: u32, y: u32) -> [u8; 3] {
+    image.get_pixel(x, y).0
 }
 
 #[test]
@@ -42,19 +38,19 @@ fn on_is_blue_off_is_red_last_polarity_wins_and_the_rest_is_white() {
         ],
     );
     let image = event_frame(&p).unwrap();
-    assert_eq!((image.width, image.height), (6, 5));
-    assert_eq!(image.pixel(1, 1), ON_COLOUR);
-    assert_eq!(image.pixel(2, 1), OFF_COLOUR);
-    assert_eq!(image.pixel(3, 3), OFF_COLOUR);
-    assert_eq!(image.pixel(4, 4), ON_COLOUR);
-    assert_eq!(image.pixel(0, 4), ON_COLOUR);
+    assert_eq!((image.width(), image.height()), (6, 5));
+    assert_eq!(pixel(&image, 1, 1), ON_COLOUR);
+    assert_eq!(pixel(&image, 2, 1), OFF_COLOUR);
+    assert_eq!(pixel(&image, 3, 3), OFF_COLOUR);
+    assert_eq!(pixel(&image, 4, 4), ON_COLOUR);
+    assert_eq!(pixel(&image, 0, 4), ON_COLOUR);
     assert_eq!(ON_COLOUR, [0, 0, 255]);
     assert_eq!(OFF_COLOUR, [255, 0, 0]);
     let coloured = [(1, 1), (2, 1), (3, 3), (4, 4), (0, 4)];
     for y in 0..5 {
         for x in 0..6 {
             if !coloured.contains(&(x, y)) {
-                assert_eq!(image.pixel(x, y), NO_EVENT_COLOUR, "({x}, {y})");
+                assert_eq!(pixel(&image, x, y), NO_EVENT_COLOUR, "({x}, {y})");
             }
         }
     }
@@ -62,7 +58,7 @@ fn on_is_blue_off_is_red_last_polarity_wins_and_the_rest_is_white() {
     assert!(
         event_frame(&packet(6, 5, &[]))
             .unwrap()
-            .rgb
+            .as_raw()
             .iter()
             .all(|&b| b == 255)
     );
@@ -95,7 +91,7 @@ fn inset_magnifies_the_crop_into_the_corner_and_outlines_it() {
     let rgb: Vec<u8> = (0..80u32)
         .flat_map(|y| (0..100u32).flat_map(move |x| [x as u8, y as u8, 7]))
         .collect();
-    let image = RgbImage::new(100, 80, rgb).unwrap();
+    let image = from_rgb(100, 80, rgb).unwrap();
     let inset = Inset {
         x: 40,
         y: 30,
@@ -107,24 +103,24 @@ fn inset_magnifies_the_crop_into_the_corner_and_outlines_it() {
     let out = with_inset(&image, &inset).unwrap();
     // Box = 10·3 + 2·2 border = 34 wide, 28 high; margin 6 → starts at x = 100 − 6 − 34 = 60.
     let (bx, by) = (60, 6);
-    assert_eq!(out.pixel(bx, by), OUTLINE_COLOUR);
-    assert_eq!(out.pixel(bx + 33, by + 27), OUTLINE_COLOUR);
+    assert_eq!(pixel(&out, bx, by), OUTLINE_COLOUR);
+    assert_eq!(pixel(&out, bx + 33, by + 27), OUTLINE_COLOUR);
     for py in 0..24 {
         for px in 0..30 {
             assert_eq!(
-                out.pixel(bx + 2 + px, by + 2 + py),
-                image.pixel(40 + px / 3, 30 + py / 3),
+                pixel(&out, bx + 2 + px, by + 2 + py),
+                pixel(&image, 40 + px / 3, 30 + py / 3),
                 "inset ({px}, {py})"
             );
         }
     }
     // Outline one pixel outside the crop; the crop itself and the rest are untouched.
-    assert_eq!(out.pixel(39, 29), OUTLINE_COLOUR);
-    assert_eq!(out.pixel(50, 38), OUTLINE_COLOUR);
-    assert_eq!(out.pixel(45, 29), OUTLINE_COLOUR);
-    assert_eq!(out.pixel(40, 30), image.pixel(40, 30));
-    assert_eq!(out.pixel(49, 37), image.pixel(49, 37));
-    assert_eq!(out.pixel(10, 70), image.pixel(10, 70));
+    assert_eq!(pixel(&out, 39, 29), OUTLINE_COLOUR);
+    assert_eq!(pixel(&out, 50, 38), OUTLINE_COLOUR);
+    assert_eq!(pixel(&out, 45, 29), OUTLINE_COLOUR);
+    assert_eq!(pixel(&out, 40, 30), pixel(&image, 40, 30));
+    assert_eq!(pixel(&out, 49, 37), pixel(&image, 49, 37));
+    assert_eq!(pixel(&out, 10, 70), pixel(&image, 10, 70));
     // Other corners.
     let bl = with_inset(
         &image,
@@ -134,13 +130,13 @@ fn inset_magnifies_the_crop_into_the_corner_and_outlines_it() {
         },
     )
     .unwrap();
-    assert_eq!(bl.pixel(6 + 2, 80 - 6 - 28 + 2), image.pixel(40, 30));
-    assert_eq!(bl.pixel(70, 10), image.pixel(70, 10));
+    assert_eq!(pixel(&bl, 6 + 2, 80 - 6 - 28 + 2), pixel(&image, 40, 30));
+    assert_eq!(pixel(&bl, 70, 10), pixel(&image, 70, 10));
 }
 
 #[test]
 fn inset_that_does_not_fit_is_an_error() {
-    let image = RgbImage::filled(100, 80, [1, 2, 3]);
+    let image = filled(100, 80, [1, 2, 3]);
     let inset = Inset {
         x: 95,
         y: 0,
@@ -191,17 +187,17 @@ fn paper_inset_is_80_by_60_inside_the_field() {
     assert_eq!((edge.x, edge.y), (560, 0));
     let p = packet(640, 480, &[(320, 240, Polarity::On)]);
     let picture = event_picture(&p, Some(&inset)).unwrap();
-    assert_eq!(picture.pixel(320, 240), ON_COLOUR);
+    assert_eq!(pixel(&picture, 320, 240), ON_COLOUR);
     // The event appears magnified in the inset too: crop offset (40, 30) × 3 + border.
     let (bx, by) = (640 - 6 - (80 * 3 + 4), 6);
-    assert_eq!(picture.pixel(bx + 2 + 40 * 3, by + 2 + 30 * 3), ON_COLOUR);
+    assert_eq!(pixel(&picture, bx + 2 + 40 * 3, by + 2 + 30 * 3), ON_COLOUR);
     assert_eq!(event_picture(&p, None).unwrap(), event_frame(&p).unwrap());
 }
 
 #[test]
 fn png_round_trip_and_decoding() {
     let rgb: Vec<u8> = (0..7 * 5 * 3).map(|i| (i * 11 % 256) as u8).collect();
-    let image = RgbImage::new(7, 5, rgb).unwrap();
+    let image = from_rgb(7, 5, rgb).unwrap();
     let bytes = encode_png(&image).unwrap();
     assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
     assert_eq!(decode_png(&bytes).unwrap(), image);
@@ -215,13 +211,13 @@ fn png_round_trip_and_decoding() {
         out
     };
     let gray = decode_png(&encode(ExtendedColorType::L8, &[9, 200])).unwrap();
-    assert_eq!(gray.rgb, vec![9, 9, 9, 200, 200, 200]);
+    assert_eq!(gray.as_raw(), &vec![9, 9, 9, 200, 200, 200]);
     let rgba = decode_png(&encode(
         ExtendedColorType::Rgba8,
         &[1, 2, 3, 0, 4, 5, 6, 255],
     ))
     .unwrap();
-    assert_eq!(rgba.rgb, vec![1, 2, 3, 4, 5, 6]);
+    assert_eq!(rgba.as_raw(), &vec![1, 2, 3, 4, 5, 6]);
 
     assert!(matches!(
         decode_png(b"not a png"),
@@ -232,7 +228,7 @@ fn png_round_trip_and_decoding() {
         Err(PictureError::Png(_))
     ));
     assert!(matches!(
-        RgbImage::new(2, 2, vec![0; 11]),
+        from_rgb(2, 2, vec![0; 11]),
         Err(PictureError::BufferSize { .. })
     ));
 }

@@ -158,15 +158,7 @@ fn main() -> Result<()> {
     );
     while world.time_ns() < clip_last_ns {
         let sp = schedule.state_at(world.time_ns());
-        world.set_reference(
-            0,
-            Reference {
-                pos_m: sp.pos_m,
-                vel_mps: sp.vel_mps,
-                acc_mps2: sp.acc_mps2,
-                yaw_rad: 0.0,
-            },
-        );
+        world.set_reference(0, Reference::new(sp, 0.0));
         world.step();
         let t = world.time_ns();
         if !t.is_multiple_of(FRAME_PERIOD_NS) {

@@ -222,19 +222,12 @@ mod tests {
     }
 
     fn empty_packet(tick: u64) -> EventPacket {
-        EventPacket {
-            seq: tick - 1,
-            start_ns: (tick - 1) * TICK_NS,
-            end_ns: tick * TICK_NS,
-            width: proto::scene::IMAGE_WIDTH_PX,
-            height: proto::scene::IMAGE_HEIGHT_PX,
-            valid: true,
-            continuous: true,
-            xs: vec![],
-            ys: vec![],
-            dt_ns: vec![],
-            on_bits: vec![],
-        }
+        EventPacket::from_events(
+            tick - 1,
+            ((tick - 1) * TICK_NS, tick * TICK_NS),
+            (proto::scene::IMAGE_WIDTH_PX, proto::scene::IMAGE_HEIGHT_PX),
+            &[],
+        )
     }
 
     fn control(tick: u64, event: SessionEvent) -> SessionControl {

@@ -340,19 +340,12 @@ mod tests {
     use proto::SessionEvent;
 
     fn events(tick: u64) -> EventPacket {
-        EventPacket {
-            seq: tick.saturating_sub(1),
-            start_ns: tick.saturating_sub(1) * TICK_NS,
-            end_ns: tick * TICK_NS,
-            width: proto::scene::IMAGE_WIDTH_PX,
-            height: proto::scene::IMAGE_HEIGHT_PX,
-            valid: true,
-            continuous: true,
-            xs: vec![],
-            ys: vec![],
-            dt_ns: vec![],
-            on_bits: vec![],
-        }
+        EventPacket::from_events(
+            tick.saturating_sub(1),
+            (tick.saturating_sub(1) * TICK_NS, tick * TICK_NS),
+            (proto::scene::IMAGE_WIDTH_PX, proto::scene::IMAGE_HEIGHT_PX),
+            &[],
+        )
     }
 
     fn rgb(tick: u64) -> RgbFrame {

@@ -627,7 +627,7 @@ fn rendered_fixture_frames_are_localised_at_the_drone() {
         let image =
             event_camera::picture::decode_png(&std::fs::read(path).expect("fixture")).expect("PNG");
         for p in camera
-            .push_frame(k as u64 * scene::RENDER_PERIOD_NS, &image.rgb)
+            .push_frame(k as u64 * scene::RENDER_PERIOD_NS, image.as_raw())
             .expect("frame")
         {
             let out = rx.push_packet(&p);

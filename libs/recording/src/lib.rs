@@ -32,25 +32,23 @@ mod tests {
     use super::*;
 
     fn packet(tick: u64, n: usize) -> EventPacket {
-        EventPacket {
-            seq: tick - 1,
-            start_ns: (tick - 1) * TICK_NS,
-            end_ns: tick * TICK_NS,
-            width: 640,
-            height: 480,
-            valid: true,
-            continuous: true,
-            xs: (0..n).map(|i| (i * 7 % 640) as u16).collect(),
-            ys: (0..n).map(|i| (i * 3 % 480) as u16).collect(),
-            dt_ns: (0..n).map(|i| (i as u32 * 1000) % 40_000_000).collect(),
-            on_bits: EventPacket::pack_polarities((0..n).map(|i| {
-                if i % 3 == 0 {
+        let events: Vec<_> = (0..n)
+            .map(|i| {
+                let polarity = if i % 3 == 0 {
                     Polarity::On
                 } else {
                     Polarity::Off
-                }
-            })),
-        }
+                };
+                let dt_ns = (i as u32 * 1000) % 40_000_000;
+                ((i * 7 % 640) as u16, (i * 3 % 480) as u16, dt_ns, polarity)
+            })
+            .collect();
+        EventPacket::from_events(
+            tick - 1,
+            ((tick - 1) * TICK_NS, tick * TICK_NS),
+            (640, 480),
+            &events,
+        )
     }
 
     /// A recording of `ticks` ticks: clock and one event packet per tick (every 4th empty),

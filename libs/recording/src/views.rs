@@ -182,19 +182,13 @@ mod tests {
     use super::*;
 
     fn packet(tick: u64, events: &[(u16, u16, Polarity)]) -> EventPacket {
-        EventPacket {
-            seq: tick - 1,
-            start_ns: (tick - 1) * TICK_NS,
-            end_ns: tick * TICK_NS,
-            width: 4,
-            height: 2,
-            valid: true,
-            continuous: true,
-            xs: events.iter().map(|e| e.0).collect(),
-            ys: events.iter().map(|e| e.1).collect(),
-            dt_ns: vec![0; events.len()],
-            on_bits: EventPacket::pack_polarities(events.iter().map(|e| e.2)),
-        }
+        let events: Vec<_> = events.iter().map(|&(x, y, p)| (x, y, 0, p)).collect();
+        EventPacket::from_events(
+            tick - 1,
+            ((tick - 1) * TICK_NS, tick * TICK_NS),
+            (4, 2),
+            &events,
+        )
     }
 
     fn px(img: &EventImage, x: u32, y: u32) -> [u8; 3] {

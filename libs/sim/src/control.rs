@@ -8,32 +8,17 @@
 use proto::Kinematics;
 
 /// Where a drone should be: a [`Kinematics`] (position plus velocity and acceleration
-/// feed-forward) and a heading. World frame, SI units.
-///
-/// The kinematic fields mirror [`Kinematics`] field for field (build with [`Reference::new`],
-/// read with [`Reference::kinematics`]).
+/// feed-forward) flown at heading `yaw_rad`. World frame, SI units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Reference {
-    pub pos_m: [f64; 3],
-    pub vel_mps: [f64; 3],
-    pub acc_mps2: [f64; 3],
+    pub kin: Kinematics,
     pub yaw_rad: f64,
 }
 
 impl Reference {
     /// Fly `kin` at heading `yaw_rad`.
     pub fn new(kin: Kinematics, yaw_rad: f64) -> Self {
-        let Kinematics {
-            pos_m,
-            vel_mps,
-            acc_mps2,
-        } = kin;
-        Self {
-            pos_m,
-            vel_mps,
-            acc_mps2,
-            yaw_rad,
-        }
+        Self { kin, yaw_rad }
     }
 
     /// A stationary hover at `pos_m` with heading `yaw_rad`.
@@ -41,19 +26,10 @@ impl Reference {
         Self::new(Kinematics::rest(pos_m), yaw_rad)
     }
 
-    /// Position, velocity and acceleration of the reference.
-    pub fn kinematics(&self) -> Kinematics {
-        Kinematics {
-            pos_m: self.pos_m,
-            vel_mps: self.vel_mps,
-            acc_mps2: self.acc_mps2,
-        }
-    }
-
     /// The reference advanced by `dt_s` under constant acceleration (used between 40 ms ticks);
     /// the heading is held.
     pub fn extrapolated(&self, dt_s: f64) -> Self {
-        Self::new(self.kinematics().extrapolated(dt_s), self.yaw_rad)
+        Self::new(self.kin.extrapolated(dt_s), self.yaw_rad)
     }
 }
 
@@ -96,10 +72,11 @@ pub fn wrench(
     let kp = gains.pos_wn_radps * gains.pos_wn_radps;
     let kd = 2.0 * gains.pos_wn_radps;
     let mut out = [0.0; 6];
+    let want = &reference.kin;
     for k in 0..3 {
-        let acc = reference.acc_mps2[k]
-            + kp * (reference.pos_m[k] - state.pos_m[k])
-            + kd * (reference.vel_mps[k] - state.vel_mps[k]);
+        let acc = want.acc_mps2[k]
+            + kp * (want.pos_m[k] - state.pos_m[k])
+            + kd * (want.vel_mps[k] - state.vel_mps[k]);
         out[k] = mass_kg * acc;
     }
     out[2] += mass_kg * gravity_mps2;

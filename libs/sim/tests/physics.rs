@@ -13,7 +13,7 @@ fn every_drone_holds_its_setpoint_within_a_millimetre() {
     for _ in 0..500 {
         world.step();
         for i in 0..4 {
-            let err = distance_m(world.position_m(i), world.reference(i).pos_m);
+            let err = distance_m(world.position_m(i), world.reference(i).kin.pos_m);
             assert!(
                 err < 1e-3,
                 "drone {i} off its setpoint by {err} m at {} ns",

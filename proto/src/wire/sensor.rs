@@ -85,6 +85,30 @@ impl EventPacket {
         }
         bits
     }
+
+    /// A valid packet that continues its stream: sequence `seq`, covering `(start_ns, end_ns]`
+    /// of a `width`×`height` sensor, holding `events` as `(x, y, dt_ns, polarity)` in order.
+    /// The one way tests and tools build a packet by hand.
+    pub fn from_events(
+        seq: u64,
+        (start_ns, end_ns): (u64, u64),
+        (width, height): (u16, u16),
+        events: &[(u16, u16, u32, Polarity)],
+    ) -> Self {
+        Self {
+            seq,
+            start_ns,
+            end_ns,
+            width,
+            height,
+            valid: true,
+            continuous: true,
+            xs: events.iter().map(|e| e.0).collect(),
+            ys: events.iter().map(|e| e.1).collect(),
+            dt_ns: events.iter().map(|e| e.2).collect(),
+            on_bits: Self::pack_polarities(events.iter().map(|e| e.3)),
+        }
+    }
 }
 
 impl Validate for EventPacket {

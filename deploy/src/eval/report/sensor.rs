@@ -10,7 +10,9 @@
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
-use event_camera::picture::{Inset, RgbImage, encode_png, event_picture, with_inset};
+use event_camera::picture::{
+    Inset, RgbImage, encode_png, event_picture, filled, from_rgb, with_inset,
+};
 use event_camera::{CameraConfig, EventCamera};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, observer_name};
 use proto::{Action, EventPacket, Polarity, TICK_NS};
@@ -103,7 +105,7 @@ pub fn sensor_comparison(observers: usize, observer: usize, png_path: &Path) -> 
             let centre = lens
                 .project_px(world.position_m(0))
                 .context("the performer is behind the camera")?;
-            let image = RgbImage::new(u32::from(IMAGE_WIDTH_PX), u32::from(IMAGE_HEIGHT_PX), rgb)?;
+            let image = from_rgb(u32::from(IMAGE_WIDTH_PX), u32::from(IMAGE_HEIGHT_PX), rgb)?;
             captured.push((image, packet, centre));
         }
     }
@@ -112,7 +114,7 @@ pub fn sensor_comparison(observers: usize, observer: usize, png_path: &Path) -> 
     }
     let (w, h) = (u32::from(IMAGE_WIDTH_PX), u32::from(IMAGE_HEIGHT_PX));
     let gap = 12;
-    let mut sheet = RgbImage::filled(3 * w + 2 * gap, 2 * h + gap, [255, 255, 255]);
+    let mut sheet = filled(3 * w + 2 * gap, 2 * h + gap, [255, 255, 255]);
     let mut phases = Vec::new();
     for (k, ((image, packet, centre), (label, t_ns))) in captured.iter().zip(instants).enumerate() {
         let cx = centre[0].clamp(0.0, f64::from(w - 1)) as u32;
@@ -120,8 +122,13 @@ pub fn sensor_comparison(observers: usize, observer: usize, png_path: &Path) -> 
         let inset = Inset::paper(cx, cy);
         let top = with_inset(image, &inset)?;
         let bottom = event_picture(packet, Some(&inset))?;
-        blit(&mut sheet, &top, k as u32 * (w + gap), 0);
-        blit(&mut sheet, &bottom, k as u32 * (w + gap), h + gap);
+        image::imageops::replace(&mut sheet, &top, i64::from(k as u32 * (w + gap)), 0);
+        image::imageops::replace(
+            &mut sheet,
+            &bottom,
+            i64::from(k as u32 * (w + gap)),
+            i64::from(h + gap),
+        );
         phases.push(Phase {
             label,
             t_ns,
@@ -135,15 +142,6 @@ pub fn sensor_comparison(observers: usize, observer: usize, png_path: &Path) -> 
     let bytes = encode_png(&sheet)?;
     std::fs::write(png_path, bytes).with_context(|| format!("writing {}", png_path.display()))?;
     Ok(phases)
-}
-
-fn blit(dst: &mut RgbImage, src: &RgbImage, x0: u32, y0: u32) {
-    for y in 0..src.height {
-        let s = (y * src.width * 3) as usize;
-        let d = (((y0 + y) * dst.width + x0) * 3) as usize;
-        let n = (src.width * 3) as usize;
-        dst.rgb[d..d + n].copy_from_slice(&src.rgb[s..s + n]);
-    }
 }
 
 /// The figure's caption (markdown), naming the camera and the packets.

@@ -203,19 +203,11 @@ mod tests {
     const P: u64 = 40_000_000;
 
     fn packet(seq: u64) -> EventPacket {
-        EventPacket {
-            seq,
-            start_ns: seq * P,
-            end_ns: (seq + 1) * P,
-            width: 640,
-            height: 480,
-            valid: true,
-            continuous: true,
-            xs: vec![1, 2],
-            ys: vec![3, 4],
-            dt_ns: vec![5, 6],
-            on_bits: vec![0b01],
-        }
+        let events = [
+            (1, 3, 5, proto::Polarity::On),
+            (2, 4, 6, proto::Polarity::Off),
+        ];
+        EventPacket::from_events(seq, (seq * P, (seq + 1) * P), (640, 480), &events)
     }
 
     #[test]

@@ -453,19 +453,8 @@ mod tests {
     const P: u64 = 40_000_000;
 
     fn packet(seq: u64, events: &[(u16, u16, Polarity)]) -> EventPacket {
-        EventPacket {
-            seq,
-            start_ns: seq * P,
-            end_ns: (seq + 1) * P,
-            width: 640,
-            height: 480,
-            valid: true,
-            continuous: true,
-            xs: events.iter().map(|e| e.0).collect(),
-            ys: events.iter().map(|e| e.1).collect(),
-            dt_ns: vec![1; events.len()],
-            on_bits: EventPacket::pack_polarities(events.iter().map(|e| e.2)),
-        }
+        let events: Vec<_> = events.iter().map(|&(x, y, p)| (x, y, 1, p)).collect();
+        EventPacket::from_events(seq, (seq * P, (seq + 1) * P), (640, 480), &events)
     }
 
     /// Both outlines of a dark 48x12 bar moving right, centred at (cx, 240).

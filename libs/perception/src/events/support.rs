@@ -302,19 +302,8 @@ mod tests {
     use proto::Polarity;
 
     fn packet(events: &[(u16, u16, Polarity)]) -> EventPacket {
-        EventPacket {
-            seq: 0,
-            start_ns: 0,
-            end_ns: 40_000_000,
-            width: 640,
-            height: 480,
-            valid: true,
-            continuous: true,
-            xs: events.iter().map(|e| e.0).collect(),
-            ys: events.iter().map(|e| e.1).collect(),
-            dt_ns: vec![1; events.len()],
-            on_bits: EventPacket::pack_polarities(events.iter().map(|e| e.2)),
-        }
+        let events: Vec<_> = events.iter().map(|&(x, y, p)| (x, y, 1, p)).collect();
+        EventPacket::from_events(0, (0, 40_000_000), (640, 480), &events)
     }
 
     #[test]
