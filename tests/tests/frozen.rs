@@ -17,7 +17,7 @@ use std::path::PathBuf;
 use std::process::Stdio;
 use std::sync::Mutex;
 
-use serde_json::Value;
+use deploy::run_dir::RunSummary;
 use sha2::{Digest, Sha256};
 use waggle_tests::{waggle_with_nodes, workspace_root};
 
@@ -82,14 +82,9 @@ fn assert_frozen(case: &str, modality: &str) {
     let read =
         |f: &str| std::fs::read(dir.join(f)).unwrap_or_else(|e| panic!("{f}: {e}\n{}", context()));
 
-    let summary: Value = serde_json::from_slice(&read("summary.json")).expect("summary.json");
-    let digests = summary["sensor_digests"]
-        .as_object()
-        .unwrap_or_else(|| panic!("no sensor_digests in summary.json\n{}", context()));
-    let got_digests: BTreeMap<String, String> = digests
-        .iter()
-        .map(|(o, d)| (o.clone(), d.as_str().unwrap_or_default().to_string()))
-        .collect();
+    let summary: RunSummary = serde_json::from_slice(&read("summary.json"))
+        .unwrap_or_else(|e| panic!("summary.json is not a RunSummary ({e})\n{}", context()));
+    let got_digests: BTreeMap<String, String> = summary.sensor_digests;
     let want_digests: BTreeMap<String, String> = want["sensor_digests"]
         .as_table()
         .expect("sensor_digests table")

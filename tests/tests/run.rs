@@ -17,6 +17,9 @@ use std::path::PathBuf;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use std::collections::BTreeMap;
+
+use deploy::run_dir::{ObserverRecord, RunSummary};
 use serde_json::Value;
 use waggle_tests::{waggle, waggle_with_nodes};
 
@@ -28,8 +31,8 @@ fn out_dir(name: &str) -> PathBuf {
 
 struct Run {
     output: Output,
-    summary: Value,
-    observers: Value,
+    summary: RunSummary,
+    observers: BTreeMap<String, ObserverRecord>,
 }
 
 fn run(case: &str, modality: &str, name: &str, extra: &[&str]) -> Run {
@@ -41,21 +44,21 @@ fn run(case: &str, modality: &str, name: &str, extra: &[&str]) -> Run {
         .stdin(Stdio::null())
         .output()
         .unwrap();
-    let read = |f: &str| -> Value {
+    let read = |f: &str| -> String {
         let path = dir.join(f);
-        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        std::fs::read_to_string(&path).unwrap_or_else(|e| {
             panic!(
                 "{}: {e}\nstdout:\n{}\nstderr:\n{}",
                 path.display(),
                 String::from_utf8_lossy(&output.stdout),
                 String::from_utf8_lossy(&output.stderr)
             )
-        });
-        serde_json::from_str(&text).unwrap()
+        })
     };
     Run {
-        summary: read("summary.json"),
-        observers: read("observers.json"),
+        summary: serde_json::from_str(&read("summary.json")).expect("summary.json is a RunSummary"),
+        observers: serde_json::from_str(&read("observers.json"))
+            .expect("observers.json maps observers to ObserverRecord"),
         output,
     }
 }
@@ -63,36 +66,31 @@ fn run(case: &str, modality: &str, name: &str, extra: &[&str]) -> Run {
 impl Run {
     fn assert_pass(&self) {
         assert!(
-            self.output.status.success() && self.summary["pass"] == true,
-            "stdout:\n{}\nstderr:\n{}\nsummary: {:#}",
+            self.output.status.success() && self.summary.mission.pass,
+            "stdout:\n{}\nstderr:\n{}\nsummary: {:#?}",
             String::from_utf8_lossy(&self.output.stdout),
             String::from_utf8_lossy(&self.output.stderr),
             self.summary
         );
     }
 
-    fn messages(&self) -> Vec<u64> {
-        self.summary["observers"]
-            .as_object()
-            .unwrap()
+    fn messages(&self) -> Vec<usize> {
+        self.summary
+            .mission
+            .observers
             .values()
-            .map(|o| o["complete_messages"].as_u64().unwrap())
+            .map(|o| o.complete_messages)
             .collect()
     }
 
     fn services(&self, o: &str) -> Vec<String> {
-        self.summary["observers"][o]["services"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|s| s.as_str().unwrap().to_string())
-            .collect()
+        self.summary.mission.observers[o].services.clone()
     }
 
     fn every_process_exited_cleanly(&self) {
-        for (name, p) in self.summary["processes"].as_object().unwrap() {
-            if p["killed_by_fault"] == false {
-                assert_eq!(p["exit"], "exit 0", "{name}: {p}");
+        for (name, p) in &self.summary.processes {
+            if !p.killed_by_fault {
+                assert_eq!(p.exit, "exit 0", "{name}: {p:?}");
             }
         }
     }
@@ -117,24 +115,21 @@ fn no_broadcast_runs_as_separate_processes_in_lockstep() {
     r.assert_pass();
     r.every_process_exited_cleanly();
     assert_eq!(r.messages(), [0, 0, 0]);
-    assert_eq!(r.summary["work_units"], 0);
-    assert_eq!(r.summary["mission_time_s"], 15.0);
-    assert_eq!(r.summary["end_reason"], "NoBroadcast");
-    assert_eq!(r.summary["contact_steps"], 0);
-    assert_eq!(r.summary["missing_packets"], serde_json::json!({}));
+    assert_eq!(r.summary.mission.work_units, 0);
+    assert_eq!(r.summary.mission.mission_time_s, 15.0);
+    assert_eq!(r.summary.mission.end_reason, "NoBroadcast");
+    assert_eq!(r.summary.mission.contact_steps, 0);
+    assert!(r.summary.missing_packets.is_empty());
     // One packet per tick 1..=375 from every camera, none dropped.
     for o in ["O1", "O2", "O3"] {
-        let d = r.summary["sensor_digests"][o].as_str().unwrap();
+        let d = r.summary.sensor_digests[o].as_str();
         assert!(d.starts_with("packets=375 dropped=0 digest="), "{o}: {d}");
-        assert!(r.summary["home_error_m"][o].as_f64().unwrap() < 0.01);
+        assert!(r.summary.home_error_m[o] < 0.01);
     }
     for p in ["sim", "scheduler", "performer", "camera-O1", "observer-O3"] {
-        assert!(
-            r.summary["processes"][p]["cpu_s"].as_f64().unwrap() > 0.0,
-            "{p}"
-        );
+        assert!(r.summary.processes[p].cpu_s > 0.0, "{p}");
     }
-    assert!(r.observers["O1"]["tokens"].as_array().unwrap().is_empty());
+    assert!(r.observers["O1"].tokens.is_empty());
 }
 
 #[test]
@@ -190,11 +185,11 @@ fn ctrl_c_stops_every_child_and_still_writes_the_summary() {
     );
     let left = processes_of(&session);
     assert!(left.is_empty(), "children left running: {left:#?}");
-    let summary: Value =
+    let summary: RunSummary =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["interrupted"], true);
-    assert_eq!(summary["pass"], false);
-    assert!(summary["mission_time_s"].as_f64().unwrap() > 0.0);
+    assert!(summary.interrupted);
+    assert!(!summary.mission.pass);
+    assert!(summary.mission.mission_time_s > 0.0);
     // The recorder got SIGTERM and finished its file (summary and footer): audit reads it whole.
     let audit = waggle()
         .arg("audit")
@@ -223,15 +218,15 @@ fn assert_nominal(r: &Run) {
     r.assert_pass();
     r.every_process_exited_cleanly();
     assert_eq!(r.messages(), [4, 4, 4]);
-    assert_eq!(r.summary["work_units"], 6);
+    assert_eq!(r.summary.mission.work_units, 6);
     // Round 1: O1 and O2 work at A, O3 at B; round 2: everyone at B.
     assert_eq!(r.services("O1"), ["A", "B"]);
     assert_eq!(r.services("O2"), ["A", "B"]);
     assert_eq!(r.services("O3"), ["B", "B"]);
-    assert_eq!(r.summary["contact_steps"], 0);
-    assert_eq!(r.summary["missing_packets"], serde_json::json!({}));
+    assert_eq!(r.summary.mission.contact_steps, 0);
+    assert!(r.summary.missing_packets.is_empty());
     for o in ["O1", "O2", "O3"] {
-        assert!(r.summary["home_error_m"][o].as_f64().unwrap() < 0.05, "{o}");
+        assert!(r.summary.home_error_m[o] < 0.05, "{o}");
     }
 }
 
@@ -254,23 +249,18 @@ fn dropout_o2_kills_the_camera_and_o2_never_moves() {
     r.assert_pass();
     r.every_process_exited_cleanly();
     assert_eq!(r.messages(), [4, 0, 4]);
-    assert_eq!(r.summary["work_units"], 4);
+    assert_eq!(r.summary.mission.work_units, 4);
     assert!(r.services("O2").is_empty());
-    assert_eq!(r.summary["processes"]["camera-O2"]["killed_by_fault"], true);
-    assert_eq!(r.summary["processes"]["camera-O2"]["exit"], "signal 9");
-    assert!(r.summary["max_excursion_m"]["O2"].as_f64().unwrap() < 0.02);
-    assert!(r.summary["max_excursion_m"]["O1"].as_f64().unwrap() > 1.0);
-    assert!(
-        r.observers["O2"]["decisions"]
-            .as_array()
-            .unwrap()
-            .is_empty()
-    );
+    assert!(r.summary.processes["camera-O2"].killed_by_fault);
+    assert_eq!(r.summary.processes["camera-O2"].exit, "signal 9");
+    assert!(r.summary.max_excursion_m["O2"] < 0.02);
+    assert!(r.summary.max_excursion_m["O1"] > 1.0);
+    assert!(r.observers["O2"].decisions.is_empty());
     // Every tick after the kill is missing for O2 only.
-    let missing = r.summary["missing_packets"].as_object().unwrap();
+    let missing = &r.summary.missing_packets;
     assert_eq!(missing.keys().collect::<Vec<_>>(), ["O2"]);
-    let ticks_after = (r.summary["mission_time_s"].as_f64().unwrap() - 35.0) / 0.04;
-    assert!(missing["O2"].as_f64().unwrap() > ticks_after - 10.0);
+    let ticks_after = (r.summary.mission.mission_time_s - 35.0) / 0.04;
+    assert!(missing["O2"] as f64 > ticks_after - 10.0);
 }
 
 #[test]
@@ -284,20 +274,17 @@ fn two_runs_of_nominal_3_are_identical_even_behind_an_observer_acl() {
     assert_nominal(&b);
     // Tokens with their confirmation times, frames with every token stamp, decisions.
     assert_eq!(a.observers, b.observers);
-    for field in [
-        "observers",
-        "work_units",
-        "mission_time_s",
-        "end_reason",
-        "contact_steps",
-        "min_separation_m",
-        "sensor_digests",
-        "home_error_m",
-        "max_excursion_m",
-    ] {
-        assert_eq!(a.summary[field], b.summary[field], "{field}");
-    }
-    assert_ne!(a.summary["session"], b.summary["session"]);
+    let (ma, mb) = (&a.summary.mission, &b.summary.mission);
+    assert_eq!(ma.observers, mb.observers);
+    assert_eq!(ma.work_units, mb.work_units);
+    assert_eq!(ma.mission_time_s, mb.mission_time_s);
+    assert_eq!(ma.end_reason, mb.end_reason);
+    assert_eq!(ma.contact_steps, mb.contact_steps);
+    assert_eq!(ma.min_separation_m, mb.min_separation_m);
+    assert_eq!(a.summary.sensor_digests, b.summary.sensor_digests);
+    assert_eq!(a.summary.home_error_m, b.summary.home_error_m);
+    assert_eq!(a.summary.max_excursion_m, b.summary.max_excursion_m);
+    assert_ne!(a.summary.session, b.summary.session);
 }
 
 #[test]
@@ -310,7 +297,7 @@ fn a_throttled_camera_loses_packets_to_the_grace_period_only() {
         &["--throttle", "O1@0:100:0", "--grace-ms", "300"],
     );
     r.assert_pass();
-    let digest = r.summary["sensor_digests"]["O1"].as_str().unwrap();
+    let digest = r.summary.sensor_digests["O1"].as_str();
     let dropped: u64 = digest
         .split_whitespace()
         .find_map(|f| f.strip_prefix("dropped="))
@@ -318,7 +305,7 @@ fn a_throttled_camera_loses_packets_to_the_grace_period_only() {
         .parse()
         .unwrap();
     assert!((15..=60).contains(&dropped), "{digest}");
-    let missing = r.summary["missing_packets"].as_object().unwrap();
+    let missing = &r.summary.missing_packets;
     assert_eq!(missing.keys().collect::<Vec<_>>(), ["O1"]);
-    assert_eq!(missing["O1"].as_u64().unwrap(), dropped);
+    assert_eq!(missing["O1"], dropped);
 }
