@@ -108,13 +108,13 @@ mod tests {
     #[test]
     fn idle_performer_hovers_and_a_broadcast_moves_it_with_labels() {
         let (sp, truth) = answer(None, 0, 7);
-        assert_eq!(sp.pos_m, PERFORMER_HOVER_M);
+        assert_eq!(sp.kin.pos_m, PERFORMER_HOVER_M);
         assert_eq!(truth.activity, PerformerActivity::Idle);
         assert_eq!(truth.stamp_ns, 7 * TICK_NS);
         let s = broadcast(0, &[0b011010], false, &GestureConfig::default()).unwrap();
         let moving = (0..20_000u64)
             .map(|k| answer(Some(&s), 1, k))
-            .find(|(sp, _)| sp.vel_mps.iter().any(|v| v.abs() > 1e-6))
+            .find(|(sp, _)| sp.kin.vel_mps.iter().any(|v| v.abs() > 1e-6))
             .expect("the schedule moves");
         assert!(matches!(moving.1.activity, PerformerActivity::Action(_)));
         assert_eq!(moving.1.offer, Some(Offer::from_payload(0b011010).unwrap()));

@@ -192,9 +192,11 @@ fn all_encoded() -> Vec<(&'static str, Vec<u8>)> {
             "PerformerSetpoint",
             encode(&PerformerSetpoint {
                 tick: 3,
-                pos_m: [0.0, 0.0, 1.4],
-                vel_mps: [0.0; 3],
-                acc_mps2: [0.5, 0.0, -0.25],
+                kin: Kinematics {
+                    pos_m: [0.0, 0.0, 1.4],
+                    vel_mps: [0.0; 3],
+                    acc_mps2: [0.5, 0.0, -0.25],
+                },
                 yaw_rad: 1.0,
             }),
         ),
@@ -228,9 +230,11 @@ fn all_encoded() -> Vec<(&'static str, Vec<u8>)> {
                 tick: 5,
                 setpoints: vec![ObserverSetpoint {
                     observer: oid("O1"),
-                    pos_m: [1.0, 2.0, 1.3],
-                    vel_mps: [0.0; 3],
-                    acc_mps2: [0.0, 0.1, 0.0],
+                    kin: Kinematics {
+                        pos_m: [1.0, 2.0, 1.3],
+                        vel_mps: [0.0; 3],
+                        acc_mps2: [0.0, 0.1, 0.0],
+                    },
                     yaw_rad: 0.0,
                 }],
                 mission_end: false,
@@ -611,4 +615,53 @@ proptest! {
         let _ = decode_as(name, &bytes);
         let _ = decode_as(name, &bytes[..cut.index(bytes.len() + 1)]);
     }
+}
+
+/// The setpoints nest their kinematics in one `Kinematics`; bincode adds no framing for a nested
+/// struct, so the bytes on the wire (and in every recording) are those of the old flat layout.
+#[test]
+fn setpoints_keep_the_flat_wire_layout() {
+    #[derive(Serialize)]
+    struct FlatPerformer {
+        tick: u64,
+        pos_m: [f64; 3],
+        vel_mps: [f64; 3],
+        acc_mps2: [f64; 3],
+        yaw_rad: f64,
+    }
+    #[derive(Serialize)]
+    struct FlatObserver {
+        observer: String,
+        pos_m: [f64; 3],
+        vel_mps: [f64; 3],
+        acc_mps2: [f64; 3],
+        yaw_rad: f64,
+    }
+    let kin = Kinematics {
+        pos_m: [0.1, -2.0, 1.3],
+        vel_mps: [0.25, 0.0, -1.0],
+        acc_mps2: [3.0, 0.5, 0.0],
+    };
+    let performer = PerformerSetpoint::new(7, kin, 0.75);
+    let flat = FlatPerformer {
+        tick: 7,
+        pos_m: kin.pos_m,
+        vel_mps: kin.vel_mps,
+        acc_mps2: kin.acc_mps2,
+        yaw_rad: 0.75,
+    };
+    assert_eq!(encode(&performer), encode(&flat));
+    let observer = ObserverSetpoint::new(oid("O3"), kin, -1.5);
+    let flat = FlatObserver {
+        observer: "O3".into(),
+        pos_m: kin.pos_m,
+        vel_mps: kin.vel_mps,
+        acc_mps2: kin.acc_mps2,
+        yaw_rad: -1.5,
+    };
+    assert_eq!(encode(&observer), encode(&flat));
+    assert_eq!(
+        decode::<PerformerSetpoint>(&encode(&performer)),
+        Ok(performer)
+    );
 }

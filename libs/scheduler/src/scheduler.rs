@@ -428,8 +428,8 @@ impl Scheduler {
             .setpoints_at(now)
             .into_iter()
             .map(|mut s| {
-                s.vel_mps = [0.0; 3];
-                s.acc_mps2 = [0.0; 3];
+                s.kin.vel_mps = [0.0; 3];
+                s.kin.acc_mps2 = [0.0; 3];
                 s
             })
             .collect();

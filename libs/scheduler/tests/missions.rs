@@ -44,7 +44,7 @@ fn check_router_and_homes(run: &Run) {
             .setpoints
             .iter()
             .zip(homes)
-            .filter(|(s, h)| s.pos_m != **h)
+            .filter(|(s, h)| s.kin.pos_m != **h)
             .map(|(s, _)| s.observer.to_string())
             .collect();
         assert!(
@@ -60,8 +60,8 @@ fn check_router_and_homes(run: &Run) {
     }
     let last = run.outputs.last().unwrap();
     for (s, h) in last.setpoints.iter().zip(homes) {
-        assert_eq!(s.pos_m, *h, "{} not home at the end", s.observer);
-        assert_eq!(s.vel_mps, [0.0; 3]);
+        assert_eq!(s.kin.pos_m, *h, "{} not home at the end", s.observer);
+        assert_eq!(s.kin.vel_mps, [0.0; 3]);
     }
     let trips = run.trips();
     for w in trips.windows(2) {
@@ -401,7 +401,7 @@ fn bad_poses_are_counted_and_ignored() {
     assert!(
         out.setpoints
             .iter()
-            .all(|p| p.pos_m.iter().all(|v| v.is_finite()))
+            .all(|p| p.kin.pos_m.iter().all(|v| v.is_finite()))
     );
     let events: Vec<_> = out.session.iter().map(|c| c.event).collect();
     assert_eq!(

@@ -19,15 +19,13 @@ use crate::keys::ObserverId;
 use crate::payload::{Offer, Site};
 use crate::world::Kinematics;
 
-/// Flight setpoint of one observer, chosen by the safety router.
+/// Flight setpoint of one observer, chosen by the safety router. `kin` carries the feed-forward
+/// velocity and acceleration (the simulator extrapolates the setpoint over the next tick); on the
+/// wire its fields follow `observer` in order, as the flat layout did (bincode nests no framing).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObserverSetpoint {
     pub observer: ObserverId,
-    pub pos_m: [f64; 3],
-    /// Feed-forward velocity.
-    pub vel_mps: [f64; 3],
-    /// Feed-forward acceleration (the simulator extrapolates the setpoint over the next tick).
-    pub acc_mps2: [f64; 3],
+    pub kin: Kinematics,
     pub yaw_rad: f64,
 }
 
@@ -36,20 +34,14 @@ impl ObserverSetpoint {
     pub fn new(observer: ObserverId, kin: Kinematics, yaw_rad: f64) -> Self {
         Self {
             observer,
-            pos_m: kin.pos_m,
-            vel_mps: kin.vel_mps,
-            acc_mps2: kin.acc_mps2,
+            kin,
             yaw_rad,
         }
     }
 
     /// Position, velocity and acceleration of the setpoint.
     pub fn kinematics(&self) -> Kinematics {
-        Kinematics {
-            pos_m: self.pos_m,
-            vel_mps: self.vel_mps,
-            acc_mps2: self.acc_mps2,
-        }
+        self.kin
     }
 }
 
@@ -72,11 +64,17 @@ impl Validate for SchedCommand {
                     s.observer, self.tick
                 ));
             }
-            check_finite(&format!("setpoint position of {}", s.observer), &s.pos_m)?;
-            check_finite(&format!("setpoint velocity of {}", s.observer), &s.vel_mps)?;
+            check_finite(
+                &format!("setpoint position of {}", s.observer),
+                &s.kin.pos_m,
+            )?;
+            check_finite(
+                &format!("setpoint velocity of {}", s.observer),
+                &s.kin.vel_mps,
+            )?;
             check_finite(
                 &format!("setpoint acceleration of {}", s.observer),
-                &s.acc_mps2,
+                &s.kin.acc_mps2,
             )?;
             check_finite(&format!("setpoint yaw of {}", s.observer), &[s.yaw_rad])?;
         }

@@ -144,46 +144,33 @@ impl Validate for SimContacts {
     }
 }
 
-/// The performer's flight setpoint for the next tick.
+/// The performer's flight setpoint for the next tick (same wire layout as the flat fields: the
+/// tick, then `kin`'s position, velocity, acceleration, then the yaw).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PerformerSetpoint {
     /// The tick this setpoint answers (it applies while stepping tick + 1).
     pub tick: u64,
-    pub pos_m: [f64; 3],
-    /// Feed-forward velocity.
-    pub vel_mps: [f64; 3],
-    /// Feed-forward acceleration (the simulator extrapolates the setpoint over the next tick).
-    pub acc_mps2: [f64; 3],
+    pub kin: Kinematics,
     pub yaw_rad: f64,
 }
 
 impl PerformerSetpoint {
     /// The setpoint of tick `tick`: `kin` flown at heading `yaw_rad`.
     pub fn new(tick: u64, kin: Kinematics, yaw_rad: f64) -> Self {
-        Self {
-            tick,
-            pos_m: kin.pos_m,
-            vel_mps: kin.vel_mps,
-            acc_mps2: kin.acc_mps2,
-            yaw_rad,
-        }
+        Self { tick, kin, yaw_rad }
     }
 
     /// Position, velocity and acceleration of the setpoint.
     pub fn kinematics(&self) -> Kinematics {
-        Kinematics {
-            pos_m: self.pos_m,
-            vel_mps: self.vel_mps,
-            acc_mps2: self.acc_mps2,
-        }
+        self.kin
     }
 }
 
 impl Validate for PerformerSetpoint {
     fn validate(&self) -> Result<(), String> {
-        check_finite("performer setpoint position", &self.pos_m)?;
-        check_finite("performer setpoint velocity", &self.vel_mps)?;
-        check_finite("performer setpoint acceleration", &self.acc_mps2)?;
+        check_finite("performer setpoint position", &self.kin.pos_m)?;
+        check_finite("performer setpoint velocity", &self.kin.vel_mps)?;
+        check_finite("performer setpoint acceleration", &self.kin.acc_mps2)?;
         check_finite("performer setpoint yaw", &[self.yaw_rad])
     }
 }

@@ -141,7 +141,7 @@ pub fn run(case: &Case) -> Run {
             }
         }
         for s in &out.setpoints {
-            positions.insert(s.observer.clone(), s.pos_m);
+            positions.insert(s.observer.clone(), s.kin.pos_m);
         }
         let ended = out.mission_end.is_some();
         outputs.push(out);
