@@ -22,6 +22,9 @@ enum Cli {
     /// Run a whole case as separate processes over Zenoh (simulator, cameras, performer,
     /// observers, scheduler), supervised, with a progress bar and a summary.
     Run(cli::run::RunArgs),
+    /// Run a case once per camera render path (full, damage) in one invocation and print
+    /// wall/sim, camera CPU per simulated second and their ratio side by side.
+    Bench(cli::bench::BenchArgs),
     /// Synthetic event camera tools (convert PNG frames into events).
     Events(cli::events::EventsArgs),
     /// Run every case × modality (`waggle run` each), audit each and write DIR/report.md with
@@ -44,6 +47,7 @@ fn main() -> anyhow::Result<()> {
         Cli::Mission(args) => cli::mission::run(args),
         Cli::Run(args) => cli::run::run(args),
         Cli::Events(args) => cli::events::run(args),
+        Cli::Bench(args) => cli::bench::run(args),
         Cli::Replay(args) => cli::replay::run(args),
         Cli::Audit(args) => cli::audit::run(args),
         Cli::Sweep(args) => cli::sweep::run(args),

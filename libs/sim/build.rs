@@ -3,6 +3,11 @@
 //! (`sim`, `perception` for its fixture example, `sim-node`, `deploy`, `tests`) names this one
 //! script (`build = "…/libs/sim/build.rs"`): link arguments reach only the package whose script
 //! prints them.
+//!
+//! It also exports `eglGetProcAddress` from those binaries' dynamic symbol table: MuJoCo's GL
+//! loader looks that name up in the process's global scope first, which is how `libs/offscreen`
+//! holds a scissor across `mjr_render` (see its crate docs). A binary without the symbol simply
+//! gets the real loader.
 
 fn main() {
     // `.cargo/config.toml` sets this to the absolute `third_party/mujoco/lib` of this checkout.
@@ -26,4 +31,5 @@ fn main() {
     };
     let lib = lib.canonicalize().unwrap_or(lib);
     println!("cargo::rustc-link-arg=-Wl,-rpath,{}", lib.display());
+    println!("cargo::rustc-link-arg=-Wl,--export-dynamic-symbol=eglGetProcAddress");
 }

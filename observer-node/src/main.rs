@@ -22,7 +22,8 @@ use clap::Parser;
 use perception::runtime::ObserverRuntime;
 use perception::tick::{MissingReason, SensorPacket, Step, TickAssembler, TickInput};
 use proto::{
-    ClockTick, EventPacket, Keys, Modality, ObserverId, RgbFrame, Role, Roster, SessionTick,
+    ClockTick, EventPacket, Keys, Modality, ObserverId, RgbReassembler, RgbUpdate, Role, Roster,
+    SessionTick,
 };
 
 #[derive(Parser)]
@@ -83,6 +84,8 @@ struct Observer {
     keys: Keys,
     runtime: ObserverRuntime,
     assembler: TickAssembler,
+    /// Rebuilds RGB frames from the camera's updates.
+    rgb: RgbReassembler,
     /// When each `clock{k}` not yet processed arrived (for the grace period).
     clocks: BTreeMap<u64, Instant>,
     grace: Duration,
@@ -107,6 +110,7 @@ impl Observer {
             modality: args.modality,
             runtime,
             assembler: TickAssembler::new(),
+            rgb: RgbReassembler::default(),
             clocks: BTreeMap::new(),
             grace: Duration::from_millis(args.grace_ms),
             clock_key: keys.clock(),
@@ -225,9 +229,14 @@ impl Observer {
                 Err(e) => tracing::warn!(observer = %self.id, "rejected session message: {e}"),
             }
         } else if key == self.sensor_key {
-            let packet: Result<SensorPacket, _> = match self.modality {
-                Modality::Rgb => bus::decode::<RgbFrame>(key, payload).map(Into::into),
-                Modality::Events => bus::decode::<EventPacket>(key, payload).map(Into::into),
+            let packet: Result<SensorPacket, String> = match self.modality {
+                Modality::Rgb => bus::decode::<RgbUpdate>(key, payload)
+                    .map_err(|e| e.to_string())
+                    .and_then(|u| self.rgb.apply(u).map_err(|e| e.to_string()))
+                    .map(Into::into),
+                Modality::Events => bus::decode::<EventPacket>(key, payload)
+                    .map(Into::into)
+                    .map_err(|e| e.to_string()),
             };
             match packet {
                 Ok(p) => {

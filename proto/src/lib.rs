@@ -30,7 +30,7 @@ pub use fault::{Fault, FaultKind};
 pub use frame::{FrameParser, ReleasedFrame};
 pub use gesture::{GestureConfig, MotionProfile, NS_PER_MS, NS_PER_S};
 pub use keys::{Key, KeyError, Keys, ObserverId, Role};
-pub use modality::{Modality, Receiver, UnknownName};
+pub use modality::{Modality, Receiver, RenderPath, UnknownName};
 pub use observer::{
     Decision, FrameEvent, InputState, ObserverPhase, ObserverStatus, SourceFrame, TokenEvent,
 };
@@ -47,7 +47,9 @@ pub use schedule::{
 pub use segmenter::{
     Interruption, Sample, SegmentToken, Segmenter, SegmenterConfig, SegmenterError, TokenCause,
 };
-pub use sensor::{EventPacket, Polarity, RgbFrame};
+pub use sensor::{
+    EventPacket, FrameChange, PixelRect, Polarity, RgbFrame, RgbReassembler, RgbUpdate, Unassembled,
+};
 pub use task::{TaskError, TaskState};
 pub use token::{Action, Token};
 pub use track::{ObserverTrack, TrackSample};

@@ -57,7 +57,8 @@ pub fn run(observers: usize, seconds: f64, out: &Path, black: &[String]) -> Resu
         }
     }
     let mut world = World::new(observers).context("building the scene")?;
-    let mut renderer = CameraRenderer::new(&world).context("creating the offscreen renderer")?;
+    let mut renderer = CameraRenderer::new(&world, sim::render::RenderPath::default())
+        .context("creating the offscreen renderer")?;
     let mut sensors = (0..observers)
         .map(|i| ObserverSensor::new(Modality::Events, i, black.contains(&names[i])))
         .collect::<Result<Vec<_>, _>>()?;

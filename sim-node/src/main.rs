@@ -31,7 +31,7 @@ enum Command {
     /// One observer's camera process: renders its view from `sim/state` and publishes RGB
     /// frames or event packets.
     Camera(node_camera::CameraArgs),
-    /// Write each observer's current view as DIR/O<i>.png, then time 200 renders per camera.
+    /// Write each observer's current view as DIR/O<i>.png, then time 200 full renders per camera.
     Snapshot {
         /// Number of observers (1..=8).
         #[arg(long, default_value_t = 3)]
@@ -85,7 +85,8 @@ fn main() -> Result<()> {
 
 fn snapshot(observers: usize, out: &std::path::Path, frames: usize) -> Result<()> {
     let mut world = World::new(observers).context("building the scene")?;
-    let mut renderer = CameraRenderer::new(&world).context("creating the offscreen renderer")?;
+    let mut renderer = CameraRenderer::new(&world, sim::render::RenderPath::Full)
+        .context("creating the offscreen renderer")?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     for i in 0..observers {
         let rgb = renderer.render(&mut world, i)?.to_vec();

@@ -12,8 +12,10 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use bus::{Bus, Inbound, NodeArgs, Process};
-use proto::{Fault, FaultKind, ObserverId, Role, SimState};
-use sim::render::CameraRenderer;
+use proto::{
+    Fault, FaultKind, FrameChange, ObserverId, PixelRect, RgbFrame, RgbUpdate, Role, SimState,
+};
+use sim::render::{CameraRenderer, RenderCounts, RenderPath};
 use sim::sensor::{Modality, ObserverSensor, SensorOutput};
 use sim::world::World;
 
@@ -30,6 +32,10 @@ pub struct CameraArgs {
     /// launcher also publishes it on `fault/Oi` for the record.
     #[arg(long)]
     black: bool,
+    /// How the camera renders: `damage` (default) redraws only what moved, `full` every pixel of
+    /// every frame (the reference; both deliver identical bytes).
+    #[arg(long, value_enum, default_value_t)]
+    render: RenderPath,
     #[command(flatten)]
     node: NodeArgs,
 }
@@ -48,6 +54,51 @@ pub fn digest(mut h: u64, bytes: &[u8]) -> u64 {
         h = (h ^ u64::from(b)).wrapping_mul(K).rotate_left(29);
     }
     (h ^ bytes.len() as u64).wrapping_mul(K)
+}
+
+/// The machine-readable lines the launcher reads from a camera's stdout.
+fn closing_lines(
+    observer: &ObserverId,
+    render: RenderPath,
+    (published, dropped, digest): (u64, u64, u64),
+    counts: RenderCounts,
+) {
+    // Determinism evidence: equal across fault-free runs and across render paths.
+    println!("sensor-digest {observer} packets={published} dropped={dropped} digest={digest:016x}");
+    println!(
+        "render-counts {observer} path={render} full={} damage={} skipped={} damage_px={} scissored={}",
+        counts.full,
+        counts.damage,
+        counts.skipped,
+        counts.damage_px,
+        sim::render::scissor_interposed()
+    );
+}
+
+/// The wire form of RGB frame `f` (DESIGN.md's reconstruction contract on [`RgbUpdate`]): only
+/// its changed rectangle when it differs from the frame published just before
+/// (`last_published`) by `change`, else the whole frame. Records `f` as the last published.
+fn rgb_wire(f: &RgbFrame, change: FrameChange, last_published: &mut Option<u64>) -> Vec<u8> {
+    let follows = last_published.is_some_and(|prev| prev + 1 == f.seq);
+    let keyframe_due = f.seq.is_multiple_of(RgbUpdate::KEY_EVERY);
+    let update = match change {
+        FrameChange::Within(rect) if follows && !keyframe_due => {
+            RgbUpdate::delta(f, f.seq - 1, rect)
+        }
+        FrameChange::Nothing if follows && !keyframe_due => RgbUpdate::delta(
+            f,
+            f.seq - 1,
+            PixelRect {
+                x: 0,
+                y: 0,
+                width: 0,
+                height: 0,
+            },
+        ),
+        _ => RgbUpdate::key(f),
+    };
+    *last_published = Some(f.seq);
+    proto::encode(&update)
 }
 
 /// True when a throttle dropping `per_mille` ‰ drops packet `seq` (a fixed hash of the
@@ -80,7 +131,8 @@ pub fn run(args: CameraArgs) -> Result<()> {
     let node = args.node;
     let index = observer_index(&args.observer, node.observers)?;
     let mut world = World::new(node.observers).context("building the scene")?;
-    let mut renderer = CameraRenderer::new(&world).context("creating the offscreen renderer")?;
+    let mut renderer =
+        CameraRenderer::new(&world, args.render).context("creating the offscreen renderer")?;
     let kind = args.modality;
     let mut sensor = ObserverSensor::new(kind, index, false)?;
     let period_ns = sensor.render_period_ns();
@@ -113,6 +165,7 @@ pub fn run(args: CameraArgs) -> Result<()> {
     let mut throttle: Option<(u16, u32)> = None;
     let mut started = false;
     let (mut published, mut dropped, mut sensor_digest) = (0u64, 0u64, 0u64);
+    let mut last_rgb_seq: Option<u64> = None;
     loop {
         let Some(item) = bus.recv(Duration::from_millis(200)) else {
             if started && !bus.is_alive(&sim_alive) {
@@ -150,6 +203,8 @@ pub fn run(args: CameraArgs) -> Result<()> {
                     throttle = want_throttle;
                 }
                 for output in sensor.capture(&mut world, &mut renderer)? {
+                    // The digest covers the delivered frame or packet itself, whatever the
+                    // transport sends (RGB goes as updates, see `rgb_wire`).
                     let (seq, bytes) = match &output {
                         SensorOutput::Rgb(f) => (f.seq, proto::encode(f)),
                         SensorOutput::Events(p) => (p.seq, proto::encode(p)),
@@ -163,7 +218,11 @@ pub fn run(args: CameraArgs) -> Result<()> {
                     }
                     sensor_digest = digest(sensor_digest, &bytes);
                     published += 1;
-                    bus.put_bytes(&out_key, bytes)?;
+                    let wire = match &output {
+                        SensorOutput::Rgb(f) => rgb_wire(f, sensor.rgb_change(), &mut last_rgb_seq),
+                        SensorOutput::Events(_) => bytes,
+                    };
+                    bus.put_bytes(&out_key, wire)?;
                 }
             }
             Inbound::Data { key, payload } if key == keys.fault(&args.observer) => {
@@ -184,10 +243,11 @@ pub fn run(args: CameraArgs) -> Result<()> {
             _ => {}
         }
     }
-    // One machine-readable line for the launcher (determinism evidence).
-    println!(
-        "sensor-digest {} packets={published} dropped={dropped} digest={sensor_digest:016x}",
-        args.observer
+    closing_lines(
+        &args.observer,
+        args.render,
+        (published, dropped, sensor_digest),
+        renderer.counts(),
     );
     bus.close()?;
     Ok(())
@@ -195,7 +255,48 @@ pub fn run(args: CameraArgs) -> Result<()> {
 
 #[cfg(test)]
 mod tests {
-    use super::{digest, throttle_drops};
+    use super::{digest, rgb_wire, throttle_drops};
+    use proto::{FrameChange, PixelRect, RgbFrame, RgbReassembler, RgbUpdate};
+
+    #[test]
+    fn rgb_updates_rebuild_every_frame_and_key_frames_come_when_due() {
+        let frame = |seq: u64, v: u8| RgbFrame {
+            seq,
+            stamp_ns: seq * 40_000_000,
+            width: 4,
+            height: 3,
+            valid: true,
+            continuous: true,
+            rgb: (0..36).map(|i| if i < 6 { v } else { i as u8 }).collect(),
+        };
+        let top = FrameChange::Within(PixelRect {
+            x: 0,
+            y: 0,
+            width: 2,
+            height: 1,
+        });
+        let mut last = None;
+        let mut rx = RgbReassembler::default();
+        let mut kinds = Vec::new();
+        for seq in 0..60u64 {
+            // Frame 30 is throttled away: never published.
+            if seq == 30 {
+                continue;
+            }
+            let f = frame(seq, (seq / 2) as u8);
+            let change = match seq {
+                10 => FrameChange::All,
+                s if s % 2 == 0 => top,
+                _ => FrameChange::Nothing,
+            };
+            let wire = rgb_wire(&f, change, &mut last);
+            let update: RgbUpdate = proto::decode(&wire).unwrap();
+            kinds.push((seq, update.base_seq.is_none()));
+            assert_eq!(rx.apply(update).unwrap(), f, "frame {seq}");
+        }
+        let keys: Vec<u64> = kinds.iter().filter(|k| k.1).map(|k| k.0).collect();
+        assert_eq!(keys, vec![0, 10, 25, 31, 50]);
+    }
 
     #[test]
     fn the_digest_sees_every_byte_and_the_length() {

@@ -4,9 +4,12 @@
 //! `tests/golden/frozen.toml` holds, per (case, modality), the SHA-256 of `observers.json` (every
 //! token with its confirmation time, every frame, every decision) and the summary's
 //! `sensor_digests` (a digest of every sensor packet each camera published), recorded with the
-//! pre-restructure tree. Any change to physics, rendering, the event camera, perception, the
-//! scheduler or the wire shows up here. Both `only-a` runs (≈ 1–2 min each) are in the default
-//! suite; the whole missions are `#[ignore]`d (`deploy/test.sh --full`).
+//! pre-restructure tree, whose cameras rendered every full frame. Any change to physics,
+//! rendering, the event camera, perception, the scheduler or the wire shows up here. The default
+//! runs render by damage rectangles and must still match; `only-a` is also run with
+//! `--render full` in both modalities, so the two render paths are checked equal on whole runs.
+//! The four `only-a` runs (≈ 1 min each) are in the default suite; the whole missions are
+//! `#[ignore]`d (`deploy/test.sh --full`).
 //!
 //! The SHA-256 comes from the `sha2` crate rather than a `sha256sum` child process: it adds one
 //! small crate (its `digest` and `cpufeatures` dependencies are already in the tree) and keeps
@@ -18,6 +21,7 @@ use std::process::Stdio;
 use std::sync::Mutex;
 
 use deploy::run_dir::RunSummary;
+use proto::RenderPath;
 use sha2::{Digest, Sha256};
 use waggle_tests::{waggle_with_nodes, workspace_root};
 
@@ -56,16 +60,24 @@ fn sha256_hex(bytes: &[u8]) -> String {
 
 /// Runs `waggle run CASE --modality M` and compares its outputs with the golden entry. The output
 /// directory is kept when they differ, for a diff against a run of the old tree.
-fn assert_frozen(case: &str, modality: &str) {
+fn assert_frozen(case: &str, modality: &str, render: RenderPath) {
     let want = golden_entry(case, modality);
     let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir: PathBuf = std::env::temp_dir().join(format!(
-        "waggle-frozen-{}-{case}-{modality}",
+        "waggle-frozen-{}-{case}-{modality}-{render}",
         std::process::id()
     ));
     let _ = std::fs::remove_dir_all(&dir);
     let out = waggle_with_nodes()
-        .args(["run", case, "--modality", modality, "--out"])
+        .args([
+            "run",
+            case,
+            "--modality",
+            modality,
+            "--render",
+            render.as_str(),
+            "--out",
+        ])
         .arg(&dir)
         .arg("--quiet")
         .stdin(Stdio::null())
@@ -73,7 +85,7 @@ fn assert_frozen(case: &str, modality: &str) {
         .expect("run waggle");
     let context = || {
         format!(
-            "{case} ({modality}), outputs in {}\nstatus {}\nstderr:\n{}",
+            "{case} ({modality}, --render {render}), outputs in {}\nstatus {}\nstderr:\n{}",
             dir.display(),
             out.status,
             String::from_utf8_lossy(&out.stderr)
@@ -84,6 +96,26 @@ fn assert_frozen(case: &str, modality: &str) {
 
     let summary: RunSummary = serde_json::from_slice(&read("summary.json"))
         .unwrap_or_else(|e| panic!("summary.json is not a RunSummary ({e})\n{}", context()));
+    assert_eq!(summary.render, render, "{}", context());
+    for (o, r) in &summary.camera_renders {
+        match render {
+            RenderPath::Full => assert!(r.damage == 0 && r.skipped == 0, "{o}: {r:?}"),
+            // Both shortcuts must have been taken for the comparison to mean anything.
+            RenderPath::Damage => assert!(
+                r.damage > 0 && r.skipped + r.damage > r.full && r.scissored,
+                "{o}: {r:?}\n{}",
+                context()
+            ),
+        }
+    }
+    assert!(
+        summary
+            .camera_renders
+            .keys()
+            .eq(summary.sensor_digests.keys()),
+        "every camera that published reports its renders\n{}",
+        context()
+    );
     let got_digests: BTreeMap<String, String> = summary.sensor_digests;
     let want_digests: BTreeMap<String, String> = want["sensor_digests"]
         .as_table()
@@ -140,28 +172,38 @@ fn every_golden_run_has_a_test() {
 
 #[test]
 fn only_a_events_is_frozen() {
-    assert_frozen("only-a", "events");
+    assert_frozen("only-a", "events", RenderPath::Damage);
 }
 
 #[test]
 fn only_a_rgb_is_frozen() {
-    assert_frozen("only-a", "rgb");
+    assert_frozen("only-a", "rgb", RenderPath::Damage);
+}
+
+#[test]
+fn only_a_events_full_render_is_frozen() {
+    assert_frozen("only-a", "events", RenderPath::Full);
+}
+
+#[test]
+fn only_a_rgb_full_render_is_frozen() {
+    assert_frozen("only-a", "rgb", RenderPath::Full);
 }
 
 #[test]
 #[ignore = "whole mission, ≈ 5 min: deploy/test.sh --full"]
 fn nominal_3_events_is_frozen() {
-    assert_frozen("nominal-3", "events");
+    assert_frozen("nominal-3", "events", RenderPath::Damage);
 }
 
 #[test]
 #[ignore = "whole mission, ≈ 5 min: deploy/test.sh --full"]
 fn nominal_3_rgb_is_frozen() {
-    assert_frozen("nominal-3", "rgb");
+    assert_frozen("nominal-3", "rgb", RenderPath::Damage);
 }
 
 #[test]
 #[ignore = "whole mission, ≈ 5 min: deploy/test.sh --full"]
 fn dropout_o2_events_is_frozen() {
-    assert_frozen("dropout-o2", "events");
+    assert_frozen("dropout-o2", "events", RenderPath::Damage);
 }

@@ -6,7 +6,7 @@
 
 use anyhow::Result;
 use clap::Args;
-use proto::Receiver;
+use proto::{Receiver, RenderPath};
 
 use crate::harness::link::{LinkOptions, fly_link, print_table};
 
@@ -31,6 +31,9 @@ pub struct LinkArgs {
     /// Black out this observer's camera from start-up (e.g. O2); repeatable.
     #[arg(long)]
     black: Vec<String>,
+    /// How cameras render: `damage` (default) or `full` (the reference; identical output).
+    #[arg(long, value_enum, default_value_t)]
+    render: RenderPath,
     /// Print machine-readable JSON instead of the table.
     #[arg(long)]
     json: bool,
@@ -54,6 +57,7 @@ pub fn run(args: LinkArgs) -> Result<()> {
         no_acquisition: args.no_acquisition,
         hover_s: args.hover_s,
         black: args.black,
+        render: args.render,
     })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&out)?);

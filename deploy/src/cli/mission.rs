@@ -9,6 +9,7 @@ use crate::case::{Case, Receiver};
 use crate::eval::summary::print_summary;
 use crate::harness::mission::fly_case;
 use crate::run_dir::SUMMARY_FILE;
+use proto::RenderPath;
 
 #[derive(Debug, Args)]
 pub struct MissionArgs {
@@ -18,6 +19,9 @@ pub struct MissionArgs {
     /// Observer sensor modality (`ideal` is the ground-truth baseline).
     #[arg(long, value_enum, default_value_t = Receiver::Events)]
     modality: Receiver,
+    /// How cameras render: `damage` (default) or `full` (the reference; identical output).
+    #[arg(long, value_enum, default_value_t)]
+    render: RenderPath,
     /// Write DIR/summary.json here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -36,7 +40,7 @@ pub fn run(args: MissionArgs) -> Result<()> {
             case.modalities
         );
     }
-    let summary = fly_case(&case, args.modality)?;
+    let summary = fly_case(&case, args.modality, args.render)?;
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let path = dir.join(SUMMARY_FILE);

@@ -3,6 +3,7 @@
 
 pub mod allocate;
 pub mod audit;
+pub mod bench;
 pub mod events;
 pub mod link;
 pub mod mission;

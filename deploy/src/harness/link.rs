@@ -12,7 +12,7 @@ use evaluation::IdealReceiver;
 use perception::perception::{Perception, SensorInput};
 use proto::ReleasedFrame;
 use proto::scene::{MAX_OBSERVERS, distance_m, observer_name};
-use proto::{GestureConfig, Receiver, Schedule, broadcast};
+use proto::{GestureConfig, Receiver, RenderPath, Schedule, broadcast};
 use proto::{SegmentToken, SegmenterConfig};
 use serde::Serialize;
 use sim::render::CameraRenderer;
@@ -36,6 +36,8 @@ pub struct LinkOptions {
     pub hover_s: f64,
     /// Observers whose camera is black from start-up.
     pub black: Vec<String>,
+    /// How cameras render.
+    pub render: RenderPath,
 }
 
 /// Parses exactly six characters of '0'/'1' into a number, b1 most significant.
@@ -218,7 +220,7 @@ pub fn fly_link(args: &LinkOptions) -> Result<LinkOut> {
     let mut renderer = if chains.is_empty() {
         None
     } else {
-        Some(CameraRenderer::new(&world).context("creating the offscreen renderer")?)
+        Some(CameraRenderer::new(&world, args.render).context("creating the offscreen renderer")?)
     };
     let period_ns = chains
         .first()

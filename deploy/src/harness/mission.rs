@@ -18,7 +18,7 @@ use anyhow::{Context, Result};
 use perception::agent::{AgentFrame, FrameOutcome, ObserverAgent};
 use perception::perception::SensorInput;
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, observer_name};
-use proto::{ClockTick, Modality, ObserverId, Roster, Site, TICK_NS};
+use proto::{ClockTick, Modality, ObserverId, RenderPath, Roster, Site, TICK_NS};
 use proto::{DecodeStep, Decoder, Sample, SegmentToken, SegmenterConfig};
 use proto::{GestureConfig, Schedule, broadcast};
 use scheduler::{DecisionNotice, EndReason, EventKind, Scheduler, SchedulerConfig};
@@ -150,9 +150,9 @@ impl Slot {
 }
 
 /// Flies `case` with every observer on `modality`'s receiver, in one process.
-pub fn fly_case(case: &Case, modality: Receiver) -> Result<MissionSummary> {
+pub fn fly_case(case: &Case, modality: Receiver, render: RenderPath) -> Result<MissionSummary> {
     let started = Instant::now();
-    let mut mission = Mission::new(case, modality)?;
+    let mut mission = Mission::new(case, modality, render)?;
     let end_reason = mission.fly()?;
     Ok(mission.summarise(case, modality, end_reason, started))
 }
@@ -173,7 +173,7 @@ struct Mission {
 }
 
 impl Mission {
-    fn new(case: &Case, modality: Receiver) -> Result<Self> {
+    fn new(case: &Case, modality: Receiver, render: RenderPath) -> Result<Self> {
         let n = case.observers;
         let world = World::new(n).context("building the scene")?;
         // The ideal baseline flies the RGB broadcast (no acquisition preamble).
@@ -181,9 +181,9 @@ impl Mission {
         let scheduler = scheduler_for(case, sched_modality)?;
         let renderer = match modality {
             Receiver::Ideal => None,
-            Receiver::Rgb | Receiver::Events => {
-                Some(CameraRenderer::new(&world).context("creating the offscreen renderer")?)
-            }
+            Receiver::Rgb | Receiver::Events => Some(
+                CameraRenderer::new(&world, render).context("creating the offscreen renderer")?,
+            ),
         };
         let slots = (0..n)
             .map(|i| Slot::new(case, modality, i))

@@ -13,6 +13,7 @@
 //!
 //! [`sweep`] runs many cases, each as its own `waggle run`.
 
+pub mod bench;
 pub mod fault;
 pub mod gather;
 pub mod process;
@@ -25,7 +26,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use bus::{Bus, Endpoints, NodeArgs, handshake};
-use proto::{Modality, ObserverId, Receiver, Role};
+use proto::{Modality, ObserverId, Receiver, RenderPath, Role};
 
 use crate::case::{Case, case_source};
 use crate::run_dir::{CASE_FILE, LOG_DIR, RECORDING_FILE, RunFiles, RunSummary};
@@ -59,6 +60,8 @@ pub struct RunOptions {
     pub record_all_rgb: bool,
     /// The launcher's own endpoints (default: listen on a free loopback port).
     pub endpoints: Endpoints,
+    /// How the cameras render (both paths publish identical bytes).
+    pub render: RenderPath,
 }
 
 /// The modality to run `case` in: `asked`, or events when the case applies to it (else RGB);
@@ -200,6 +203,7 @@ pub fn run_case(case: &Case, modality: Modality, opts: &RunOptions) -> Result<Ru
     let info = RunInfo {
         case,
         modality,
+        render: opts.render,
         session: &place.session,
         started,
     };
@@ -291,6 +295,8 @@ impl Children<'_> {
                 o.to_string(),
                 "--modality".into(),
                 m.clone(),
+                "--render".into(),
+                self.opts.render.to_string(),
             ];
             if self.injected.iter().any(|f| f.black_from_start(o)) {
                 camera_args.push("--black".into());

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use proto::scene::{distance_m, observer_home_m, observer_name};
-use proto::{MissionReport, Modality, ObserverId};
+use proto::{MissionReport, Modality, ObserverId, RenderPath};
 
 use super::gather::Gathered;
 use super::process::Proc;
@@ -26,6 +26,7 @@ pub struct RunOutputs {
 pub struct RunInfo<'a> {
     pub case: &'a Case,
     pub modality: Modality,
+    pub render: RenderPath,
     pub session: &'a str,
     /// When the launcher started.
     pub started: Instant,
@@ -67,6 +68,7 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
     }
     let home_error_m = home_errors(case.observers, &g, &mut mission.reasons);
     let (processes, sensor_digests) = process_figures(procs, interrupted, &mut mission.reasons);
+    let camera_renders = procs.iter().flat_map(Proc::render_counts).collect();
     mission.pass = mission.reasons.is_empty() && !interrupted;
     let sim_s = ns_s(g.now_ns());
     let wall_over_sim = match (g.clock_started, g.last_tick_at) {
@@ -88,6 +90,8 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
             home_error_m,
             max_excursion_m: g.excursion_m.clone(),
             sensor_digests,
+            render: info.render,
+            camera_renders,
             processes,
             faults: fault_log,
             interrupted,

@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use proto::{Decision, FrameEvent, TokenEvent, TrackSample};
+use proto::{Decision, FrameEvent, RenderPath, TokenEvent, TrackSample};
 use serde::{Deserialize, Deserializer, Serialize};
 
 use session::SessionRecord;
@@ -79,6 +79,37 @@ pub struct ProcessFigures {
     pub killed_by_fault: bool,
 }
 
+/// The routes one camera's renders took (its `render-counts` line).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CameraRenders {
+    pub full: u64,
+    pub damage: u64,
+    pub skipped: u64,
+    /// Pixels drawn and read back by damage renders.
+    pub damage_px: u64,
+    /// Whether damage renders rasterised only their rectangle (MuJoCo's GL loader interposed).
+    pub scissored: bool,
+}
+
+impl CameraRenders {
+    /// Parses `full=… damage=… skipped=… damage_px=… scissored=…` (other fields ignored).
+    pub fn parse(fields: &str) -> Option<Self> {
+        let mut out = Self::default();
+        for field in fields.split_whitespace() {
+            let (k, v) = field.split_once('=')?;
+            match k {
+                "full" => out.full = v.parse().ok()?,
+                "damage" => out.damage = v.parse().ok()?,
+                "skipped" => out.skipped = v.parse().ok()?,
+                "damage_px" => out.damage_px = v.parse().ok()?,
+                "scissored" => out.scissored = v.parse().ok()?,
+                _ => {}
+            }
+        }
+        Some(out)
+    }
+}
+
 /// `summary.json` of a distributed run: the shared mission summary plus run figures.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunSummary {
@@ -97,8 +128,15 @@ pub struct RunSummary {
     pub home_error_m: BTreeMap<String, f64>,
     /// The farthest each observer got from its home during the mission, m.
     pub max_excursion_m: BTreeMap<String, f64>,
-    /// Each camera's digest of every payload it published (equal across fault-free runs).
+    /// Each camera's digest of every payload it published (equal across fault-free runs, and
+    /// across render paths).
     pub sensor_digests: BTreeMap<String, String>,
+    /// How the cameras rendered.
+    #[serde(default)]
+    pub render: RenderPath,
+    /// How many of each camera's renders took each route.
+    #[serde(default)]
+    pub camera_renders: BTreeMap<String, CameraRenders>,
     pub processes: BTreeMap<String, ProcessFigures>,
     /// Injected faults with the sim time they took effect.
     pub faults: Vec<String>,

@@ -14,7 +14,7 @@
 
 use std::collections::VecDeque;
 
-use proto::EventPacket;
+use proto::{EventPacket, FrameChange};
 
 use crate::converter::Converter;
 use crate::error::CameraError;
@@ -55,6 +55,8 @@ pub struct EventCamera {
     converter: Converter,
     /// All-zero frame fed instead of the render under the black-input fault.
     black: Vec<u8>,
+    /// Whether the converter's last input was the black frame.
+    fed_black: bool,
     /// Converted events not yet packed, in time order.
     pending: Vec<Event>,
     next_seq: u64,
@@ -90,6 +92,7 @@ impl EventCamera {
             config,
             converter,
             black: vec![0; 3 * pixels],
+            fed_black: false,
             pending: Vec::new(),
             next_seq: 0,
             next_packet: None,
@@ -120,6 +123,17 @@ impl EventCamera {
         stamp_ns: u64,
         rgb: &[u8],
     ) -> Result<Vec<EventPacket>, CameraError> {
+        self.push_frame_change(stamp_ns, rgb, FrameChange::All)
+    }
+
+    /// [`EventCamera::push_frame`] for a render known to differ from the previous render only as
+    /// `change` says: only changed pixels are converted, with exactly the same packets.
+    pub fn push_frame_change(
+        &mut self,
+        stamp_ns: u64,
+        rgb: &[u8],
+        change: FrameChange,
+    ) -> Result<Vec<EventPacket>, CameraError> {
         if rgb.len() != self.black.len() {
             return Err(crate::ConvertError::FrameSize {
                 got: rgb.len(),
@@ -129,12 +143,27 @@ impl EventCamera {
             }
             .into());
         }
-        let input = if self.config.black_input {
-            &self.black[..]
-        } else {
-            rgb
+        // The change is relative to the previous *render*; the converter saw a black frame
+        // instead while the fault was on, so the first frame after it is converted whole.
+        let region = match change {
+            _ if self.config.black_input || self.fed_black || !self.converter.is_initialised() => {
+                None
+            }
+            FrameChange::All => None,
+            FrameChange::Within(r) => Some(Some(r)),
+            FrameChange::Nothing => Some(None),
         };
-        self.converter.push(stamp_ns, input, &mut self.pending)?;
+        match region {
+            None if self.config.black_input => {
+                self.converter
+                    .push(stamp_ns, &self.black, &mut self.pending)?;
+            }
+            None => self.converter.push(stamp_ns, rgb, &mut self.pending)?,
+            Some(r) => self
+                .converter
+                .push_region(stamp_ns, rgb, r, &mut self.pending)?,
+        }
+        self.fed_black = self.config.black_input;
         let period = self.config.packet_period_ns;
         let Some(mut k) = self.next_packet else {
             self.first_stamp_ns = stamp_ns;

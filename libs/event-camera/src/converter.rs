@@ -8,6 +8,8 @@
 //! A frame therefore costs one integer key and one unsigned compare per pixel; only pixels
 //! outside their bounds (all of which emit) touch logarithms, interpolation and a re-search.
 
+use proto::PixelRect;
+
 use crate::error::{ConvertError, MIN_THRESHOLD};
 use crate::event::{Event, Polarity};
 use crate::kernel::{CHUNK, Isa, scan};
@@ -139,56 +141,71 @@ impl Converter {
             &mut state.keys,
             &mut state.flagged,
         );
-
-        let (t0, dt) = (state.last_stamp_ns, stamp_ns - state.last_stamp_ns);
-        let (c, table) = (self.threshold, self.table);
+        let interval = Interval::new(state.last_stamp_ns, stamp_ns, self.threshold, self.table);
         state.crossings.clear();
-        for &chunk in &state.flagged {
-            let start = chunk as usize * CHUNK;
+        for k in 0..state.flagged.len() {
+            let start = state.flagged[k] as usize * CHUNK;
             for i in start..(start + CHUNK).min(n) {
-                let k1 = state.keys[i];
-                if k1.wrapping_sub(state.lo[i]) <= state.span[i] {
-                    continue;
-                }
-                let l_init = table[state.init_key[i] as usize];
-                let d0 = table[state.prev_keys[i] as usize] - l_init;
-                let d1 = table[k1 as usize] - l_init;
-                let time_of = |level: i32| {
-                    let frac = (f64::from(level) * c - d0) / (d1 - d0);
-                    t0 + ((frac * dt as f64).ceil() as u64).clamp(1, dt)
-                };
-                let mut level = state.level[i];
-                let mut order = 0;
-                while d1 >= f64::from(level + 1) * c {
-                    level += 1;
-                    state
-                        .crossings
-                        .push((time_of(level), i as u32, order, Polarity::On));
-                    order += 1;
-                }
-                while d1 <= f64::from(level - 1) * c {
-                    level -= 1;
-                    state
-                        .crossings
-                        .push((time_of(level), i as u32, order, Polarity::Off));
-                    order += 1;
-                }
-                state.level[i] = level;
-                (state.lo[i], state.span[i]) = no_event_bounds(table, l_init, level, c);
+                let key = state.keys[i];
+                state.settle(i, key, &interval);
             }
         }
-        state
-            .crossings
-            .sort_unstable_by_key(|&(t, i, order, _)| (t, i, order));
-        let w = u32::from(self.width);
-        out.extend(state.crossings.iter().map(|&(t_ns, i, _, polarity)| Event {
-            t_ns,
-            x: (i % w) as u16,
-            y: (i / w) as u16,
-            polarity,
-        }));
         std::mem::swap(&mut state.keys, &mut state.prev_keys);
-        state.last_stamp_ns = stamp_ns;
+        state.finish(stamp_ns, self.width, out);
+        Ok(())
+    }
+
+    /// Like [`Converter::push`] for a frame known to equal the previous one outside `region`
+    /// (`None`: equal everywhere). Only the region's pixels are read; the events are exactly
+    /// those a full push of the frame gives, because a pixel whose key did not change cannot
+    /// cross a level. The first frame must be a full [`Converter::push`].
+    pub fn push_region(
+        &mut self,
+        stamp_ns: u64,
+        rgb: &[u8],
+        region: Option<PixelRect>,
+        out: &mut Vec<Event>,
+    ) -> Result<(), ConvertError> {
+        let (width, height) = (usize::from(self.width), usize::from(self.height));
+        if rgb.len() != 3 * width * height {
+            return Err(ConvertError::FrameSize {
+                got: rgb.len(),
+                want: 3 * width * height,
+                width: self.width,
+                height: self.height,
+            });
+        }
+        if let Some(r) = region
+            && !r.fits(self.width, self.height)
+        {
+            return Err(ConvertError::RegionOutside {
+                region: [r.x, r.y, r.width, r.height],
+                width: self.width,
+                height: self.height,
+            });
+        }
+        let Some(state) = self.state.as_mut() else {
+            return Err(ConvertError::RegionBeforeFirstFrame);
+        };
+        if stamp_ns <= state.last_stamp_ns {
+            return Err(ConvertError::StampNotIncreasing {
+                stamp_ns,
+                previous_ns: state.last_stamp_ns,
+            });
+        }
+        let interval = Interval::new(state.last_stamp_ns, stamp_ns, self.threshold, self.table);
+        state.crossings.clear();
+        if let Some(r) = region {
+            for y in usize::from(r.y)..usize::from(r.y) + usize::from(r.height) {
+                let row = y * width;
+                for i in row + usize::from(r.x)..row + usize::from(r.x) + usize::from(r.width) {
+                    let key = luminance_key(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
+                    state.settle(i, key, &interval);
+                    state.prev_keys[i] = key;
+                }
+            }
+        }
+        state.finish(stamp_ns, self.width, out);
         Ok(())
     }
 
@@ -224,6 +241,73 @@ impl Converter {
             flagged: Vec::new(),
             crossings: Vec::new(),
         }
+    }
+}
+
+/// The interval `(t0, t0 + dt]` between two frames and the constants of its crossings.
+struct Interval {
+    t0: u64,
+    dt: u64,
+    c: f64,
+    table: &'static [f64],
+}
+
+impl Interval {
+    fn new(t0: u64, t1: u64, c: f64, table: &'static [f64]) -> Self {
+        Self {
+            t0,
+            dt: t1 - t0,
+            c,
+            table,
+        }
+    }
+}
+
+impl State {
+    /// Pixel `i` now has luminance key `key` (its previous key still in `prev_keys`): records
+    /// its crossings of the interval and its new level and bounds. No-op when `key` is in bounds.
+    fn settle(&mut self, i: usize, key: u32, at: &Interval) {
+        if key.wrapping_sub(self.lo[i]) <= self.span[i] {
+            return;
+        }
+        let (c, table) = (at.c, at.table);
+        let l_init = table[self.init_key[i] as usize];
+        let d0 = table[self.prev_keys[i] as usize] - l_init;
+        let d1 = table[key as usize] - l_init;
+        let time_of = |level: i32| {
+            let frac = (f64::from(level) * c - d0) / (d1 - d0);
+            at.t0 + ((frac * at.dt as f64).ceil() as u64).clamp(1, at.dt)
+        };
+        let mut level = self.level[i];
+        let mut order = 0;
+        while d1 >= f64::from(level + 1) * c {
+            level += 1;
+            self.crossings
+                .push((time_of(level), i as u32, order, Polarity::On));
+            order += 1;
+        }
+        while d1 <= f64::from(level - 1) * c {
+            level -= 1;
+            self.crossings
+                .push((time_of(level), i as u32, order, Polarity::Off));
+            order += 1;
+        }
+        self.level[i] = level;
+        (self.lo[i], self.span[i]) = no_event_bounds(table, l_init, level, c);
+    }
+
+    /// Sorts the interval's crossings into events appended to `out` and closes the interval.
+    fn finish(&mut self, stamp_ns: u64, width: u16, out: &mut Vec<Event>) {
+        self.crossings
+            .sort_unstable_by_key(|&(t, i, order, _)| (t, i, order));
+        let w = u32::from(width);
+        out.extend(self.crossings.iter().map(|&(t_ns, i, _, polarity)| Event {
+            t_ns,
+            x: (i % w) as u16,
+            y: (i / w) as u16,
+            polarity,
+        }));
+        self.last_stamp_ns = stamp_ns;
     }
 }
 

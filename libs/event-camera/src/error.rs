@@ -21,6 +21,16 @@ pub enum ConvertError {
     },
     #[error("frame stamp {stamp_ns} ns is not after the previous frame at {previous_ns} ns")]
     StampNotIncreasing { stamp_ns: u64, previous_ns: u64 },
+    #[error(
+        "changed region {region:?} (x, y, width, height) reaches outside the {width}×{height} sensor"
+    )]
+    RegionOutside {
+        region: [u16; 4],
+        width: u16,
+        height: u16,
+    },
+    #[error("a changed region needs a previous frame: the first frame must be converted whole")]
+    RegionBeforeFirstFrame,
 }
 
 /// Why an event camera could not be built or could not accept a render.

@@ -151,7 +151,8 @@ fn main() -> Result<()> {
     }
 
     let mut world = World::new(OBSERVERS).context("building the scene")?;
-    let mut renderer = CameraRenderer::new(&world).context("creating the offscreen renderer")?;
+    let mut renderer = CameraRenderer::new(&world, sim::render::RenderPath::default())
+        .context("creating the offscreen renderer")?;
     let (w, h) = (
         u32::from(proto::scene::IMAGE_WIDTH_PX),
         u32::from(proto::scene::IMAGE_HEIGHT_PX),

@@ -172,7 +172,22 @@ mod tests {
                 rgb: vec![k as u8; 6],
             };
             let bytes = proto::encode(&f);
-            match w.record(&keys.sensor_rgb(&o2), &bytes).unwrap() {
+            // Cameras publish updates: a key frame, then only what changed (here everything).
+            let update = if k == 1 {
+                proto::RgbUpdate::key(&f)
+            } else {
+                let whole = proto::PixelRect {
+                    x: 0,
+                    y: 0,
+                    width: 2,
+                    height: 1,
+                };
+                proto::RgbUpdate::delta(&f, k - 2, whole)
+            };
+            match w
+                .record(&keys.sensor_rgb(&o2), &proto::encode(&update))
+                .unwrap()
+            {
                 Recorded::Message { .. } => kept.push(bytes),
                 Recorded::Skipped => {}
                 other => panic!("{other:?}"),

@@ -122,7 +122,17 @@ pub struct RecordStats {
     pub undecodable: BTreeMap<String, u64>,
     /// RGB frames not recorded because of the reduced rate, per observer.
     pub rgb_skipped: BTreeMap<String, u64>,
+    /// RGB updates that built on a frame the recorder did not hold (not recorded), per
+    /// observer.
+    pub rgb_unassembled: BTreeMap<String, u64>,
     pub view_images: u64,
+}
+
+/// What the recorder does with one RGB update.
+enum RgbArrival {
+    Keep(proto::RgbFrame),
+    Skip,
+    Undecodable,
 }
 
 /// What became of one received message.
@@ -154,6 +164,9 @@ pub struct SessionWriter<W: Write + Seek> {
     sequence: BTreeMap<u16, u32>,
     event_views: BTreeMap<ObserverId, EventView>,
     rgb_seen: BTreeMap<ObserverId, u64>,
+    /// Rebuilds each camera's frames from its updates (cameras publish [`proto::RgbUpdate`]s;
+    /// the recording holds whole [`proto::RgbFrame`]s).
+    rgb_frames: BTreeMap<ObserverId, proto::RgbReassembler>,
     sim_time_ns: u64,
     stats: RecordStats,
 }
@@ -184,6 +197,7 @@ impl<W: Write + Seek> SessionWriter<W> {
             sequence: BTreeMap::new(),
             event_views: BTreeMap::new(),
             rgb_seen: BTreeMap::new(),
+            rgb_frames: BTreeMap::new(),
             sim_time_ns: 0,
             stats: RecordStats::default(),
         };
@@ -285,6 +299,26 @@ impl<W: Write + Seek> SessionWriter<W> {
         self.put(id, time_ns, data)
     }
 
+    /// Applies one RGB update of camera `o`: the whole frame when the reduced rate keeps it
+    /// (frames left out are never encoded, ≈ 1 MB each).
+    fn rgb_frame(&mut self, o: &ObserverId, payload: &[u8]) -> RgbArrival {
+        let Ok(update) = proto::decode::<proto::RgbUpdate>(payload) else {
+            return RgbArrival::Undecodable;
+        };
+        let frames = self.rgb_frames.entry(o.clone()).or_default();
+        let Ok(frame) = frames.apply(update) else {
+            *self.stats.rgb_unassembled.entry(o.to_string()).or_insert(0) += 1;
+            return RgbArrival::Skip;
+        };
+        let n = self.rgb_seen.entry(o.clone()).or_insert(0);
+        *n += 1;
+        if !(*n - 1).is_multiple_of(self.options.rgb_every.max(1)) {
+            *self.stats.rgb_skipped.entry(o.to_string()).or_insert(0) += 1;
+            return RgbArrival::Skip;
+        }
+        RgbArrival::Keep(frame)
+    }
+
     /// Records one message received on `key`. Never fails on the message itself: unknown keys
     /// and undecodable payloads are recorded raw and counted.
     pub fn record(&mut self, key: &str, payload: &[u8]) -> Result<Recorded, RecordError> {
@@ -309,15 +343,19 @@ impl<W: Write + Seek> SessionWriter<W> {
             self.put(id, t, payload)?;
             return Ok(Recorded::UnknownKey);
         };
-        // Frames left out by the reduced RGB rate are not even decoded (≈ 1 MB each).
-        if let (MessageKind::RgbFrame, Some(o)) = (topic.kind, &topic.observer) {
-            let n = self.rgb_seen.entry(o.clone()).or_insert(0);
-            *n += 1;
-            if !(*n - 1).is_multiple_of(self.options.rgb_every.max(1)) {
-                *self.stats.rgb_skipped.entry(o.to_string()).or_insert(0) += 1;
-                return Ok(Recorded::Skipped);
-            }
-        }
+        let rebuilt;
+        let payload = match (topic.kind, &topic.observer) {
+            (MessageKind::RgbFrame, Some(o)) => match self.rgb_frame(o, payload) {
+                RgbArrival::Keep(frame) => {
+                    rebuilt = proto::encode(&frame);
+                    &rebuilt[..]
+                }
+                RgbArrival::Skip => return Ok(Recorded::Skipped),
+                // Recorded raw on the frame topic and counted as undecodable below.
+                RgbArrival::Undecodable => payload,
+            },
+            _ => payload,
+        };
         let decoded = match decode(topic.kind, payload) {
             Ok(d) => d,
             Err(error) => {
@@ -433,6 +471,7 @@ impl<W: Write + Seek> SessionWriter<W> {
         m.insert("unknown_keys".into(), json(&self.stats.unknown_keys));
         m.insert("undecodable".into(), json(&self.stats.undecodable));
         m.insert("rgb_skipped".into(), json(&self.stats.rgb_skipped));
+        m.insert("rgb_unassembled".into(), json(&self.stats.rgb_unassembled));
         m.insert("payload_bytes".into(), self.stats.payload_bytes.to_string());
         m.insert("view_images".into(), self.stats.view_images.to_string());
         m.insert("last_sim_time_ns".into(), self.sim_time_ns.to_string());

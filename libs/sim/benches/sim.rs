@@ -1,16 +1,31 @@
-//! Foundation figures: render time per 640×480 frame (one camera) and physics steps per second
-//! for 4 drones (performer + 3 observers). `cargo bench -p sim --bench sim`.
+//! Foundation figures: render time per 640×480 frame (one camera), full-frame against the
+//! damage path while the performer drifts 1 mm per render (the common case: a still camera),
+//! and physics steps per second for 4 drones (performer + 3 observers).
+//! `cargo bench -p sim --bench sim`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use sim::render::CameraRenderer;
+use proto::scene::PERFORMER_HOVER_M;
+use sim::render::{CameraRenderer, RenderPath};
 use sim::world::World;
 
 fn render_one_camera(c: &mut Criterion) {
-    let mut world = World::new(3).expect("scene");
-    let mut renderer = CameraRenderer::new(&world).expect("renderer");
-    c.bench_function("render_640x480_one_camera", |b| {
-        b.iter(|| renderer.render(&mut world, 0).expect("render").len())
-    });
+    let mut group = c.benchmark_group("render_640x480_one_camera_performer_drifting");
+    for path in RenderPath::ALL {
+        let mut world = World::new(3).expect("scene");
+        let mut renderer = CameraRenderer::new(&world, path).expect("renderer");
+        let mut k = 0u64;
+        group.bench_function(path.as_str(), |b| {
+            b.iter(|| {
+                k += 1;
+                let x = 1e-3 * (k % 200) as f64;
+                let p = [x, PERFORMER_HOVER_M[1], PERFORMER_HOVER_M[2]];
+                world.set_pose(0, p, [1.0, 0.0, 0.0, 0.0]);
+                world.forward_at(k * 10_000_000);
+                renderer.render(&mut world, 0).expect("render").len()
+            })
+        });
+    }
+    group.finish();
 }
 
 fn physics_step_4_drones(c: &mut Criterion) {

@@ -19,7 +19,7 @@ fn main() -> anyhow::Result<()> {
         .unwrap_or(16);
     std::fs::create_dir_all(&out)?;
     let mut world = World::new(3)?;
-    let mut renderer = CameraRenderer::new(&world)?;
+    let mut renderer = CameraRenderer::new(&world, sim::render::RenderPath::Full)?;
     let hover = proto::scene::PERFORMER_HOVER_M;
     for k in 0..frames {
         let t_ns = k * 10_000_000;

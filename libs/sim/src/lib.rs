@@ -11,6 +11,7 @@
 
 pub mod assets;
 pub mod control;
+pub mod damage;
 pub mod mjcf;
 pub mod render;
 pub mod sensor;

@@ -1,11 +1,26 @@
-//! Headless rendering of observer cameras through MuJoCo's EGL offscreen renderer.
+//! Headless rendering of observer cameras through MuJoCo's renderer in an EGL context
+//! (Mesa's CPU rasteriser here), full-frame or damage-limited ([`RenderPath`]).
+//!
+//! The damage path keeps each camera's last frame. Before drawing it compares the new scene
+//! with the one the last frame was drawn from ([`crate::damage`]): nothing changed, the frame is
+//! reused; some geoms moved under a still camera, only their rectangle is cleared, rasterised
+//! (a held GL scissor, [`offscreen::scissor`]) and read back into the kept frame; anything
+//! else, the whole frame is drawn. Every frame equals the full render's, byte for byte.
 
 use mujoco_rs::prelude::*;
-use mujoco_rs::renderer::MjRenderer;
+use mujoco_rs::wrappers::mj_rendering::MjrRectangle;
+use mujoco_rs::wrappers::mj_visualization::{MjvOption, MjvPerturb};
+use offscreen::{GlRect, Offscreen};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX};
 
+use crate::damage::{Snapshot, change};
 use crate::mjcf::camera_name;
 use crate::world::World;
+pub use proto::RenderPath;
+pub use proto::{FrameChange, PixelRect};
+
+const W: usize = IMAGE_WIDTH_PX as usize;
+const H: usize = IMAGE_HEIGHT_PX as usize;
 
 /// Why rendering failed.
 #[derive(Debug, thiserror::Error)]
@@ -18,15 +33,45 @@ pub enum RenderError {
     NoCamera(usize),
 }
 
+/// One rendered frame and how it differs from the same camera's previous frame.
+#[derive(Debug, Clone, Copy)]
+pub struct Rendered<'a> {
+    /// Row-major RGB, top row first.
+    pub rgb: &'a [u8],
+    pub change: FrameChange,
+}
+
+/// How many renders took each route (for the benchmark and the camera's closing line).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RenderCounts {
+    pub full: u64,
+    pub damage: u64,
+    pub skipped: u64,
+    /// Pixels rasterised and read back by damage renders.
+    pub damage_px: u64,
+}
+
+/// One camera's last frame and the scene it was drawn from.
+struct Kept {
+    rgb: Vec<u8>,
+    snapshot: Option<Snapshot>,
+}
+
 /// Renders any observer camera of one [`World`] into 640×480 RGB.
 pub struct CameraRenderer {
-    renderer: MjRenderer,
+    scene: MjvScene,
+    offscreen: Offscreen,
+    option: MjvOption,
     camera_ids: Vec<usize>,
+    path: RenderPath,
+    kept: Vec<Kept>,
+    scratch: Vec<u8>,
+    counts: RenderCounts,
 }
 
 impl CameraRenderer {
-    /// Creates the offscreen context for `world`'s model.
-    pub fn new(world: &World) -> Result<Self, RenderError> {
+    /// Creates the offscreen context for `world`'s model; cameras render by `path`.
+    pub fn new(world: &World, path: RenderPath) -> Result<Self, RenderError> {
         let model = world.model();
         let camera_ids = (0..world.observers())
             .map(|i| {
@@ -35,38 +80,135 @@ impl CameraRenderer {
                     .ok_or(RenderError::NoCamera(i))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let renderer = MjRenderer::builder()
-            .width(u32::from(IMAGE_WIDTH_PX))
-            .height(u32::from(IMAGE_HEIGHT_PX))
-            .build(model)
-            .map_err(|e| RenderError::Init(format!("{e} ({e:?})")))?;
+        let offscreen =
+            Offscreen::new(model, u32::from(IMAGE_WIDTH_PX), u32::from(IMAGE_HEIGHT_PX))
+                .map_err(|e| RenderError::Init(e.to_string()))?;
+        // The model's geoms plus MuJoCo's usual headroom for decorations.
+        let scene = MjvScene::new(model, model.ffi().ngeom as usize + 100);
+        let kept = camera_ids
+            .iter()
+            .map(|_| Kept {
+                rgb: vec![0; W * H * 3],
+                snapshot: None,
+            })
+            .collect();
         Ok(Self {
-            renderer,
+            scene,
+            offscreen,
+            option: MjvOption::default(),
             camera_ids,
+            path,
+            kept,
+            scratch: Vec::new(),
+            counts: RenderCounts::default(),
         })
+    }
+
+    pub fn path(&self) -> RenderPath {
+        self.path
+    }
+
+    pub fn counts(&self) -> RenderCounts {
+        self.counts
     }
 
     /// Draws the observers' own airframes too (hidden by default: they are never in another
     /// observer's view, see [`crate::mjcf::OBSERVER_GEOM_GROUP`]).
     pub fn show_observers(&mut self, show: bool) {
-        self.renderer.opts_mut().geomgroup[crate::mjcf::OBSERVER_GEOM_GROUP] = u8::from(show);
+        self.option.geomgroup[crate::mjcf::OBSERVER_GEOM_GROUP] = u8::from(show);
     }
 
     /// Renders observer `i`'s view of the current state; returns row-major RGB, top row first.
     pub fn render(&mut self, world: &mut World, observer: usize) -> Result<&[u8], RenderError> {
+        Ok(self.render_change(world, observer)?.rgb)
+    }
+
+    /// Renders observer `i`'s view and says which pixels can differ from its previous frame.
+    pub fn render_change(
+        &mut self,
+        world: &mut World,
+        observer: usize,
+    ) -> Result<Rendered<'_>, RenderError> {
         let cam = *self
             .camera_ids
             .get(observer)
             .ok_or(RenderError::NoCamera(observer))?;
-        self.renderer.set_camera(MjvCamera::new_fixed(cam));
-        self.renderer
-            .sync_data(world.data_mut())
+        let mut camera = MjvCamera::new_fixed(cam);
+        self.scene.update(
+            world.data_mut(),
+            &self.option,
+            &MjvPerturb::default(),
+            &mut camera,
+        );
+        let ffi = self.scene.ffi();
+        let snapshot = Snapshot::new(
+            ffi.camera.clone(),
+            offscreen::scene::lights(&self.scene),
+            offscreen::scene::geoms(&self.scene),
+        );
+        let kept = &mut self.kept[observer];
+        let change = match self.path {
+            RenderPath::Full => FrameChange::All,
+            RenderPath::Damage => change(kept.snapshot.as_ref(), &snapshot, W as u16, H as u16),
+        };
+        self.offscreen
+            .make_current()
             .map_err(|e| RenderError::Render(e.to_string()))?;
-        self.renderer
-            .render()
-            .map_err(|e| RenderError::Render(e.to_string()))?;
-        self.renderer
-            .rgb_flat()
-            .ok_or_else(|| RenderError::Render("RGB output disabled".into()))
+        let full = MjrRectangle::new(0, 0, W as i32, H as i32);
+        match change {
+            FrameChange::Nothing => self.counts.skipped += 1,
+            FrameChange::All => {
+                self.scene.render(&full, self.offscreen.mjr());
+                read(&self.offscreen, &mut self.scratch, full)?;
+                paste(&self.scratch, &mut kept.rgb, full);
+                self.counts.full += 1;
+            }
+            FrameChange::Within(r) => {
+                let gl = GlRect {
+                    left: i32::from(r.x),
+                    bottom: (H - usize::from(r.y) - usize::from(r.height)) as i32,
+                    width: i32::from(r.width),
+                    height: i32::from(r.height),
+                };
+                let (scene, mjr) = (&mut self.scene, self.offscreen.mjr());
+                offscreen::scissor::hold(gl, || scene.render(&full, mjr));
+                let rect = MjrRectangle::new(gl.left, gl.bottom, gl.width, gl.height);
+                read(&self.offscreen, &mut self.scratch, rect)?;
+                paste(&self.scratch, &mut kept.rgb, rect);
+                self.counts.damage += 1;
+                self.counts.damage_px += r.area_px() as u64;
+            }
+        }
+        kept.snapshot = Some(snapshot);
+        Ok(Rendered {
+            rgb: &kept.rgb,
+            change,
+        })
+    }
+}
+
+/// Whether damage renders rasterise only their rectangle in this process (MuJoCo's GL loader
+/// came through `offscreen`'s scissor hold); if not, they rasterise everything and still read
+/// back only the rectangle, with the same bytes.
+pub fn scissor_interposed() -> bool {
+    offscreen::scissor::is_interposed()
+}
+
+/// Reads `rect` of the offscreen buffer into `out` (bottom row first, as GL stores it).
+fn read(offscreen: &Offscreen, out: &mut Vec<u8>, rect: MjrRectangle) -> Result<(), RenderError> {
+    out.resize(rect.width as usize * rect.height as usize * 3, 0);
+    offscreen
+        .mjr()
+        .read_pixels(Some(out), None, &rect)
+        .map_err(|e| RenderError::Render(e.to_string()))
+}
+
+/// Copies GL rows of `rect` (bottom first) into the top-first frame `rgb`.
+fn paste(rows: &[u8], rgb: &mut [u8], rect: MjrRectangle) {
+    let row_bytes = rect.width as usize * 3;
+    for (k, row) in rows.chunks_exact(row_bytes).enumerate() {
+        let y = H - 1 - (rect.bottom as usize + k);
+        let start = (y * W + rect.left as usize) * 3;
+        rgb[start..start + row_bytes].copy_from_slice(row);
     }
 }

@@ -4,7 +4,7 @@
 
 use event_camera::{CameraConfig, EventCamera};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX};
-use proto::{EventPacket, RgbFrame};
+use proto::{EventPacket, FrameChange, RgbFrame};
 
 use crate::render::{CameraRenderer, RenderError};
 use crate::world::World;
@@ -41,7 +41,13 @@ pub struct ObserverSensor {
 }
 
 enum State {
-    Rgb { next_seq: u64 },
+    Rgb {
+        next_seq: u64,
+        /// Whether the last frame delivered was the black-input frame (`None` before the first).
+        last_black: Option<bool>,
+        /// How the last frame delivered differs from the one before it.
+        change: FrameChange,
+    },
     Events(Box<EventCamera>),
 }
 
@@ -49,7 +55,11 @@ impl ObserverSensor {
     /// A sensor for observer index `observer`; `black` blacks its input out from start-up.
     pub fn new(kind: Modality, observer: usize, black: bool) -> Result<Self, SensorError> {
         let state = match kind {
-            Modality::Rgb => State::Rgb { next_seq: 0 },
+            Modality::Rgb => State::Rgb {
+                next_seq: 0,
+                last_black: None,
+                change: FrameChange::All,
+            },
             Modality::Events => {
                 let mut config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX);
                 config.black_input = black;
@@ -71,6 +81,15 @@ impl ObserverSensor {
         }
     }
 
+    /// How the last RGB frame delivered differs from the RGB frame delivered before it
+    /// ([`FrameChange::All`] for an event sensor).
+    pub fn rgb_change(&self) -> FrameChange {
+        match self.state {
+            State::Rgb { change, .. } => change,
+            State::Events(_) => FrameChange::All,
+        }
+    }
+
     /// Time between renders.
     pub fn render_period_ns(&self) -> u64 {
         match self.state {
@@ -88,12 +107,30 @@ impl ObserverSensor {
     ) -> Result<Vec<SensorOutput>, SensorError> {
         let stamp_ns = world.time_ns();
         match &mut self.state {
-            State::Rgb { next_seq } => {
+            State::Rgb {
+                next_seq,
+                last_black,
+                change,
+            } => {
                 let rgb = if self.black {
+                    *change = if *last_black == Some(true) {
+                        FrameChange::Nothing
+                    } else {
+                        FrameChange::All
+                    };
                     vec![0; usize::from(IMAGE_WIDTH_PX) * usize::from(IMAGE_HEIGHT_PX) * 3]
                 } else {
-                    renderer.render(world, self.observer)?.to_vec()
+                    let frame = renderer.render_change(world, self.observer)?;
+                    // The render's change is relative to this camera's previous render, which
+                    // is the previous frame delivered unless that one was black.
+                    *change = if *last_black == Some(false) {
+                        frame.change
+                    } else {
+                        FrameChange::All
+                    };
+                    frame.rgb.to_vec()
                 };
+                *last_black = Some(self.black);
                 let frame = RgbFrame {
                     seq: *next_seq,
                     stamp_ns,
@@ -113,8 +150,8 @@ impl ObserverSensor {
                         vec![0; usize::from(IMAGE_WIDTH_PX) * usize::from(IMAGE_HEIGHT_PX) * 3];
                     camera.push_frame(stamp_ns, &black)?
                 } else {
-                    let rgb = renderer.render(world, self.observer)?;
-                    camera.push_frame(stamp_ns, rgb)?
+                    let frame = renderer.render_change(world, self.observer)?;
+                    camera.push_frame_change(stamp_ns, frame.rgb, frame.change)?
                 };
                 Ok(packets.into_iter().map(SensorOutput::Events).collect())
             }

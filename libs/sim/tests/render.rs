@@ -2,7 +2,7 @@
 //! rendering is deterministic.
 
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, PERFORMER_HOVER_M};
-use sim::render::CameraRenderer;
+use sim::render::{CameraRenderer, RenderPath};
 use sim::world::World;
 
 const W: usize = IMAGE_WIDTH_PX as usize;
@@ -31,7 +31,7 @@ fn diff_blob(a: &[u8], b: &[u8]) -> Option<([f64; 2], usize)> {
 fn performer_is_a_compact_blob_that_moves_as_the_camera_model_predicts() {
     let n = 3;
     let mut world = World::new(n).expect("scene");
-    let mut renderer = CameraRenderer::new(&world).expect("EGL renderer");
+    let mut renderer = CameraRenderer::new(&world, RenderPath::Full).expect("EGL renderer");
 
     let mut at_hover = Vec::new();
     for i in 0..n {

@@ -73,6 +73,53 @@ impl From<Modality> for Receiver {
     }
 }
 
+/// How observer cameras render. Both paths deliver bit-identical sensor output; `Full` is the
+/// reference the damage path is checked against.
+#[derive(
+    Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum RenderPath {
+    /// Every render instant rasterises and reads back the whole 640×480 frame.
+    Full,
+    /// Re-render only the rectangle the moved bodies can cover; skip a render in which nothing
+    /// the camera can see changed.
+    #[default]
+    Damage,
+}
+
+impl RenderPath {
+    pub const ALL: [RenderPath; 2] = [RenderPath::Full, RenderPath::Damage];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RenderPath::Full => "full",
+            RenderPath::Damage => "damage",
+        }
+    }
+}
+
+impl std::str::FromStr for RenderPath {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        RenderPath::ALL
+            .into_iter()
+            .find(|m| m.as_str() == s)
+            .ok_or_else(|| UnknownName {
+                what: "render path",
+                value: s.to_owned(),
+                expected: "full, damage",
+            })
+    }
+}
+
+impl std::fmt::Display for RenderPath {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// A name that is not a modality or receiver.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("unknown {what} {value:?} (expected one of: {expected})")]
@@ -138,5 +185,10 @@ mod tests {
         let err = "depth".parse::<Modality>().unwrap_err();
         assert!(err.to_string().contains("\"depth\""), "{err}");
         assert!(Modality::Events.acquisition() && !Modality::Rgb.acquisition());
+        for r in RenderPath::ALL {
+            assert_eq!(r.as_str().parse::<RenderPath>(), Ok(r));
+        }
+        assert_eq!(RenderPath::default(), RenderPath::Damage);
+        assert!("fast".parse::<RenderPath>().is_err());
     }
 }

@@ -177,3 +177,306 @@ impl Validate for RgbFrame {
         Ok(())
     }
 }
+
+/// A pixel rectangle of an image, top row first (as frames are stored).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct PixelRect {
+    pub x: u16,
+    pub y: u16,
+    pub width: u16,
+    pub height: u16,
+}
+
+impl PixelRect {
+    pub fn area_px(self) -> usize {
+        usize::from(self.width) * usize::from(self.height)
+    }
+
+    /// Whether the rectangle lies inside a `width`×`height` image.
+    pub fn fits(self, width: u16, height: u16) -> bool {
+        u32::from(self.x) + u32::from(self.width) <= u32::from(width)
+            && u32::from(self.y) + u32::from(self.height) <= u32::from(height)
+    }
+}
+
+/// What an RGB camera publishes on `sensor/<o>/rgb`: a whole frame (a *key* frame), or only the
+/// pixels of `rect` when every other pixel equals the frame it published just before.
+///
+/// The reconstruction contract: an update with `base_seq: Some(b)` applies only to frame `b`
+/// itself; a receiver holding another frame (it missed one) cannot use it and waits for the
+/// next key frame. Cameras send a key frame first, after any frame they did not publish
+/// (throttled), whenever the whole view may have changed, and at least every
+/// [`RgbUpdate::KEY_EVERY`] frames, so a lost update costs at most that many frames.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RgbUpdate {
+    pub seq: u64,
+    pub stamp_ns: u64,
+    pub width: u16,
+    pub height: u16,
+    pub valid: bool,
+    pub continuous: bool,
+    /// `None`: a key frame (`rect` is the whole image).
+    pub base_seq: Option<u64>,
+    pub rect: PixelRect,
+    /// `rect`'s pixels, row-major, 3 bytes per pixel, top row first.
+    #[serde(with = "crate::codec::bulk_bytes")]
+    pub rgb: Vec<u8>,
+}
+
+impl RgbUpdate {
+    /// The longest run of frames between key frames.
+    pub const KEY_EVERY: u64 = 25;
+
+    /// The whole of `frame`.
+    pub fn key(frame: &RgbFrame) -> Self {
+        Self {
+            seq: frame.seq,
+            stamp_ns: frame.stamp_ns,
+            width: frame.width,
+            height: frame.height,
+            valid: frame.valid,
+            continuous: frame.continuous,
+            base_seq: None,
+            rect: PixelRect {
+                x: 0,
+                y: 0,
+                width: frame.width,
+                height: frame.height,
+            },
+            rgb: frame.rgb.clone(),
+        }
+    }
+
+    /// `rect` of `frame`, which equals frame `base_seq` everywhere else. `rect` must fit.
+    pub fn delta(frame: &RgbFrame, base_seq: u64, rect: PixelRect) -> Self {
+        let mut rgb = Vec::with_capacity(rect.area_px() * 3);
+        let row_bytes = usize::from(frame.width) * 3;
+        for y in usize::from(rect.y)..usize::from(rect.y) + usize::from(rect.height) {
+            let start = y * row_bytes + usize::from(rect.x) * 3;
+            rgb.extend_from_slice(&frame.rgb[start..start + usize::from(rect.width) * 3]);
+        }
+        Self {
+            seq: frame.seq,
+            stamp_ns: frame.stamp_ns,
+            width: frame.width,
+            height: frame.height,
+            valid: frame.valid,
+            continuous: frame.continuous,
+            base_seq: Some(base_seq),
+            rect,
+            rgb,
+        }
+    }
+}
+
+impl Validate for RgbUpdate {
+    fn validate(&self) -> Result<(), String> {
+        if !self.rect.fits(self.width, self.height) {
+            return Err(format!(
+                "rgb update {}: rect {:?} outside {}x{}",
+                self.seq, self.rect, self.width, self.height
+            ));
+        }
+        if self.rgb.len() != self.rect.area_px() * 3 {
+            return Err(format!(
+                "rgb update {}: {} bytes for a {}x{} rect",
+                self.seq,
+                self.rgb.len(),
+                self.rect.width,
+                self.rect.height
+            ));
+        }
+        match self.base_seq {
+            None if self.rect.area_px() != usize::from(self.width) * usize::from(self.height) => {
+                Err(format!(
+                    "rgb key frame {} does not cover the image",
+                    self.seq
+                ))
+            }
+            Some(b) if b >= self.seq => {
+                Err(format!("rgb update {} builds on later frame {b}", self.seq))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Rebuilds one camera's frames from its [`RgbUpdate`]s (the receiving half of the contract).
+#[derive(Debug, Clone, Default)]
+pub struct RgbReassembler {
+    held: Option<RgbFrame>,
+}
+
+/// An update that does not apply to the frame held.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("rgb update {seq} builds on frame {base}, but the frame held is {held:?}")]
+pub struct Unassembled {
+    pub seq: u64,
+    pub base: u64,
+    pub held: Option<u64>,
+}
+
+impl RgbReassembler {
+    /// The frame `update` describes; on error nothing changes (the update is unusable).
+    pub fn apply(&mut self, update: RgbUpdate) -> Result<RgbFrame, Unassembled> {
+        let Some(base) = update.base_seq else {
+            let frame = RgbFrame {
+                seq: update.seq,
+                stamp_ns: update.stamp_ns,
+                width: update.width,
+                height: update.height,
+                valid: update.valid,
+                continuous: update.continuous,
+                rgb: update.rgb,
+            };
+            self.held = Some(frame.clone());
+            return Ok(frame);
+        };
+        let held = match self.held.as_mut() {
+            Some(h) if h.seq == base && (h.width, h.height) == (update.width, update.height) => h,
+            other => {
+                return Err(Unassembled {
+                    seq: update.seq,
+                    base,
+                    held: other.map(|h| h.seq),
+                });
+            }
+        };
+        let (r, row_bytes) = (update.rect, usize::from(update.width) * 3);
+        let rect_row = usize::from(r.width) * 3;
+        if rect_row > 0 {
+            for (k, src) in update.rgb.chunks_exact(rect_row).enumerate() {
+                let start = (usize::from(r.y) + k) * row_bytes + usize::from(r.x) * 3;
+                held.rgb[start..start + rect_row].copy_from_slice(src);
+            }
+        }
+        held.seq = update.seq;
+        held.stamp_ns = update.stamp_ns;
+        held.valid = update.valid;
+        held.continuous = update.continuous;
+        Ok(held.clone())
+    }
+}
+
+/// How a camera's frame differs from its previous frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum FrameChange {
+    /// Bit-identical.
+    Nothing,
+    /// Pixels outside the rectangle are bit-identical.
+    Within(PixelRect),
+    /// Any pixel may differ.
+    All,
+}
+
+#[cfg(test)]
+mod rgb_update_tests {
+    use super::*;
+    use crate::codec::{decode, encode};
+
+    fn frame(seq: u64, fill: impl Fn(usize) -> u8) -> RgbFrame {
+        RgbFrame {
+            seq,
+            stamp_ns: seq * 40,
+            width: 7,
+            height: 5,
+            valid: true,
+            continuous: true,
+            rgb: (0..7 * 5 * 3).map(fill).collect(),
+        }
+    }
+
+    #[test]
+    fn key_and_delta_updates_rebuild_every_frame_exactly() {
+        let f0 = frame(0, |i| i as u8);
+        let mut f1 = f0.clone();
+        f1.seq = 1;
+        f1.stamp_ns = 40;
+        let rect = PixelRect {
+            x: 2,
+            y: 1,
+            width: 3,
+            height: 2,
+        };
+        for y in 1..3 {
+            for x in 2..5 {
+                let i = (y * 7 + x) * 3;
+                f1.rgb[i..i + 3].copy_from_slice(&[200, 201, 202]);
+            }
+        }
+        let mut f2 = f1.clone();
+        f2.seq = 2;
+        let mut r = RgbReassembler::default();
+        let wire = |u: &RgbUpdate| decode::<RgbUpdate>(&encode(u)).unwrap();
+        assert_eq!(r.apply(wire(&RgbUpdate::key(&f0))), Ok(f0.clone()));
+        assert_eq!(
+            r.apply(wire(&RgbUpdate::delta(&f1, 0, rect))),
+            Ok(f1.clone())
+        );
+        let nothing = PixelRect {
+            x: 0,
+            y: 0,
+            width: 0,
+            height: 0,
+        };
+        assert_eq!(r.apply(wire(&RgbUpdate::delta(&f2, 1, nothing))), Ok(f2));
+    }
+
+    #[test]
+    fn an_update_on_a_missed_frame_is_unusable_until_the_next_key_frame() {
+        let f0 = frame(0, |_| 1);
+        let f3 = frame(3, |_| 3);
+        let mut r = RgbReassembler::default();
+        let whole = PixelRect {
+            x: 0,
+            y: 0,
+            width: 7,
+            height: 5,
+        };
+        assert!(r.apply(RgbUpdate::delta(&f3, 2, whole)).is_err());
+        r.apply(RgbUpdate::key(&f0)).unwrap();
+        let err = r.apply(RgbUpdate::delta(&f3, 2, whole)).unwrap_err();
+        assert_eq!(err.held, Some(0));
+        assert_eq!(r.apply(RgbUpdate::key(&f3)), Ok(f3));
+    }
+
+    #[test]
+    fn inconsistent_updates_are_rejected_by_the_decoder() {
+        let f = frame(4, |_| 9);
+        let mut bad = RgbUpdate::delta(
+            &f,
+            3,
+            PixelRect {
+                x: 5,
+                y: 0,
+                width: 3,
+                height: 1,
+            },
+        );
+        assert!(decode::<RgbUpdate>(&encode(&bad)).is_err(), "rect outside");
+        bad.rect.x = 0;
+        bad.rgb.pop();
+        assert!(decode::<RgbUpdate>(&encode(&bad)).is_err(), "short pixels");
+        let mut key = RgbUpdate::key(&f);
+        key.rect.width = 6;
+        key.rgb.truncate(6 * 5 * 3);
+        assert!(
+            decode::<RgbUpdate>(&encode(&key)).is_err(),
+            "partial key frame"
+        );
+        let later = RgbUpdate::delta(
+            &f,
+            4,
+            PixelRect {
+                x: 0,
+                y: 0,
+                width: 0,
+                height: 0,
+            },
+        );
+        assert!(
+            decode::<RgbUpdate>(&encode(&later)).is_err(),
+            "base not earlier"
+        );
+    }
+}

@@ -81,7 +81,8 @@ pub fn sensor_comparison(observers: usize, observer: usize, png_path: &Path) -> 
     let end_ns = instants[2].1;
 
     let mut world = World::new(observers).context("building the scene")?;
-    let mut renderer = CameraRenderer::new(&world).context("creating the offscreen renderer")?;
+    let mut renderer = CameraRenderer::new(&world, sim::render::RenderPath::default())
+        .context("creating the offscreen renderer")?;
     let mut camera = EventCamera::new(CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX))
         .context("building the event camera")?;
     let lens = LevelCamera::at_home(observer, observers);
