@@ -249,3 +249,40 @@ pub fn print_report(r: &BenchReport) {
         }
     );
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(render: RenderPath, wall: f64, cpu: f64, digest: &str) -> BenchRun {
+        BenchRun {
+            render,
+            dir: PathBuf::from(render.as_str()),
+            pass: true,
+            sim_s: 100.0,
+            wall_over_sim: wall,
+            camera_cpu_s: cpu * 100.0,
+            camera_cpu_per_sim_s: cpu,
+            cpu_s: BTreeMap::new(),
+            renders: BTreeMap::new(),
+            sensor_digests: BTreeMap::from([("O1".to_string(), digest.to_string())]),
+        }
+    }
+
+    #[test]
+    fn ratios_are_damage_over_full_of_the_means_and_digests_must_all_agree() {
+        let runs = vec![
+            run(RenderPath::Full, 0.6, 1.0, "d"),
+            run(RenderPath::Damage, 0.3, 0.4, "d"),
+            run(RenderPath::Full, 0.8, 1.2, "d"),
+            run(RenderPath::Damage, 0.3, 0.44, "d"),
+        ];
+        let r = compare("c", Modality::Events, runs.clone(), [0.0; 3]);
+        assert!((r.wall_over_sim_ratio - 0.3 / 0.7).abs() < 1e-12);
+        assert!((r.camera_cpu_ratio - 0.42 / 1.1).abs() < 1e-12);
+        assert!(r.digests_equal);
+        let mut differ = runs;
+        differ[3] = run(RenderPath::Damage, 0.3, 0.44, "e");
+        assert!(!compare("c", Modality::Events, differ, [0.0; 3]).digests_equal);
+    }
+}
