@@ -127,6 +127,18 @@ fn print_run_figures(s: &RunSummary) {
         .map(|(n, p)| format!("{n} {:.1}", p.cpu_s))
         .collect();
     println!("CPU s per process: {}", cpu.join(" · "));
+    let renders: Vec<String> = s
+        .camera_renders
+        .iter()
+        .map(|(o, r)| format!("{o} {}/{}/{}", r.full, r.damage, r.skipped))
+        .collect();
+    if !renders.is_empty() {
+        println!(
+            "camera renders ({}, full/damage/skipped): {}",
+            s.render,
+            renders.join(" · ")
+        );
+    }
     for f in &s.faults {
         println!("  fault: {f}");
     }
