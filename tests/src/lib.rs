@@ -17,7 +17,7 @@
 //! `deploy/test.sh` does both. The binaries are found by path with [`bin`].
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Child, Command, Stdio};
 
 /// The node binaries `waggle run` starts from the directory it lives in.
 pub const NODES: [&str; 5] = [
@@ -84,4 +84,19 @@ pub fn waggle_with_nodes() -> Command {
         bin(node);
     }
     waggle()
+}
+
+/// Starts `waggle run CASE --modality events --quiet --session SESSION --out DIR` in the
+/// background, silent, for tests that interrupt a run (kill a child, send Ctrl-C).
+pub fn spawn_background_run(case: &str, session: &str, dir: &Path) -> Child {
+    waggle_with_nodes()
+        .args(["run", case, "--modality", "events", "--quiet", "--session"])
+        .arg(session)
+        .arg("--out")
+        .arg(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start waggle run")
 }

@@ -63,73 +63,27 @@ fn payload_decode_names_the_problem() {
     assert!(fails(&["payload", "decode", "111010"]).contains("site id 3"));
 }
 
+/// `waggle payload encode` arguments.
+fn encode<'a>(site: &'a str, quality: &'a str, capacity: &'a str) -> [&'a str; 8] {
+    [
+        "payload",
+        "encode",
+        "--site",
+        site,
+        "--quality",
+        quality,
+        "--capacity",
+        capacity,
+    ]
+}
+
 #[test]
 fn payload_encode_round_trips_with_decode() {
-    assert_eq!(
-        ok(&[
-            "payload",
-            "encode",
-            "--site",
-            "A",
-            "--quality",
-            "2",
-            "--capacity",
-            "2"
-        ]),
-        "011010"
-    );
-    assert_eq!(
-        ok(&[
-            "payload",
-            "encode",
-            "--site",
-            "B",
-            "--quality",
-            "1",
-            "--capacity",
-            "3"
-        ]),
-        "100111"
-    );
-    assert_eq!(
-        ok(&[
-            "payload",
-            "encode",
-            "--site",
-            "A",
-            "--quality",
-            "0",
-            "--capacity",
-            "0"
-        ]),
-        "010000"
-    );
-    assert!(
-        fails(&[
-            "payload",
-            "encode",
-            "--site",
-            "C",
-            "--quality",
-            "1",
-            "--capacity",
-            "1"
-        ])
-        .contains("unknown site")
-    );
-    assert!(
-        fails(&[
-            "payload",
-            "encode",
-            "--site",
-            "A",
-            "--quality",
-            "4",
-            "--capacity",
-            "1"
-        ])
-        .contains("quality 4")
-    );
+    assert_eq!(ok(&encode("A", "2", "2")), "011010");
+    assert_eq!(ok(&encode("B", "1", "3")), "100111");
+    assert_eq!(ok(&encode("A", "0", "0")), "010000");
+    assert!(fails(&encode("C", "1", "1")).contains("unknown site"));
+    assert!(fails(&encode("A", "4", "1")).contains("quality 4"));
 }
 
 #[test]

@@ -5,24 +5,13 @@
 //! nothing from a hovering performer or a blacked-out observer, and needs the acquisition sweep.
 
 mod common;
-use common::{assert_matches_ideal, link, payloads, tokens};
+use common::{NOMINAL_PAYLOADS, assert_matches_ideal, link, nominal_link, payloads, tokens};
 
 #[test]
 fn events_release_the_nominal_payloads_at_ideal_token_times() {
-    let v = link(&[
-        "--observers",
-        "3",
-        "--modality",
-        "events",
-        "--payload",
-        "011010",
-        "--payload",
-        "100111",
-        "--payload",
-        "010000",
-    ]);
+    let v = nominal_link("events");
     for o in ["O1", "O2", "O3"] {
-        assert_eq!(payloads(&v, o), ["011010", "100111", "010000"], "{o}");
+        assert_eq!(payloads(&v, o), NOMINAL_PAYLOADS, "{o}");
         // Measured: at most 0.08 s (O2), since rests are anchored on the current point.
         let worst = assert_matches_ideal(&v, o, 0.2);
         println!("{o}: worst token offset from the ideal receiver {worst:.3} s");

@@ -6,27 +6,16 @@
 //! releases nothing while the others are unaffected.
 
 mod common;
-use common::{assert_matches_ideal, link, payloads, tokens};
+use common::{NOMINAL_PAYLOADS, assert_matches_ideal, link, nominal_link, payloads, tokens};
 
 /// 40 ms frames make offsets multiples of 0.04 s; allow for float noise on the 0.2 s bound.
 const TOLERANCE_S: f64 = 0.2 + 1e-9;
 
 #[test]
 fn rgb_releases_the_nominal_payloads_at_ideal_token_times() {
-    let v = link(&[
-        "--observers",
-        "3",
-        "--modality",
-        "rgb",
-        "--payload",
-        "011010",
-        "--payload",
-        "100111",
-        "--payload",
-        "010000",
-    ]);
+    let v = nominal_link("rgb");
     for o in ["O1", "O2", "O3"] {
-        assert_eq!(payloads(&v, o), ["011010", "100111", "010000"], "{o}");
+        assert_eq!(payloads(&v, o), NOMINAL_PAYLOADS, "{o}");
         let worst = assert_matches_ideal(&v, o, TOLERANCE_S);
         println!("{o}: worst token offset from the ideal receiver {worst:.3} s");
     }

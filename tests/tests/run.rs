@@ -21,7 +21,7 @@ use std::collections::BTreeMap;
 
 use deploy::run_dir::{ObserverRecord, RunSummary};
 use serde_json::Value;
-use waggle_tests::{waggle, waggle_with_nodes};
+use waggle_tests::{spawn_background_run, waggle, waggle_with_nodes};
 
 fn out_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("waggle-run-test-{}-{name}", std::process::id()));
@@ -136,23 +136,7 @@ fn no_broadcast_runs_as_separate_processes_in_lockstep() {
 fn ctrl_c_stops_every_child_and_still_writes_the_summary() {
     let dir = out_dir("ctrl-c");
     let session = format!("ctrlc-{}", std::process::id());
-    let mut child = waggle_with_nodes()
-        .args([
-            "run",
-            "nominal-3",
-            "--modality",
-            "events",
-            "--quiet",
-            "--session",
-        ])
-        .arg(&session)
-        .arg("--out")
-        .arg(&dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut child = spawn_background_run("nominal-3", &session, &dir);
     // Wait until every node runs, then a few seconds of mission.
     let start = Instant::now();
     while processes_of(&session).len() < 10 {

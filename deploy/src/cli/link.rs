@@ -6,7 +6,7 @@
 
 use anyhow::Result;
 use clap::Args;
-use proto::{Receiver, RenderPath};
+use proto::Receiver;
 
 use crate::harness::link::{LinkOptions, fly_link, print_table};
 
@@ -31,9 +31,8 @@ pub struct LinkArgs {
     /// Black out this observer's camera from start-up (e.g. O2); repeatable.
     #[arg(long)]
     black: Vec<String>,
-    /// How cameras render: `damage` (default) or `full` (the reference; identical output).
-    #[arg(long, value_enum, default_value_t)]
-    render: RenderPath,
+    #[command(flatten)]
+    render: super::RenderArg,
     /// Print machine-readable JSON instead of the table.
     #[arg(long)]
     json: bool,
@@ -57,7 +56,7 @@ pub fn run(args: LinkArgs) -> Result<()> {
         no_acquisition: args.no_acquisition,
         hover_s: args.hover_s,
         black: args.black,
-        render: args.render,
+        render: args.render.path,
     })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&out)?);

@@ -9,7 +9,6 @@ use crate::case::{Case, Receiver};
 use crate::eval::summary::print_summary;
 use crate::harness::mission::fly_case;
 use crate::run_dir::SUMMARY_FILE;
-use proto::RenderPath;
 
 #[derive(Debug, Args)]
 pub struct MissionArgs {
@@ -19,9 +18,8 @@ pub struct MissionArgs {
     /// Observer sensor modality (`ideal` is the ground-truth baseline).
     #[arg(long, value_enum, default_value_t = Receiver::Events)]
     modality: Receiver,
-    /// How cameras render: `damage` (default) or `full` (the reference; identical output).
-    #[arg(long, value_enum, default_value_t)]
-    render: RenderPath,
+    #[command(flatten)]
+    render: super::RenderArg,
     /// Write DIR/summary.json here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -40,7 +38,7 @@ pub fn run(args: MissionArgs) -> Result<()> {
             case.modalities
         );
     }
-    let summary = fly_case(&case, args.modality, args.render)?;
+    let summary = fly_case(&case, args.modality, args.render.path)?;
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let path = dir.join(SUMMARY_FILE);

@@ -12,3 +12,12 @@ pub mod replay;
 pub mod report;
 pub mod run;
 pub mod sweep;
+
+/// `--render damage|full`, shared by every command that renders cameras.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct RenderArg {
+    /// How cameras render: `damage` redraws only what moved since a camera's last frame, `full`
+    /// redraws every pixel (the reference). Both give byte-identical sensor data.
+    #[arg(long = "render", value_enum, default_value_t)]
+    pub path: proto::RenderPath,
+}

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use bus::Endpoints;
 use clap::Args;
-use proto::{Modality, RenderPath};
+use proto::Modality;
 
 use crate::case::Case;
 use crate::eval::summary::print_summary;
@@ -21,10 +21,8 @@ pub struct RunArgs {
     /// Observer sensor modality (default: events when the case applies to it).
     #[arg(long, value_enum)]
     modality: Option<Modality>,
-    /// How cameras render: `damage` redraws only what moved since a camera's last frame, `full`
-    /// redraws every pixel (the reference). Both publish byte-identical sensor data.
-    #[arg(long, value_enum, default_value_t)]
-    render: RenderPath,
+    #[command(flatten)]
+    render: super::RenderArg,
     /// Write DIR/summary.json, DIR/observers.json and the process logs (DIR/logs) here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -90,7 +88,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         no_record: args.no_record,
         record_all_rgb: args.record_all_rgb,
         endpoints: args.endpoints,
-        render: args.render,
+        render: args.render.path,
     };
     let done = run_case(&case, modality, &opts)?;
     if opts.out.is_none() && !json {

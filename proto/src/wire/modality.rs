@@ -103,14 +103,13 @@ impl RenderPath {
 impl std::str::FromStr for RenderPath {
     type Err = UnknownName;
     fn from_str(s: &str) -> Result<Self, UnknownName> {
-        RenderPath::ALL
-            .into_iter()
-            .find(|m| m.as_str() == s)
-            .ok_or_else(|| UnknownName {
-                what: "render path",
-                value: s.to_owned(),
-                expected: "full, damage",
-            })
+        parse_name(
+            &RenderPath::ALL,
+            RenderPath::as_str,
+            s,
+            "render path",
+            "full, damage",
+        )
     }
 }
 
@@ -118,6 +117,24 @@ impl std::fmt::Display for RenderPath {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.as_str())
     }
+}
+
+/// The one of `all` named `s`, or an error listing the `expected` names.
+fn parse_name<T: Copy>(
+    all: &[T],
+    name: fn(T) -> &'static str,
+    s: &str,
+    what: &'static str,
+    expected: &'static str,
+) -> Result<T, UnknownName> {
+    all.iter()
+        .copied()
+        .find(|&m| name(m) == s)
+        .ok_or_else(|| UnknownName {
+            what,
+            value: s.to_owned(),
+            expected,
+        })
 }
 
 /// A name that is not a modality or receiver.
@@ -132,28 +149,26 @@ pub struct UnknownName {
 impl std::str::FromStr for Modality {
     type Err = UnknownName;
     fn from_str(s: &str) -> Result<Self, UnknownName> {
-        Modality::ALL
-            .into_iter()
-            .find(|m| m.as_str() == s)
-            .ok_or_else(|| UnknownName {
-                what: "modality",
-                value: s.to_owned(),
-                expected: "rgb, events",
-            })
+        parse_name(
+            &Modality::ALL,
+            Modality::as_str,
+            s,
+            "modality",
+            "rgb, events",
+        )
     }
 }
 
 impl std::str::FromStr for Receiver {
     type Err = UnknownName;
     fn from_str(s: &str) -> Result<Self, UnknownName> {
-        [Receiver::Ideal, Receiver::Rgb, Receiver::Events]
-            .into_iter()
-            .find(|m| m.as_str() == s)
-            .ok_or_else(|| UnknownName {
-                what: "receiver",
-                value: s.to_owned(),
-                expected: "ideal, rgb, events",
-            })
+        parse_name(
+            &[Receiver::Ideal, Receiver::Rgb, Receiver::Events],
+            Receiver::as_str,
+            s,
+            "receiver",
+            "ideal, rgb, events",
+        )
     }
 }
 

@@ -229,22 +229,13 @@ impl RgbUpdate {
 
     /// The whole of `frame`.
     pub fn key(frame: &RgbFrame) -> Self {
-        Self {
-            seq: frame.seq,
-            stamp_ns: frame.stamp_ns,
+        let whole = PixelRect {
+            x: 0,
+            y: 0,
             width: frame.width,
             height: frame.height,
-            valid: frame.valid,
-            continuous: frame.continuous,
-            base_seq: None,
-            rect: PixelRect {
-                x: 0,
-                y: 0,
-                width: frame.width,
-                height: frame.height,
-            },
-            rgb: frame.rgb.clone(),
-        }
+        };
+        Self::of(frame, None, whole, frame.rgb.clone())
     }
 
     /// `rect` of `frame`, which equals frame `base_seq` everywhere else. `rect` must fit.
@@ -255,6 +246,11 @@ impl RgbUpdate {
             let start = y * row_bytes + usize::from(rect.x) * 3;
             rgb.extend_from_slice(&frame.rgb[start..start + usize::from(rect.width) * 3]);
         }
+        Self::of(frame, Some(base_seq), rect, rgb)
+    }
+
+    /// `frame`'s header with the given pixels.
+    fn of(frame: &RgbFrame, base_seq: Option<u64>, rect: PixelRect, rgb: Vec<u8>) -> Self {
         Self {
             seq: frame.seq,
             stamp_ns: frame.stamp_ns,
@@ -262,7 +258,7 @@ impl RgbUpdate {
             height: frame.height,
             valid: frame.valid,
             continuous: frame.continuous,
-            base_seq: Some(base_seq),
+            base_seq,
             rect,
             rgb,
         }

@@ -3,6 +3,19 @@
 
 use serde_json::Value;
 
+/// The three offers of the paper's nominal broadcast, in order.
+pub const NOMINAL_PAYLOADS: [&str; 3] = ["011010", "100111", "010000"];
+
+/// `waggle link` with three observers on `modality`'s receiver and the nominal payloads.
+#[allow(dead_code, reason = "link.rs uses only the other helpers")]
+pub fn nominal_link(modality: &str) -> Value {
+    let mut args = vec!["--observers", "3", "--modality", modality];
+    for p in NOMINAL_PAYLOADS {
+        args.extend(["--payload", p]);
+    }
+    link(&args)
+}
+
 /// Runs `waggle link ARGS --json` and parses its output; panics with stderr on failure.
 pub fn link(args: &[&str]) -> Value {
     let out = waggle_tests::waggle()
