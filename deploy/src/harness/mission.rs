@@ -17,7 +17,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use perception::agent::{AgentFrame, FrameOutcome, ObserverAgent};
 use perception::perception::SensorInput;
-use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, observer_name};
+use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, ObserverCamera, observer_name};
 use proto::{ClockTick, Modality, ObserverId, RenderPath, Roster, Site, TICK_NS};
 use proto::{DecodeStep, Decoder, Sample, SegmentToken, SegmenterConfig};
 use proto::{GestureConfig, Schedule, broadcast};
@@ -36,7 +36,7 @@ use crate::run_dir::{MissionSummary, ObserverSummary};
 enum Perception {
     /// Ground truth projected into the home camera (evaluation baseline).
     Ideal {
-        camera: LevelCamera,
+        camera: ObserverCamera,
         decoder: Box<Decoder>,
     },
     /// The observer's real receiver, fed only by its own sensor.
@@ -85,7 +85,7 @@ impl Slot {
         let (perception, sensor) = match modality.sensor() {
             None => (
                 Perception::Ideal {
-                    camera: LevelCamera::at_home(i, n),
+                    camera: ObserverCamera::at_home(i, n),
                     decoder: Box::new(Decoder::new(SegmenterConfig::rgb())?),
                 },
                 None,

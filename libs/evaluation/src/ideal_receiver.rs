@@ -6,7 +6,9 @@
 //! it reads ground truth — which is why it lives in the evaluation crate.
 
 use proto::ReleasedFrame;
-use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, MAX_OBSERVERS, observer_name};
+use proto::scene::{
+    Formation, IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, MAX_OBSERVERS, ObserverCamera, observer_name,
+};
 use proto::{Decoder, Sample, SegmentToken, SegmenterConfig, SegmenterError};
 
 use proto::schedule::Schedule;
@@ -44,7 +46,7 @@ pub enum IdealReceiverError {
 
 #[derive(Debug, Clone)]
 struct Chain {
-    camera: LevelCamera,
+    camera: ObserverCamera,
     decoder: Decoder,
     output: ObserverOutput,
 }
@@ -56,15 +58,26 @@ pub struct IdealReceiver {
 }
 
 impl IdealReceiver {
-    /// `n` observers at their homes on the arc, each with the given segmenter settings.
+    /// `n` observers at their homes in the built-in formation, each with the given segmenter
+    /// settings.
     pub fn new(n: usize, config: SegmenterConfig) -> Result<Self, IdealReceiverError> {
-        if !(1..=MAX_OBSERVERS).contains(&n) {
-            return Err(IdealReceiverError::BadObserverCount { n });
-        }
-        let chains = (0..n)
-            .map(|i| {
+        let formation =
+            Formation::standard(n).map_err(|_| IdealReceiverError::BadObserverCount { n })?;
+        Self::with_formation(&formation, config)
+    }
+
+    /// One ideal chain per observer of `formation`, each looking from its home.
+    pub fn with_formation(
+        formation: &Formation,
+        config: SegmenterConfig,
+    ) -> Result<Self, IdealReceiverError> {
+        let chains = formation
+            .placements()
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
                 Ok(Chain {
-                    camera: LevelCamera::at_home(i, n),
+                    camera: p.camera(),
                     decoder: Decoder::new(config)?,
                     output: ObserverOutput {
                         name: observer_name(i),

@@ -8,8 +8,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use proto::scene::{
-    CAMERA_FOVY_DEG, CAMERA_OFFSET_BODY_M, IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, MAX_OBSERVERS,
-    PERFORMER_HOVER_M, observer_home_m, observer_home_yaw_rad, observer_name,
+    CAMERA_FOVY_DEG, CAMERA_OFFSET_BODY_M, Formation, FormationError, IMAGE_HEIGHT_PX,
+    IMAGE_WIDTH_PX, PERFORMER_HOVER_M, observer_name,
 };
 
 /// Crazyflie 2 mass (MuJoCo Menagerie / drone-models), kg.
@@ -33,10 +33,10 @@ pub fn camera_name(i: usize) -> String {
 }
 
 /// Why a scene could not be generated.
-#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+#[derive(Debug, thiserror::Error, PartialEq)]
 pub enum SceneError {
-    #[error("observer count {0} outside 1..={MAX_OBSERVERS}")]
-    ObserverCount(usize),
+    #[error(transparent)]
+    Formation(#[from] FormationError),
 }
 
 /// (mesh name, file relative to the mesh dir, material). The connector and pin meshes (12k of the
@@ -51,11 +51,25 @@ const VISUAL_PARTS: &[(&str, &str, &str)] = &[
 ];
 const PROP_MESHES: [&str; 2] = ["cf2x/cf2xL_PropL.stl", "cf2x/cf2xL_PropR.stl"];
 
-/// Generates the MJCF for `observers` observers, with meshes loaded from `mesh_dir`.
+/// Generates the MJCF for the built-in formation of `observers` observers, with meshes loaded
+/// from `mesh_dir`.
 pub fn scene_xml(observers: usize, mesh_dir: &Path) -> Result<String, SceneError> {
-    if observers == 0 || observers > MAX_OBSERVERS {
-        return Err(SceneError::ObserverCount(observers));
+    Ok(formation_xml(&Formation::standard(observers)?, mesh_dir))
+}
+
+/// The camera's axes in the body frame: image right, image up. MuJoCo cameras look along their
+/// −z; the body looks along +x, and the camera is pitched `pitch_rad` below it.
+fn camera_xyaxes(pitch_rad: f64) -> String {
+    if pitch_rad == 0.0 {
+        // The paper's level camera, written as it always was.
+        return "0 -1 0 0 0 1".to_owned();
     }
+    let (s, c) = pitch_rad.sin_cos();
+    format!("0 -1 0 {s} 0 {c}")
+}
+
+/// Generates the MJCF for any formation, with meshes loaded from `mesh_dir`.
+pub fn formation_xml(formation: &Formation, mesh_dir: &Path) -> String {
     let mut x = String::new();
     let dt_s = PHYSICS_STEP_NS as f64 * 1e-9;
     let [ixx, iyy, izz] = DRONE_INERTIA_KGM2;
@@ -114,10 +128,11 @@ pub fn scene_xml(observers: usize, mesh_dir: &Path) -> Result<String, SceneError
         PROP_MESHES[1],
         r = DRONE_COLLISION_RADIUS_M,
     );
-    let mut drone = |name: &str, pos: [f64; 3], yaw: f64, camera: Option<&str>| {
-        // Observers' airframes go to their own geom group: no observer ever has another in its
-        // field of view (homes are > 70° off-axis, trips run behind the arc), and skipping their
-        // meshes saves a quarter of the CPU render time. `CameraRenderer::show_observers` puts
+    let mut drone = |name: &str, pos: [f64; 3], yaw: f64, camera: Option<(&str, f64)>| {
+        // Observers' airframes go to their own geom group: no observer has another in its
+        // field of view at home (`Formation::check`), flights never overlap a broadcast (a round
+        // starts only once every trip is home), and skipping their meshes saves a quarter of
+        // the CPU render time. `CameraRenderer::show_observers` puts
         // them back; a test checks the images are identical at the homes.
         let group = if camera.is_some() {
             OBSERVER_GEOM_GROUP
@@ -154,25 +169,24 @@ pub fn scene_xml(observers: usize, mesh_dir: &Path) -> Result<String, SceneError
             x,
             r#"      <geom name="{name}_collision" class="collision" pos="0 0 0.005"/>"#
         );
-        if let Some(cam) = camera {
-            // MuJoCo cameras look along their −z with +y up; the body looks along +x.
+        if let Some((cam, pitch_rad)) = camera {
+            let axes = camera_xyaxes(pitch_rad);
             let _ = writeln!(
                 x,
-                r#"      <camera name="{cam}" pos="{CAMERA_OFFSET_BODY_M} 0 0" xyaxes="0 -1 0 0 0 1" fovy="{CAMERA_FOVY_DEG}" resolution="{IMAGE_WIDTH_PX} {IMAGE_HEIGHT_PX}"/>"#
+                r#"      <camera name="{cam}" pos="{CAMERA_OFFSET_BODY_M} 0 0" xyaxes="{axes}" fovy="{CAMERA_FOVY_DEG}" resolution="{IMAGE_WIDTH_PX} {IMAGE_HEIGHT_PX}"/>"#
             );
         }
         let _ = writeln!(x, "    </body>");
     };
     drone(PERFORMER_BODY, PERFORMER_HOVER_M, 0.0, None);
-    for i in 0..observers {
-        let home = observer_home_m(i, observers);
+    for (i, p) in formation.placements().iter().enumerate() {
         drone(
             &observer_name(i),
-            home,
-            observer_home_yaw_rad(home),
-            Some(&camera_name(i)),
+            p.home_m,
+            p.yaw_rad,
+            Some((&camera_name(i), p.pitch_rad)),
         );
     }
     let _ = writeln!(x, "  </worldbody>\n</mujoco>");
-    Ok(x)
+    x
 }

@@ -4,13 +4,11 @@
 use std::rc::Rc;
 
 use mujoco_rs::prelude::*;
-use proto::scene::{
-    PERFORMER_HOVER_M, distance_m, observer_home_m, observer_home_yaw_rad, observer_name,
-};
+use proto::scene::{Formation, PERFORMER_HOVER_M, distance_m, observer_name};
 
 use crate::control::{DroneState, Gains, Reference, wrench};
 use crate::mjcf::{
-    DRONE_INERTIA_KGM2, DRONE_MASS_KG, PERFORMER_BODY, PHYSICS_STEP_NS, SceneError, scene_xml,
+    DRONE_INERTIA_KGM2, DRONE_MASS_KG, PERFORMER_BODY, PHYSICS_STEP_NS, SceneError, formation_xml,
 };
 
 /// Why the world could not be built.
@@ -59,8 +57,15 @@ pub struct World {
 impl World {
     /// Builds the default scene with `observers` observers, every drone hovering at its home.
     pub fn new(observers: usize) -> Result<Self, WorldError> {
+        let formation = Formation::standard(observers).map_err(SceneError::from)?;
+        Self::with_formation(&formation)
+    }
+
+    /// Builds a scene with the observers placed by `formation`, every drone hovering at home.
+    pub fn with_formation(formation: &Formation) -> Result<Self, WorldError> {
+        let observers = formation.len();
         let mesh_dir = crate::assets::crazyflie_mesh_dir()?;
-        let xml = scene_xml(observers, &mesh_dir)?;
+        let xml = formation_xml(formation, &mesh_dir);
         let model = MjModel::from_xml_string(&xml).map_err(|e| WorldError::Model(e.to_string()))?;
         let model = Rc::new(model);
         let mut names = vec![PERFORMER_BODY.to_string()];
@@ -80,9 +85,8 @@ impl World {
             });
         }
         let mut references = vec![Reference::hover(PERFORMER_HOVER_M, 0.0)];
-        for i in 0..observers {
-            let home = observer_home_m(i, observers);
-            references.push(Reference::hover(home, observer_home_yaw_rad(home)));
+        for p in formation.placements() {
+            references.push(Reference::hover(p.home_m, p.yaw_rad));
         }
         let mut data = MjData::new(model);
         data.forward();

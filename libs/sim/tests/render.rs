@@ -1,7 +1,7 @@
 //! Rendering: the performer appears where the camera model says, moves as predicted, and
 //! rendering is deterministic.
 
-use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, PERFORMER_HOVER_M};
+use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, ObserverCamera, PERFORMER_HOVER_M};
 use sim::render::{CameraRenderer, RenderPath};
 use sim::world::World;
 
@@ -77,7 +77,7 @@ fn performer_is_a_compact_blob_that_moves_as_the_camera_model_predicts() {
             "observer {i}: performer at {c0:?}, not near the image centre"
         );
         let (c1, _) = diff_blob(&moved, &empty[i]).expect("performer visible after move");
-        let cam = LevelCamera::at_home(i, n);
+        let cam = ObserverCamera::at_home(i, n);
         let p0 = cam.project_px(PERFORMER_HOVER_M).unwrap();
         let p1 = cam.project_px([0.1, 0.0, 1.3]).unwrap();
         let predicted = p1[0] - p0[0];

@@ -14,7 +14,7 @@ use event_camera::picture::{
     Inset, RgbImage, encode_png, event_picture, filled, from_rgb, with_inset,
 };
 use event_camera::{CameraConfig, EventCamera};
-use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, LevelCamera, observer_name};
+use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, ObserverCamera, observer_name};
 use proto::{Action, EventPacket, Polarity, TICK_NS};
 use proto::{GestureConfig, TruthSymbol, broadcast};
 use sim::render::CameraRenderer;
@@ -85,7 +85,7 @@ pub fn sensor_comparison(observers: usize, observer: usize, png_path: &Path) -> 
         .context("creating the offscreen renderer")?;
     let mut camera = EventCamera::new(CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX))
         .context("building the event camera")?;
-    let lens = LevelCamera::at_home(observer, observers);
+    let lens = ObserverCamera::at_home(observer, observers);
     let mut captured: Vec<(RgbImage, EventPacket, [f64; 2])> = Vec::new();
     // The first render (t = 0) initialises the converter, as in a camera process.
     let first = renderer.render(&mut world, observer)?.to_vec();
