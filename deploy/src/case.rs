@@ -11,6 +11,7 @@ use serde::Deserialize;
 
 /// Built-in cases (name, TOML text), in the paper's table order.
 pub const BUILT_IN: &[(&str, &str)] = &[
+    // The paper's functional cases (`PAPER_CASES`), then the larger groups.
     ("one-observer", include_str!("../cases/one-observer.toml")),
     ("two-observers", include_str!("../cases/two-observers.toml")),
     ("nominal-3", include_str!("../cases/nominal-3.toml")),
@@ -18,6 +19,27 @@ pub const BUILT_IN: &[(&str, &str)] = &[
     ("no-broadcast", include_str!("../cases/no-broadcast.toml")),
     ("only-a", include_str!("../cases/only-a.toml")),
     ("dropout-o2", include_str!("../cases/dropout-o2.toml")),
+    (
+        "four-observers",
+        include_str!("../cases/four-observers.toml"),
+    ),
+    ("six-observers", include_str!("../cases/six-observers.toml")),
+    (
+        "eight-observers",
+        include_str!("../cases/eight-observers.toml"),
+    ),
+];
+
+/// The built-in cases the paper ran (its functional-case table), in its order: what
+/// `waggle sweep` runs by default.
+pub const PAPER_CASES: &[&str] = &[
+    "one-observer",
+    "two-observers",
+    "nominal-3",
+    "black-o2",
+    "no-broadcast",
+    "only-a",
+    "dropout-o2",
 ];
 
 pub use proto::Receiver;

@@ -30,6 +30,9 @@ enum Cli {
     /// Run every case × modality (`waggle run` each), audit each and write DIR/report.md with
     /// the paper's tables and the figures; exit 1 if any run misses its expected outcome.
     Sweep(cli::sweep::SweepArgs),
+    /// Measure decode success against viewing angle and distance: observers placed at each
+    /// viewpoint, one flight per group of up to eight, per receiver and rectification.
+    Viewpoints(cli::viewpoints::ViewpointsArgs),
     /// Rebuild report.md and its figures from a run or sweep directory, without re-running.
     Report(cli::report::ReportArgs),
     /// Re-run the event receivers from a recording's raw event packets and session controls
@@ -52,5 +55,6 @@ fn main() -> anyhow::Result<()> {
         Cli::Audit(args) => cli::audit::run(args),
         Cli::Sweep(args) => cli::sweep::run(args),
         Cli::Report(args) => cli::report::run(args),
+        Cli::Viewpoints(args) => cli::viewpoints::run(args),
     }
 }

@@ -16,8 +16,8 @@ pub mod logic;
 pub mod wire;
 
 pub use logic::{
-    allocation, alphabet, decoder, frame, gesture, min_jerk, payload, provenance, scene, schedule,
-    segmenter, task,
+    allocation, alphabet, decoder, frame, gesture, min_jerk, payload, provenance, rectify, scene,
+    schedule, segmenter, task,
 };
 pub use wire::{clock, codec, fault, keys, modality, observer, sched, sensor, token, track, world};
 
@@ -36,6 +36,7 @@ pub use observer::{
 };
 pub use payload::{Offer, PayloadError, Site};
 pub use provenance::{AuditViolation, audit_assignment, decide};
+pub use rectify::{Rectification, Rectifier};
 pub use sched::{
     Broadcast, BroadcastTick, Departure, MissionReport, ObserverSetpoint, SchedCommand,
     SessionControl, SessionEvent, SessionTick,

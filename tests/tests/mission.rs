@@ -40,15 +40,7 @@ fn assert_passes(case: &str, modality: &str) -> Value {
 
 #[test]
 fn every_case_meets_its_expected_outcome_with_the_ideal_receiver() {
-    for case in [
-        "one-observer",
-        "two-observers",
-        "nominal-3",
-        "black-o2",
-        "no-broadcast",
-        "only-a",
-        "dropout-o2",
-    ] {
+    for (case, _) in deploy::case::BUILT_IN {
         let v = assert_passes(case, "ideal");
         println!(
             "{case}: {:.2} s, {} units",
@@ -129,6 +121,29 @@ fn a_case_file_with_an_unmet_expectation_fails_with_the_reason() {
             .contains("2 work units, expected 3"),
         "{v}"
     );
+}
+
+/// Groups of 4, 6 and 8 in the two-row formation: with the ideal receiver every observer
+/// releases every frame, nobody is flagged deaf, every viewpoint is inside the 40° cone and
+/// the 0.35 m separation holds.
+#[test]
+fn every_observer_of_the_group_cases_decodes_every_frame() {
+    for (case, n) in [
+        ("four-observers", 4),
+        ("six-observers", 6),
+        ("eight-observers", 8),
+    ] {
+        let v = assert_passes(case, "ideal");
+        let obs = v["observers"].as_object().unwrap();
+        assert_eq!(obs.len(), n);
+        for (name, o) in obs {
+            assert_eq!(o["complete_messages"], 4, "{case} {name}");
+            let angle = v["viewpoints"][name]["viewing_angle_deg"].as_f64().unwrap();
+            assert!(angle <= 40.0, "{case} {name} at {angle}°");
+        }
+        assert!(v["deaf_observers"].as_array().unwrap().is_empty());
+        assert!(v["min_separation_m"].as_f64().unwrap() >= 0.35, "{case}");
+    }
 }
 
 #[test]

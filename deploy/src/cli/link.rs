@@ -6,8 +6,10 @@
 
 use anyhow::Result;
 use clap::Args;
-use proto::Receiver;
+use proto::scene::Placement;
+use proto::{Receiver, Rectification};
 
+pub use crate::harness::link::parse_bits6;
 use crate::harness::link::{LinkOptions, fly_link, print_table};
 
 #[derive(Debug, Args)]
@@ -31,6 +33,14 @@ pub struct LinkArgs {
     /// Black out this observer's camera from start-up (e.g. O2); repeatable.
     #[arg(long)]
     black: Vec<String>,
+    /// Place an observer at AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M from the performer's hover
+    /// point (azimuth from the gesture plane's normal, towards +x), aimed at it; repeat for up
+    /// to 8 observers. Replaces the built-in formation of --observers.
+    #[arg(long = "viewpoint", value_name = "AZ,EL,DIST", value_parser = parse_viewpoint)]
+    viewpoints: Vec<Placement>,
+    /// Viewpoint rectification of the receivers' trajectories before template matching.
+    #[arg(long, value_enum, default_value_t = Rectification::default())]
+    rectify: Rectification,
     #[command(flatten)]
     render: super::RenderArg,
     /// Print machine-readable JSON instead of the table.
@@ -38,14 +48,36 @@ pub struct LinkArgs {
     json: bool,
 }
 
-/// Parses exactly six characters of '0'/'1' into a number, b1 most significant.
-pub fn parse_bits6(s: &str) -> Result<u8, String> {
-    if s.len() != 6 || !s.bytes().all(|b| b == b'0' || b == b'1') {
+/// Parses `AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M` into an aimed placement.
+pub fn parse_viewpoint(s: &str) -> Result<Placement, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let [az, el, d] = parts[..] else {
         return Err(format!(
-            "payload {s:?} is not six binary digits (e.g. 011010)"
+            "viewpoint {s:?} is not AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M (e.g. 40,0,1.3)"
+        ));
+    };
+    let num = |v: &str, what: &str| -> Result<f64, String> {
+        v.parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("viewpoint {s:?}: {what} {v:?} is not a finite number"))
+    };
+    let (az, el, d) = (
+        num(az, "azimuth")?,
+        num(el, "elevation")?,
+        num(d, "distance")?,
+    );
+    if !(-85.0..=85.0).contains(&az) || !(-60.0..=60.0).contains(&el) {
+        return Err(format!(
+            "viewpoint {s:?}: azimuth must be within ±85° and elevation within ±60°"
         ));
     }
-    u8::from_str_radix(s, 2).map_err(|e| e.to_string())
+    if !(0.6..=10.0).contains(&d) {
+        return Err(format!(
+            "viewpoint {s:?}: distance must be 0.6–10 m (the performer gestures ±0.2 m)"
+        ));
+    }
+    Ok(Placement::viewpoint(az, el, d))
 }
 
 pub fn run(args: LinkArgs) -> Result<()> {
@@ -57,6 +89,8 @@ pub fn run(args: LinkArgs) -> Result<()> {
         hover_s: args.hover_s,
         black: args.black,
         render: args.render.path,
+        viewpoints: args.viewpoints,
+        rectification: args.rectify,
     })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&out)?);

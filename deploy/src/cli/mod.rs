@@ -12,6 +12,7 @@ pub mod replay;
 pub mod report;
 pub mod run;
 pub mod sweep;
+pub mod viewpoints;
 
 /// `--render damage|full`, shared by every command that renders cameras.
 #[derive(Debug, Clone, Copy, clap::Args)]

@@ -20,7 +20,8 @@ pub struct SweepArgs {
     /// cores busy, so 1 on a 2-core machine).
     #[arg(long)]
     jobs: Option<usize>,
-    /// Only these cases (built-in names or case files); repeatable. Default: every built-in case.
+    /// Only these cases (built-in names or case files); repeatable. Default: the paper's seven
+    /// functional cases (add e.g. `--case eight-observers`).
     #[arg(long = "case")]
     cases: Vec<String>,
     /// Skip the sensor-comparison figure (≈ 20 s wall).

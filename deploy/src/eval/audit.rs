@@ -217,7 +217,10 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
         pass: false,
         reasons: Vec::new(),
         wall_seconds: f64::NAN,
+        viewpoints: BTreeMap::new(),
+        deaf_observers: Vec::new(),
     };
+    crate::eval::summary::annotate(&mut mission, n);
     let reasons = reasons(&scanned, case.as_ref(), &mission, report.is_some());
     mission.pass = reasons.is_empty();
     let (work_units_by_observer, work_units_by_site) = work_units(report.as_ref());
@@ -248,6 +251,8 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
         packets_per_observer: g.packets,
         empty_packets_per_observer: g.empty_packets,
         undecodable_messages: scanned.undecodable,
+        viewpoints: mission.viewpoints,
+        deaf_observers: mission.deaf_observers,
         pass: mission.pass,
         reasons,
     })
@@ -327,12 +332,15 @@ pub fn print_audit(r: &AuditReport) {
         r.min_separation_m
     );
     println!(
-        "{:<4} {:>9} {:>28} {:>12} {:>10} {:>9}",
-        "obs", "messages", "payloads", "work units", "events", "packets"
+        "{:<4} {:>13} {:>9} {:>28} {:>12} {:>10} {:>9}",
+        "obs", "view", "messages", "payloads", "work units", "events", "packets"
     );
     for (o, m) in &r.messages {
+        let view = r.viewpoints.get(o).map_or(String::new(), |v| {
+            format!("{:.0}° {:.2} m", v.viewing_angle_deg, v.distance_m)
+        });
         println!(
-            "{o:<4} {m:>9} {:>28} {:>12} {:>10} {:>9}",
+            "{o:<4} {view:>13} {m:>9} {:>28} {:>12} {:>10} {:>9}",
             r.payloads.get(o).map_or(String::new(), |p| p.join(",")),
             r.work_units_by_observer.get(o).map_or("-".into(), |w| {
                 w.iter()
@@ -343,6 +351,9 @@ pub fn print_audit(r: &AuditReport) {
             r.events_per_observer.get(o).copied().unwrap_or(0),
             r.packets_per_observer.get(o).copied().unwrap_or(0)
         );
+    }
+    if let Some(w) = crate::eval::summary::deaf_warning(&r.deaf_observers, &r.viewpoints) {
+        println!("  ⚠ {w}");
     }
     let t = &r.timing;
     let fmt = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.3}"));

@@ -8,11 +8,79 @@ use proto::{Decision, ObserverId, Offer, ReleasedFrame, Site};
 use serde::Serialize;
 
 use crate::case::Case;
-use crate::run_dir::{MissionSummary, ObserverSummary};
+use crate::run_dir::{MissionSummary, ObserverSummary, ObserverViewpoint};
 
 /// Nanoseconds to seconds (a division, so whole milliseconds print exactly).
 pub fn ns_s(ns: u64) -> f64 {
     ns as f64 / 1e9
+}
+
+/// Each observer's viewpoint in the built-in formation of `n` observers (empty for a count
+/// outside 1..=8).
+pub fn viewpoints(n: usize) -> BTreeMap<String, ObserverViewpoint> {
+    let Ok(formation) = proto::scene::Formation::standard(n) else {
+        return BTreeMap::new();
+    };
+    formation
+        .placements()
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let rise_m = p.home_m[2] - proto::scene::PERFORMER_HOVER_M[2];
+            let view = ObserverViewpoint {
+                viewing_angle_deg: round_to(p.viewing_angle_rad().to_degrees(), 0.1),
+                distance_m: round_to(p.distance_m(), 0.001),
+                elevation_deg: round_to((rise_m / p.distance_m()).asin().to_degrees(), 0.1),
+            };
+            (proto::scene::observer_name(i), view)
+        })
+        .collect()
+}
+
+fn round_to(v: f64, step: f64) -> f64 {
+    (v / step).round() * step
+}
+
+/// Observers that released no frame while at least one other released some.
+pub fn deaf_observers(observers: &BTreeMap<String, ObserverSummary>) -> Vec<String> {
+    if observers.values().all(|o| o.payloads.is_empty()) {
+        return Vec::new();
+    }
+    observers
+        .iter()
+        .filter(|(_, o)| o.payloads.is_empty())
+        .map(|(name, _)| name.clone())
+        .collect()
+}
+
+/// Fills the summary's viewpoints (formation of `n` observers) and deaf observers.
+pub fn annotate(s: &mut MissionSummary, n: usize) {
+    s.viewpoints = viewpoints(n);
+    s.deaf_observers = deaf_observers(&s.observers);
+}
+
+/// The warning naming deaf observers with their viewpoints, if any.
+pub fn deaf_warning(
+    deaf: &[String],
+    viewpoints: &BTreeMap<String, ObserverViewpoint>,
+) -> Option<String> {
+    if deaf.is_empty() {
+        return None;
+    }
+    let named: Vec<String> = deaf
+        .iter()
+        .map(|o| match viewpoints.get(o) {
+            Some(v) => format!(
+                "{o} (viewing angle {:.0}°, {:.2} m)",
+                v.viewing_angle_deg, v.distance_m
+            ),
+            None => o.clone(),
+        })
+        .collect();
+    Some(format!(
+        "released no frame while others did: {}",
+        named.join(", ")
+    ))
 }
 
 /// Why `s` misses `case`'s expected outcome (empty: it meets it).
@@ -64,12 +132,15 @@ pub fn print_summary(s: &MissionSummary) {
         s.wall_seconds
     );
     println!(
-        "{:<4} {:>9} {:>24} {:>12} {:>10}",
-        "obs", "messages", "payloads", "decisions", "services"
+        "{:<4} {:>13} {:>9} {:>24} {:>12} {:>10}",
+        "obs", "view", "messages", "payloads", "decisions", "services"
     );
     for (name, o) in &s.observers {
+        let view = s.viewpoints.get(name).map_or(String::new(), |v| {
+            format!("{:.0}° {:.2} m", v.viewing_angle_deg, v.distance_m)
+        });
         println!(
-            "{name:<4} {:>9} {:>24} {:>12} {:>10}",
+            "{name:<4} {view:>13} {:>9} {:>24} {:>12} {:>10}",
             o.complete_messages,
             o.payloads.join(","),
             o.decisions.join(","),
@@ -83,6 +154,9 @@ pub fn print_summary(s: &MissionSummary) {
         s.min_separation_m,
         s.provenance_violations.len()
     );
+    if let Some(w) = deaf_warning(&s.deaf_observers, &s.viewpoints) {
+        println!("  ⚠ {w}");
+    }
     for r in &s.reasons {
         println!("  ✗ {r}");
     }

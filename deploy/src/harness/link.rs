@@ -11,8 +11,8 @@ use anyhow::{Context, Result, bail};
 use evaluation::IdealReceiver;
 use perception::perception::{Perception, SensorInput};
 use proto::ReleasedFrame;
-use proto::scene::{MAX_OBSERVERS, distance_m, observer_name};
-use proto::{GestureConfig, Receiver, RenderPath, Schedule, broadcast};
+use proto::scene::{Formation, MAX_OBSERVERS, Placement, distance_m, observer_name};
+use proto::{GestureConfig, Receiver, Rectification, RenderPath, Schedule, broadcast};
 use proto::{SegmentToken, SegmenterConfig};
 use serde::Serialize;
 use sim::render::CameraRenderer;
@@ -38,6 +38,26 @@ pub struct LinkOptions {
     pub black: Vec<String>,
     /// How cameras render.
     pub render: RenderPath,
+    /// Observers placed at these viewpoints instead of the built-in formation of `observers`.
+    pub viewpoints: Vec<Placement>,
+    /// Receivers' (and the ideal receiver's) viewpoint rectification.
+    pub rectification: Rectification,
+}
+
+impl LinkOptions {
+    /// The observers' placements: the viewpoints if given, else the built-in formation.
+    pub fn formation(&self) -> Result<Formation> {
+        if self.viewpoints.is_empty() {
+            Formation::standard(self.observers).map_err(|_| {
+                anyhow::anyhow!(
+                    "--observers {} is outside 1..={MAX_OBSERVERS}",
+                    self.observers
+                )
+            })
+        } else {
+            Formation::custom(self.viewpoints.clone()).context("--viewpoint")
+        }
+    }
 }
 
 /// Parses exactly six characters of '0'/'1' into a number, b1 most significant.
@@ -152,14 +172,8 @@ fn fly(
 }
 
 /// Checks the options; the observers' names.
-fn check(args: &LinkOptions) -> Result<Vec<String>> {
-    if !(1..=MAX_OBSERVERS).contains(&args.observers) {
-        bail!(
-            "--observers {} is outside 1..={MAX_OBSERVERS}",
-            args.observers
-        );
-    }
-    let names: Vec<String> = (0..args.observers).map(observer_name).collect();
+fn check(args: &LinkOptions, formation: &Formation) -> Result<Vec<String>> {
+    let names: Vec<String> = (0..formation.len()).map(observer_name).collect();
     for b in &args.black {
         if !names.contains(b) {
             bail!("--black {b}: no such observer (have {})", names.join(", "));
@@ -172,15 +186,18 @@ fn check(args: &LinkOptions) -> Result<Vec<String>> {
 }
 
 /// Each observer's sensor and receiver (none for the ideal receiver).
-fn chains(args: &LinkOptions, black: &[bool]) -> Result<Vec<Chain>> {
+fn chains(args: &LinkOptions, formation: &Formation, black: &[bool]) -> Result<Vec<Chain>> {
     let Some(kind) = args.modality.sensor() else {
         return Ok(Vec::new());
     };
-    (0..args.observers)
-        .map(|i| -> Result<Chain> {
+    formation
+        .placements()
+        .iter()
+        .enumerate()
+        .map(|(i, p)| -> Result<Chain> {
             Ok(Chain {
                 sensor: ObserverSensor::new(kind, i, black[i])?,
-                perception: Perception::new(kind)?,
+                perception: Perception::for_camera(kind, p.camera(), args.rectification)?,
                 tokens: Vec::new(),
                 frames: Vec::new(),
             })
@@ -190,7 +207,8 @@ fn chains(args: &LinkOptions, black: &[bool]) -> Result<Vec<Chain>> {
 
 /// Flies the broadcast and decodes it with every observer's receiver (and the ideal one).
 pub fn fly_link(args: &LinkOptions) -> Result<LinkOut> {
-    let names = check(args)?;
+    let formation = args.formation()?;
+    let names = check(args, &formation)?;
     let started = Instant::now();
     let acquisition =
         args.modality == Receiver::Events && !args.no_acquisition && !args.payloads.is_empty();
@@ -207,16 +225,16 @@ pub fn fly_link(args: &LinkOptions) -> Result<LinkOut> {
         0
     };
     let end_ns = schedule.end_ns().max(LEAD_IN_NS + hover_ns) + TAIL_NS;
-    let mut world = World::new(args.observers).context("building the scene")?;
+    let mut world = World::with_formation(&formation).context("building the scene")?;
 
     let ideal_config = if args.modality == Receiver::Events {
         SegmenterConfig::events()
     } else {
         SegmenterConfig::rgb()
     };
-    let mut ideal = IdealReceiver::new(args.observers, ideal_config)?;
+    let mut ideal = IdealReceiver::with_formation(&formation, ideal_config, args.rectification)?;
     let black: Vec<bool> = names.iter().map(|n| args.black.contains(n)).collect();
-    let mut chains = chains(args, &black)?;
+    let mut chains = chains(args, &formation, &black)?;
     let mut renderer = if chains.is_empty() {
         None
     } else {

@@ -17,6 +17,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use perception::agent::{AgentFrame, FrameOutcome, ObserverAgent};
 use perception::perception::SensorInput;
+use proto::Rectification;
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, ObserverCamera, observer_name};
 use proto::{ClockTick, Modality, ObserverId, RenderPath, Roster, Site, TICK_NS};
 use proto::{DecodeStep, Decoder, Sample, SegmentToken, SegmenterConfig};
@@ -82,16 +83,24 @@ impl Slot {
         let name = observer_name(i);
         let id = ObserverId::new(name.clone())?;
         let black = case.black(&name);
+        let camera = ObserverCamera::at_home(i, n);
+        let rectification = Rectification::default();
         let (perception, sensor) = match modality.sensor() {
             None => (
                 Perception::Ideal {
-                    camera: ObserverCamera::at_home(i, n),
-                    decoder: Box::new(Decoder::new(SegmenterConfig::rgb())?),
+                    camera,
+                    decoder: Box::new(Decoder::new(
+                        SegmenterConfig::rgb().rectified(camera, rectification),
+                    )?),
                 },
                 None,
             ),
             Some(kind) => (
-                Perception::Sensor(Box::new(perception::perception::Perception::new(kind)?)),
+                Perception::Sensor(Box::new(perception::perception::Perception::for_camera(
+                    kind,
+                    camera,
+                    rectification,
+                )?)),
                 Some(ObserverSensor::new(kind, i, black)?),
             ),
         };
@@ -313,7 +322,10 @@ impl Mission {
             pass: false,
             reasons: Vec::new(),
             wall_seconds: started.elapsed().as_secs_f64(),
+            viewpoints: BTreeMap::new(),
+            deaf_observers: Vec::new(),
         };
+        crate::eval::summary::annotate(&mut summary, case.observers);
         summary.reasons = check_expected(case, &summary);
         summary.pass = summary.reasons.is_empty();
         summary

@@ -1,8 +1,10 @@
 //! In-process harnesses: a whole mission in one process ([`mission`]), the link bench
 //! ([`link`]), the performer's flight as physics references ([`performer_flight`]) and the
-//! offline PNG → events converter ([`convert`]).
+//! offline PNG → events converter ([`convert`]), decode success against viewpoint
+//! ([`viewpoints`]).
 
 pub mod convert;
 pub mod link;
 pub mod mission;
 pub mod performer_flight;
+pub mod viewpoints;

@@ -59,7 +59,10 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
         pass: false,
         reasons: Vec::new(),
         wall_seconds: info.started.elapsed().as_secs_f64(),
+        viewpoints: BTreeMap::new(),
+        deaf_observers: Vec::new(),
     };
+    crate::eval::summary::annotate(&mut mission, case.observers);
     mission.reasons = check_expected(case, &mission);
     if report.is_none() {
         mission

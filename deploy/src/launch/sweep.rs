@@ -19,7 +19,7 @@ use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use nix::sys::signal::Signal;
 
 use super::process::{exit_label, signal};
-use crate::case::{BUILT_IN, Case, Receiver};
+use crate::case::{Case, PAPER_CASES, Receiver};
 use crate::eval::report::{self, RunEntry};
 use crate::run_dir::{PlannedRun, SWEEP_FILE, SweepManifest};
 
@@ -67,7 +67,7 @@ struct Job {
 
 fn plan(args: &SweepOptions) -> Result<(Vec<Job>, Vec<String>)> {
     let names: Vec<String> = if args.cases.is_empty() {
-        BUILT_IN.iter().map(|(n, _)| n.to_string()).collect()
+        PAPER_CASES.iter().map(|n| n.to_string()).collect()
     } else {
         args.cases.clone()
     };
@@ -354,6 +354,8 @@ mod tests {
             packets_per_observer: BTreeMap::new(),
             empty_packets_per_observer: BTreeMap::new(),
             undecodable_messages: 0,
+            viewpoints: BTreeMap::new(),
+            deaf_observers: vec![],
             pass,
             reasons: if pass {
                 vec![]

@@ -70,6 +70,12 @@ pub struct AuditReport {
     pub empty_packets_per_observer: BTreeMap<String, u64>,
     #[serde(default)]
     pub undecodable_messages: u64,
+    /// Each observer's viewing angle and distance (its home in the case's formation).
+    #[serde(default)]
+    pub viewpoints: BTreeMap<String, super::ObserverViewpoint>,
+    /// Observers that released no frame while others released some.
+    #[serde(default)]
+    pub deaf_observers: Vec<String>,
     pub pass: bool,
     #[serde(default)]
     pub reasons: Vec<String>,

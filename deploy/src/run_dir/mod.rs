@@ -52,6 +52,17 @@ pub struct ObserverSummary {
     pub tokens: usize,
 }
 
+/// Where an observer watched the performer from: its home in the formation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ObserverViewpoint {
+    /// Angle between its line of sight and the gesture plane's normal (0 = head-on).
+    pub viewing_angle_deg: f64,
+    /// Distance from home to the performer's hover point.
+    pub distance_m: f64,
+    /// Height above the hover altitude seen from the performer (0 on the paper's arc).
+    pub elevation_deg: f64,
+}
+
 /// The mission summary shared by `waggle mission` (in-process) and `waggle run` (distributed).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MissionSummary {
@@ -69,6 +80,13 @@ pub struct MissionSummary {
     pub reasons: Vec<String>,
     #[serde(deserialize_with = "null_as_nan")]
     pub wall_seconds: f64,
+    /// Each observer's viewing angle and distance.
+    #[serde(default)]
+    pub viewpoints: BTreeMap<String, ObserverViewpoint>,
+    /// Observers that released no frame while others released some (structurally deaf, or
+    /// blinded): named here whether or not the case expected it.
+    #[serde(default)]
+    pub deaf_observers: Vec<String>,
 }
 
 /// Per-process figures in the summary.

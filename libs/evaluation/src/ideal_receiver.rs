@@ -9,7 +9,7 @@ use proto::ReleasedFrame;
 use proto::scene::{
     Formation, IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, MAX_OBSERVERS, ObserverCamera, observer_name,
 };
-use proto::{Decoder, Sample, SegmentToken, SegmenterConfig, SegmenterError};
+use proto::{Decoder, Rectification, Sample, SegmentToken, SegmenterConfig, SegmenterError};
 
 use proto::schedule::Schedule;
 
@@ -63,13 +63,15 @@ impl IdealReceiver {
     pub fn new(n: usize, config: SegmenterConfig) -> Result<Self, IdealReceiverError> {
         let formation =
             Formation::standard(n).map_err(|_| IdealReceiverError::BadObserverCount { n })?;
-        Self::with_formation(&formation, config)
+        Self::with_formation(&formation, config, Rectification::default())
     }
 
-    /// One ideal chain per observer of `formation`, each looking from its home.
+    /// One ideal chain per observer of `formation`, each looking from its home and matching
+    /// its trajectory rectified by `rectification`.
     pub fn with_formation(
         formation: &Formation,
         config: SegmenterConfig,
+        rectification: Rectification,
     ) -> Result<Self, IdealReceiverError> {
         let chains = formation
             .placements()
@@ -78,7 +80,7 @@ impl IdealReceiver {
             .map(|(i, p)| {
                 Ok(Chain {
                     camera: p.camera(),
-                    decoder: Decoder::new(config)?,
+                    decoder: Decoder::new(config.rectified(p.camera(), rectification))?,
                     output: ObserverOutput {
                         name: observer_name(i),
                         tokens: Vec::new(),

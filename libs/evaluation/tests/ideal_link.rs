@@ -2,7 +2,7 @@
 
 use evaluation::IdealReceiver;
 use proto::frame::frame_tokens;
-use proto::scene::PERFORMER_HOVER_M;
+use proto::scene::{MAX_OBSERVERS, PERFORMER_HOVER_M};
 use proto::{Action, Token};
 use proto::{
     GestureConfig, NS_PER_MS, NS_PER_S, Schedule, ScheduleBuilder, TruthSymbol, broadcast,
@@ -37,7 +37,7 @@ fn tokens_of(r: &IdealReceiver, i: usize) -> Vec<Token> {
 
 #[test]
 fn each_symbol_flown_alone_is_classified_as_itself_by_every_observer() {
-    for n in 1..=3 {
+    for n in 1..=MAX_OBSERVERS {
         for action in Action::ALL {
             let mut b =
                 ScheduleBuilder::new(0, PERFORMER_HOVER_M, GestureConfig::default()).unwrap();
@@ -111,6 +111,13 @@ fn symbols_have_modest_peak_speed_and_acceleration() {
 
 #[test]
 fn two_consecutive_offers_release_exactly_those_payloads_in_order() {
+    for n in 1..=MAX_OBSERVERS {
+        every_observer_of_n_releases_both_offers(n);
+    }
+}
+
+/// The built-in formation of `n` observers: each one releases both frames, token by token.
+fn every_observer_of_n_releases_both_offers(n: usize) {
     let payloads = [0b011010, 0b100111];
     for acquisition in [false, true] {
         let s = broadcast(
@@ -121,13 +128,13 @@ fn two_consecutive_offers_release_exactly_those_payloads_in_order() {
         )
         .unwrap();
         for (name, config) in configs() {
-            let r = run(&s, 3, config, 0);
-            for i in 0..3 {
+            let r = run(&s, n, config, 0);
+            for i in 0..n {
                 let o = r.output(i).unwrap();
                 assert_eq!(
                     o.payloads(),
                     payloads.to_vec(),
-                    "{name} acq={acquisition} {}",
+                    "N={n} {name} acq={acquisition} {}",
                     o.name
                 );
                 // Token stream: the pre-broadcast hover NULL, (the sweep as Unknown and its

@@ -2,7 +2,8 @@
 //! packets in, tokens and released frames out. This is all an observer process is allowed to
 //! see of the world.
 
-use proto::{EventPacket, RgbFrame};
+use proto::scene::ObserverCamera;
+use proto::{EventPacket, Rectification, RgbFrame, SegmenterConfig};
 
 use crate::events::{EventReceiver, EventReceiverConfig, EventReceiverError};
 use crate::rgb::{RgbReceiver, RgbReceiverConfig, RgbReceiverError};
@@ -39,15 +40,36 @@ pub enum Perception {
 }
 
 impl Perception {
-    /// The paper's receiver for `modality`.
+    /// The paper's receiver for `modality`, matching the raw image trajectory.
     pub fn new(modality: Modality) -> Result<Self, PerceptionError> {
+        Self::build(modality, |s| s)
+    }
+
+    /// The paper's receiver for `modality` on an observer whose camera is `camera` (its home
+    /// pose, from the map), with the trajectory rectified by `mode` before template matching.
+    pub fn for_camera(
+        modality: Modality,
+        camera: ObserverCamera,
+        mode: Rectification,
+    ) -> Result<Self, PerceptionError> {
+        Self::build(modality, |s| s.rectified(camera, mode))
+    }
+
+    fn build(
+        modality: Modality,
+        segmenter: impl Fn(SegmenterConfig) -> SegmenterConfig,
+    ) -> Result<Self, PerceptionError> {
         match modality {
-            Modality::Events => Ok(Self::Events(Box::new(EventReceiver::new(
-                EventReceiverConfig::paper(),
-            )?))),
-            Modality::Rgb => Ok(Self::Rgb(Box::new(RgbReceiver::new(
-                RgbReceiverConfig::paper(),
-            )?))),
+            Modality::Events => {
+                let mut config = EventReceiverConfig::paper();
+                config.segmenter = segmenter(config.segmenter);
+                Ok(Self::Events(Box::new(EventReceiver::new(config)?)))
+            }
+            Modality::Rgb => {
+                let mut config = RgbReceiverConfig::paper();
+                config.segmenter = segmenter(config.segmenter);
+                Ok(Self::Rgb(Box::new(RgbReceiver::new(config)?)))
+            }
         }
     }
 

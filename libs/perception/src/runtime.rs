@@ -7,7 +7,9 @@
 //! fly). A missing packet interrupts perception once per gap, when the gap starts inside a
 //! window — silence must never confirm a NULL.
 
+use proto::Rectification;
 use proto::frame::FrameParser;
+use proto::scene::Placement;
 use proto::{
     Decision, FrameEvent, InputState, ObserverId, ObserverPhase, ObserverStatus, ObserverTrack,
     Roster, SessionControl, SessionEvent, Site, TICK_NS, TokenEvent, TrackSample,
@@ -60,10 +62,24 @@ impl ObserverRuntime {
         roster: Roster,
         modality: Modality,
     ) -> Result<Self, PerceptionError> {
+        // The observer knows the map: its own home, hence its camera's pose.
+        let home = roster
+            .entries()
+            .iter()
+            .find(|e| e.observer == id)
+            .map(|e| e.home_m);
+        let perception = match home {
+            Some(home) => Perception::for_camera(
+                modality,
+                Placement::aimed_from(home).camera(),
+                Rectification::default(),
+            )?,
+            None => Perception::new(modality)?,
+        };
         Ok(Self {
             agent: ObserverAgent::new(id.clone(), roster),
             id,
-            perception: Perception::new(modality)?,
+            perception,
             parser: FrameParser::new(),
             next_token_seq: 0,
             frames_released: 0,

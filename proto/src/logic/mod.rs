@@ -9,7 +9,8 @@
 //!   tokens) and the [`decoder`] that feeds it into the parser;
 //! - the group's side: [`task`] state, offer cache and [`allocation`] policy, the
 //!   [`provenance`] audit;
-//! - geometry: the shared [`scene`] layout and pinhole camera model.
+//! - geometry: the shared [`scene`] layout and pinhole camera model, and the viewpoint
+//!   [`rectify`] map applied before template matching.
 
 pub mod allocation;
 pub mod alphabet;
@@ -19,6 +20,7 @@ pub mod gesture;
 pub mod min_jerk;
 pub mod payload;
 pub mod provenance;
+pub mod rectify;
 pub mod scene;
 pub mod schedule;
 pub mod segmenter;

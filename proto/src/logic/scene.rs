@@ -296,11 +296,29 @@ impl ObserverCamera {
 
     /// A world point in camera coordinates: (forward, left, up), metres.
     pub fn camera_from_world(&self, world_m: [f64; 3]) -> [f64; 3] {
-        let d = [
+        self.camera_from_world_dir([
             world_m[0] - self.world_pos_m[0],
             world_m[1] - self.world_pos_m[1],
             world_m[2] - self.world_pos_m[2],
-        ];
+        ])
+    }
+
+    /// A camera-frame direction (forward, left, up) in world axes.
+    pub fn world_from_camera_dir(&self, v: [f64; 3]) -> [f64; 3] {
+        let [forward, left, up] = v;
+        let (sp, cp) = self.pitch_rad.sin_cos();
+        let level_forward = cp * forward + sp * up;
+        let z = cp * up - sp * forward;
+        let (s, c) = self.yaw_rad.sin_cos();
+        [
+            c * level_forward - s * left,
+            s * level_forward + c * left,
+            z,
+        ]
+    }
+
+    /// A world direction in camera axes: (forward, left, up).
+    pub fn camera_from_world_dir(&self, d: [f64; 3]) -> [f64; 3] {
         let (s, c) = self.yaw_rad.sin_cos();
         let level_forward = c * d[0] + s * d[1];
         let left = -s * d[0] + c * d[1];

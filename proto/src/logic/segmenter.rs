@@ -39,6 +39,9 @@ pub struct SegmenterConfig {
     pub max_motion_ns: u64,
     /// Template acceptance settings for candidate paths.
     pub match_settings: MatchSettings,
+    /// Viewpoint rectification applied to every sample's point before anything else (`None`:
+    /// the raw image trajectory).
+    pub rectifier: Option<crate::rectify::Rectifier>,
 }
 
 impl SegmenterConfig {
@@ -50,6 +53,7 @@ impl SegmenterConfig {
             max_gap_ns: 60_000_000,
             max_motion_ns: 30_000_000_000,
             match_settings: MatchSettings::rgb(),
+            rectifier: None,
         }
     }
 
@@ -59,6 +63,18 @@ impl SegmenterConfig {
             anchor_radius_px: 20.0,
             match_settings: MatchSettings::events(),
             ..Self::rgb()
+        }
+    }
+
+    /// These settings seen through `camera`'s rectification under `mode`.
+    pub fn rectified(
+        self,
+        camera: crate::scene::ObserverCamera,
+        mode: crate::rectify::Rectification,
+    ) -> Self {
+        Self {
+            rectifier: crate::rectify::Rectifier::new(camera, mode),
+            ..self
         }
     }
 
@@ -247,6 +263,7 @@ impl Segmenter {
         {
             return Err(SegmenterError::NonFinitePoint { point_px: p });
         }
+        let sample = self.config.rectifier.map_or(sample, |r| r.sample(sample));
         let mut out = Vec::new();
         let stamp_ns = sample.stamp_ns;
         if let Some(previous_ns) = self.last_stamp_ns

@@ -120,7 +120,7 @@ impl std::fmt::Display for RenderPath {
 }
 
 /// The one of `all` named `s`, or an error listing the `expected` names.
-fn parse_name<T: Copy>(
+pub(crate) fn parse_name<T: Copy>(
     all: &[T],
     name: fn(T) -> &'static str,
     s: &str,

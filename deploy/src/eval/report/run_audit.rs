@@ -80,6 +80,8 @@ pub fn from_run_files(f: &RunFiles) -> AuditReport {
         })
         .collect();
     AuditReport {
+        viewpoints: m.viewpoints.clone(),
+        deaf_observers: m.deaf_observers.clone(),
         partial: f.summary.interrupted,
         partial_reason: f
             .summary
