@@ -27,9 +27,31 @@ fn diff_blob(a: &[u8], b: &[u8]) -> Option<([f64; 2], usize)> {
     (n > 0).then(|| ([sx / n as f64, sy / n as f64], n))
 }
 
+/// Observer cameras skip drawing other observers' airframes; that is harmless only while no
+/// observer is in another's view at home. For every group size, drawing them changes no pixel.
+#[test]
+fn no_observer_sees_another_at_home_in_any_formation() {
+    for n in 1..=proto::scene::MAX_OBSERVERS {
+        let mut world = World::new(n).expect("scene");
+        let mut renderer = CameraRenderer::new(&world, RenderPath::Full).expect("EGL renderer");
+        for i in 0..n {
+            let hidden = renderer.render(&mut world, i).unwrap().to_vec();
+            renderer.show_observers(true);
+            let shown = renderer.render(&mut world, i).unwrap().to_vec();
+            renderer.show_observers(false);
+            assert!(hidden == shown, "N = {n}: another airframe is in O{}'s view", i + 1);
+        }
+    }
+}
+
 #[test]
 fn performer_is_a_compact_blob_that_moves_as_the_camera_model_predicts() {
-    let n = 3;
+    for n in [3, 8] {
+        performer_blob_moves_as_predicted(n);
+    }
+}
+
+fn performer_blob_moves_as_predicted(n: usize) {
     let mut world = World::new(n).expect("scene");
     let mut renderer = CameraRenderer::new(&world, RenderPath::Full).expect("EGL renderer");
 
@@ -90,9 +112,12 @@ fn performer_is_a_compact_blob_that_moves_as_the_camera_model_predicts() {
             (measured - predicted).abs() <= 0.2 * predicted,
             "observer {i}: moved {measured:.1} px, camera model predicts {predicted:.1} px"
         );
+        // Level cameras see no vertical motion; pitched ones see the perspective tilt the
+        // camera model predicts.
+        let predicted_dy = p1[1] - p0[1];
         assert!(
-            (c1[1] - c0[1]).abs() < 3.0,
-            "observer {i}: vertical drift {c0:?} -> {c1:?}"
+            (c1[1] - c0[1] - predicted_dy).abs() < 3.0,
+            "N = {n} observer {i}: vertical drift {c0:?} -> {c1:?}, model {predicted_dy:.1} px"
         );
     }
 }
