@@ -146,6 +146,54 @@ fn every_observer_of_the_group_cases_decodes_every_frame() {
     }
 }
 
+/// Any group size and offer order: five observers (both rows) offered B before A. The ideal
+/// receiver's outcome becomes the case's expectation, which the event cameras must then meet
+/// (≈ 6 min: 5 cameras rendered in one process for ≈ 520 s of sim).
+#[test]
+#[ignore = "renders 5 event cameras for ~520 s of sim, ≈ 6 min; run with --ignored"]
+fn five_observers_offered_b_then_a_serve_the_same_with_event_cameras_as_ideal() {
+    let dir = std::env::temp_dir().join(format!("waggle-five-ba-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let case = |expected: &str| {
+        let path = dir.join("five-ba.toml");
+        std::fs::write(
+            &path,
+            format!(
+                "name = \"five-ba\"\nobservers = 5\noffer_sites = [\"B\", \"A\"]\n\
+                 modalities = [\"events\"]\n[expected]\n{expected}"
+            ),
+        )
+        .unwrap();
+        path.to_str().unwrap().to_owned()
+    };
+    let open = case("messages = [4, 4, 4, 4, 4]\nwork_units = 0\nservices = {}\n");
+    let (_, ideal) = mission(&open, "ideal");
+    let services: Vec<String> = ideal["observers"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .map(|(o, v)| {
+            let sites: Vec<String> = v["services"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|s| format!("{s}"))
+                .collect();
+            format!("{o} = [{}]", sites.join(", "))
+        })
+        .collect();
+    let expected = format!(
+        "messages = [4, 4, 4, 4, 4]\nwork_units = {}\nservices = {{ {} }}\n",
+        ideal["work_units"],
+        services.join(", ")
+    );
+    let path = case(&expected);
+    assert_passes(&path, "ideal");
+    let v = assert_passes(&path, "events");
+    assert!(v["deaf_observers"].as_array().unwrap().is_empty());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 #[ignore = "renders 3 cameras at 100 Hz for ~480 s of sim: minutes; run with --ignored"]
 fn nominal_3_with_event_cameras() {

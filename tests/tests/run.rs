@@ -226,6 +226,22 @@ fn nominal_3_rgb_as_processes() {
     assert_nominal(&run("nominal-3", "rgb", "nominal-rgb", &[]));
 }
 
+/// Eight event cameras as processes in the two-row formation: every observer releases every
+/// frame (4 complete messages each), nobody is deaf, no contact, separation ≥ 0.35 m, and the
+/// case's expected services. ≈ 7.5 min of wall on an idle 2-core machine (577 s of sim).
+#[test]
+#[ignore = "whole mission with 8 event cameras, ≈ 8 min: cargo test --release -p waggle-tests --test run -- --ignored"]
+fn eight_observers_events_as_processes() {
+    let r = run("eight-observers", "events", "eight-events", &[]);
+    r.assert_pass();
+    r.every_process_exited_cleanly();
+    assert_eq!(r.messages(), [4; 8]);
+    assert!(r.summary.mission.deaf_observers.is_empty());
+    assert_eq!(r.summary.mission.contact_steps, 0);
+    assert!(r.summary.mission.min_separation_m >= 0.35);
+    assert!(r.summary.missing_packets.is_empty(), "{:?}", r.summary.missing_packets);
+}
+
 #[test]
 #[ignore = "whole mission, ≈ 5 min: cargo test --release -p waggle-tests --test run -- --ignored"]
 fn dropout_o2_kills_the_camera_and_o2_never_moves() {
