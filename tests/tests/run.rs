@@ -239,7 +239,11 @@ fn eight_observers_events_as_processes() {
     assert!(r.summary.mission.deaf_observers.is_empty());
     assert_eq!(r.summary.mission.contact_steps, 0);
     assert!(r.summary.mission.min_separation_m >= 0.35);
-    assert!(r.summary.missing_packets.is_empty(), "{:?}", r.summary.missing_packets);
+    assert!(
+        r.summary.missing_packets.is_empty(),
+        "{:?}",
+        r.summary.missing_packets
+    );
 }
 
 #[test]

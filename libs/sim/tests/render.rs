@@ -39,7 +39,11 @@ fn no_observer_sees_another_at_home_in_any_formation() {
             renderer.show_observers(true);
             let shown = renderer.render(&mut world, i).unwrap().to_vec();
             renderer.show_observers(false);
-            assert!(hidden == shown, "N = {n}: another airframe is in O{}'s view", i + 1);
+            assert!(
+                hidden == shown,
+                "N = {n}: another airframe is in O{}'s view",
+                i + 1
+            );
         }
     }
 }

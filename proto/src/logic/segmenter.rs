@@ -88,7 +88,12 @@ impl SegmenterConfig {
         if ok {
             Ok(())
         } else {
-            Err(SegmenterError::BadConfig(*self))
+            Err(SegmenterError::BadConfig {
+                anchor_radius_px: self.anchor_radius_px,
+                null_confirm_ns: self.null_confirm_ns,
+                max_gap_ns: self.max_gap_ns,
+                max_motion_ns: self.max_motion_ns,
+            })
         }
     }
 }
@@ -171,8 +176,16 @@ pub enum SegmenterError {
     NonMonotonicStamp { previous_ns: u64, stamp_ns: u64 },
     #[error("sample point {point_px:?} is not finite")]
     NonFinitePoint { point_px: [f64; 2] },
-    #[error("invalid segmenter settings {0:?}")]
-    BadConfig(SegmenterConfig),
+    #[error(
+        "invalid segmenter settings: anchor radius {anchor_radius_px} px, NULL after \
+         {null_confirm_ns} ns, gap {max_gap_ns} ns, motion {max_motion_ns} ns (all must be positive)"
+    )]
+    BadConfig {
+        anchor_radius_px: f64,
+        null_confirm_ns: u64,
+        max_gap_ns: u64,
+        max_motion_ns: u64,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -774,7 +787,7 @@ pub(crate) mod tests {
         };
         assert!(matches!(
             Segmenter::new(bad),
-            Err(SegmenterError::BadConfig(_))
+            Err(SegmenterError::BadConfig { .. })
         ));
     }
 }
