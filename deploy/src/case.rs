@@ -42,7 +42,7 @@ pub const PAPER_CASES: &[&str] = &[
     "dropout-o2",
 ];
 
-pub use proto::Receiver;
+pub use proto::{FlightMode, Receiver};
 
 /// The TOML text of a case given by name or path (what [`Case::load`] parses).
 pub fn case_source(name_or_path: &str) -> Result<String> {
@@ -125,6 +125,10 @@ pub struct Case {
     /// Hard limit on simulated time.
     #[serde(default)]
     pub time_limit_s: Option<f64>,
+    /// Safety router: `sequential` (default, one trip at a time, the paper) or `concurrent`
+    /// (trips overlap on checked space-time reservations).
+    #[serde(default)]
+    pub flights: FlightMode,
     pub expected: Expected,
 }
 

@@ -30,7 +30,7 @@ pub use fault::{Fault, FaultKind};
 pub use frame::{FrameParser, ReleasedFrame};
 pub use gesture::{GestureConfig, MotionProfile, NS_PER_MS, NS_PER_S};
 pub use keys::{Key, KeyError, Keys, ObserverId, Role};
-pub use modality::{Modality, Receiver, RenderPath, UnknownName};
+pub use modality::{FlightMode, Modality, Receiver, RenderPath, UnknownName};
 pub use observer::{
     Decision, FrameEvent, InputState, ObserverPhase, ObserverStatus, SourceFrame, TokenEvent,
 };

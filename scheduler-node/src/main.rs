@@ -20,7 +20,7 @@ use proto::{
     SessionTick, SimState, Site, TICK_NS,
 };
 use scheduler::{
-    DecisionNotice, EventKind, Modality, Scheduler, SchedulerConfig, observer_positions,
+    DecisionNotice, EventKind, FlightMode, Modality, Scheduler, SchedulerConfig, observer_positions,
 };
 
 #[derive(Parser)]
@@ -42,6 +42,9 @@ struct Args {
     /// Hard limit on simulated time, seconds.
     #[arg(long)]
     time_limit_s: Option<f64>,
+    /// Safety router: one trip at a time, or overlapping trips on checked reservations.
+    #[arg(long, value_enum, default_value_t = FlightMode::default())]
+    flights: FlightMode,
     #[command(flatten)]
     node: NodeArgs,
 }
@@ -68,6 +71,7 @@ fn main() -> Result<()> {
     let mut config = SchedulerConfig::new(node.observers, modality)
         .with_offer_sites(&parse_sites(&args.offers)?);
     config.rounds = args.rounds;
+    config.flights = args.flights;
     config.time_limit_ns = args.time_limit_s.map(|s| (s * 1e9).round() as u64);
     let mut scheduler = Scheduler::new(config).context("configuring the scheduler")?;
 

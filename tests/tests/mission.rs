@@ -149,6 +149,43 @@ fn every_observer_of_the_group_cases_decodes_every_frame() {
 /// Any group size and offer order: five observers (both rows) offered B before A. The ideal
 /// receiver's outcome becomes the case's expectation, which the event cameras must then meet
 /// (≈ 6 min: 5 cameras rendered in one process for ≈ 520 s of sim).
+/// The concurrent router in physics: eight observers' trips overlap, the case's outcome is
+/// unchanged, no contact, the simulator's separation stays ≥ 0.35 m, and it ends sooner.
+#[test]
+fn eight_observers_with_concurrent_flights_keep_separation_and_finish_sooner() {
+    let out = waggle()
+        .args([
+            "mission",
+            "eight-observers",
+            "--modality",
+            "ideal",
+            "--flights",
+            "concurrent",
+            "--json",
+        ])
+        .output()
+        .expect("run waggle");
+    let con: Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert!(
+        out.status.success() && con["pass"] == true,
+        "{:#}",
+        con["reasons"]
+    );
+    assert_eq!(con["flights"], "concurrent");
+    assert_eq!(con["contact_steps"], 0);
+    assert!(con["min_separation_m"].as_f64().unwrap() >= 0.35);
+    let seq = assert_passes("eight-observers", "ideal");
+    assert_eq!(seq["flights"], "sequential");
+    let (t_con, t_seq) = (
+        con["mission_time_s"].as_f64().unwrap(),
+        seq["mission_time_s"].as_f64().unwrap(),
+    );
+    assert!(
+        t_con + 60.0 < t_seq,
+        "concurrent {t_con} s vs sequential {t_seq} s"
+    );
+}
+
 #[test]
 #[ignore = "renders 5 event cameras for ~520 s of sim, ≈ 6 min; run with --ignored"]
 fn five_observers_offered_b_then_a_serve_the_same_with_event_cameras_as_ideal() {

@@ -20,6 +20,8 @@ pub struct MissionArgs {
     modality: Receiver,
     #[command(flatten)]
     render: super::RenderArg,
+    #[command(flatten)]
+    flights: super::FlightsArg,
     /// Write DIR/summary.json here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -29,7 +31,7 @@ pub struct MissionArgs {
 }
 
 pub fn run(args: MissionArgs) -> Result<()> {
-    let case = Case::load(&args.case)?;
+    let case = args.flights.apply(Case::load(&args.case)?);
     if !case.modalities.contains(&args.modality) && args.modality != Receiver::Ideal {
         bail!(
             "case {} does not apply to the {:?} modality (it lists {:?})",

@@ -14,6 +14,26 @@ pub mod run;
 pub mod sweep;
 pub mod viewpoints;
 
+/// `--flights sequential|concurrent`, shared by the commands that fly a whole case.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct FlightsArg {
+    /// Safety router, overriding the case's `flights`: `sequential` flies one trip at a time
+    /// (the paper), `concurrent` lets trips overlap when their reserved space-time paths keep
+    /// the 0.4 m clearance.
+    #[arg(long = "flights", value_enum)]
+    pub mode: Option<proto::FlightMode>,
+}
+
+impl FlightsArg {
+    /// `case` with the override applied.
+    pub fn apply(self, mut case: crate::case::Case) -> crate::case::Case {
+        if let Some(mode) = self.mode {
+            case.flights = mode;
+        }
+        case
+    }
+}
+
 /// `--render damage|full`, shared by every command that renders cameras.
 #[derive(Debug, Clone, Copy, clap::Args)]
 pub struct RenderArg {

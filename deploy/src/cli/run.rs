@@ -23,6 +23,8 @@ pub struct RunArgs {
     modality: Option<Modality>,
     #[command(flatten)]
     render: super::RenderArg,
+    #[command(flatten)]
+    flights: super::FlightsArg,
     /// Write DIR/summary.json, DIR/observers.json and the process logs (DIR/logs) here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -69,7 +71,7 @@ pub struct RunArgs {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let case = Case::load(&args.case)?;
+    let case = args.flights.apply(Case::load(&args.case)?);
     let modality = run_modality(&case, args.modality)?;
     let json = args.json;
     let opts = RunOptions {

@@ -219,8 +219,12 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
         wall_seconds: f64::NAN,
         viewpoints: BTreeMap::new(),
         deaf_observers: Vec::new(),
+        flights: proto::FlightMode::default(),
     };
     crate::eval::summary::annotate(&mut mission, n);
+    if let Some(c) = &case {
+        mission.flights = c.flights;
+    }
     let reasons = reasons(&scanned, case.as_ref(), &mission, report.is_some());
     mission.pass = reasons.is_empty();
     let (work_units_by_observer, work_units_by_site) = work_units(report.as_ref());

@@ -55,8 +55,14 @@ pub fn deaf_observers(observers: &BTreeMap<String, ObserverSummary>) -> Vec<Stri
 
 /// Fills the summary's viewpoints (formation of `n` observers) and deaf observers.
 pub fn annotate(s: &mut MissionSummary, n: usize) {
-    s.viewpoints = viewpoints(n);
     s.deaf_observers = deaf_observers(&s.observers);
+    s.viewpoints = viewpoints(n);
+}
+
+/// The mission summary's derived fields for a flown case: viewpoints, deaf observers, router.
+pub fn annotate_case(s: &mut MissionSummary, case: &Case) {
+    annotate(s, case.observers);
+    s.flights = case.flights;
 }
 
 /// The warning naming deaf observers with their viewpoints, if any.
@@ -148,11 +154,13 @@ pub fn print_summary(s: &MissionSummary) {
         );
     }
     println!(
-        "work units {} · contact steps {} · minimum separation {:.3} m · provenance violations {}",
+        "work units {} · contact steps {} · minimum separation {:.3} m · provenance violations {} · \
+         {} flights",
         s.work_units,
         s.contact_steps,
         s.min_separation_m,
-        s.provenance_violations.len()
+        s.provenance_violations.len(),
+        s.flights
     );
     if let Some(w) = deaf_warning(&s.deaf_observers, &s.viewpoints) {
         println!("  ⚠ {w}");

@@ -324,8 +324,9 @@ impl Mission {
             wall_seconds: started.elapsed().as_secs_f64(),
             viewpoints: BTreeMap::new(),
             deaf_observers: Vec::new(),
+            flights: proto::FlightMode::default(),
         };
-        crate::eval::summary::annotate(&mut summary, case.observers);
+        crate::eval::summary::annotate_case(&mut summary, case);
         summary.reasons = check_expected(case, &summary);
         summary.pass = summary.reasons.is_empty();
         summary
@@ -367,6 +368,7 @@ fn scheduler_for(case: &Case, modality: Modality) -> Result<Scheduler> {
         .collect::<Result<_, _>>()?;
     let mut config = SchedulerConfig::new(case.observers, modality).with_offer_sites(&sites);
     config.rounds = case.rounds;
+    config.flights = case.flights;
     if let Some(limit) = case.time_limit_s {
         config.time_limit_ns = Some((limit * 1e9).round() as u64);
     }

@@ -330,6 +330,8 @@ impl Children<'_> {
             a.push("--time-limit-s".into());
             a.push(limit.to_string());
         }
+        a.push("--flights".into());
+        a.push(self.case.flights.to_string());
         a
     }
 
@@ -371,6 +373,25 @@ fn observer_denied_keys(keys: &proto::Keys, me: &ObserverId, all: &[ObserverId])
     out
 }
 
+/// The case's text with any command-line override of `flights` written into it, so the
+/// recorded case is the one that flew.
+fn case_text_as_flown(case_arg: &str, case: &Case) -> Result<String> {
+    let text = case_source(case_arg)?;
+    let written: Case = toml::from_str(&text).context("re-reading the case text")?;
+    if written.flights == case.flights {
+        return Ok(text);
+    }
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("flights"))
+        .collect();
+    Ok(format!(
+        "# flights set on the command line\nflights = \"{}\"\n{}\n",
+        case.flights,
+        kept.join("\n")
+    ))
+}
+
 /// `recorder-node` arguments for a run writing `out_dir/session.mcap`; writes the case text
 /// to `out_dir/case.toml` so the recording holds the case and its expected outcome.
 pub fn recorder_args(
@@ -380,7 +401,7 @@ pub fn recorder_args(
     out_dir: &Path,
 ) -> Result<Vec<String>> {
     let case_file = out_dir.join(CASE_FILE);
-    std::fs::write(&case_file, case_source(case_arg)?)
+    std::fs::write(&case_file, case_text_as_flown(case_arg, case)?)
         .with_context(|| format!("writing {}", case_file.display()))?;
     Ok(vec![
         "--out".into(),

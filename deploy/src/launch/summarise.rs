@@ -61,8 +61,9 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
         wall_seconds: info.started.elapsed().as_secs_f64(),
         viewpoints: BTreeMap::new(),
         deaf_observers: Vec::new(),
+        flights: proto::FlightMode::default(),
     };
-    crate::eval::summary::annotate(&mut mission, case.observers);
+    crate::eval::summary::annotate_case(&mut mission, case);
     mission.reasons = check_expected(case, &mission);
     if report.is_none() {
         mission

@@ -87,6 +87,9 @@ pub struct MissionSummary {
     /// blinded): named here whether or not the case expected it.
     #[serde(default)]
     pub deaf_observers: Vec<String>,
+    /// The safety router the mission flew with.
+    #[serde(default)]
+    pub flights: proto::FlightMode,
 }
 
 /// Per-process figures in the summary.

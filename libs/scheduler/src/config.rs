@@ -10,7 +10,7 @@ use crate::error::ConfigError;
 
 // The observers' sensing modality: only the broadcast differs (the events modality flies the
 // acquisition sweep and its quiet before the first offer of every round).
-pub use proto::Modality;
+pub use proto::{FlightMode, Modality};
 
 /// Round and session timing.
 ///
@@ -100,6 +100,8 @@ pub struct SchedulerConfig {
     pub flight: FlightLimits,
     /// Hard stop: the mission ends at this sim time whatever is happening.
     pub time_limit_ns: Option<u64>,
+    /// One trip at a time (the paper) or overlapping trips on checked reservations.
+    pub flights: FlightMode,
 }
 
 impl SchedulerConfig {
@@ -114,6 +116,7 @@ impl SchedulerConfig {
             timing: Timing::default(),
             flight: FlightLimits::default(),
             time_limit_ns: None,
+            flights: FlightMode::default(),
         }
     }
 

@@ -53,9 +53,17 @@
 //! rest-to-rest minimum-jerk blend with whole-tick duration, so every transition (arrival,
 //! service end, return) falls on a tick. The return flies the outbound path backwards.
 //!
+//! **Concurrent mode** ([`SchedulerConfig::flights`] = [`FlightMode::Concurrent`]): every queued
+//! trip, in queue order, departs as soon as its whole reserved trajectory (out, service hover,
+//! back, then home) keeps the 0.4 m clearance from every trip already in the air at every
+//! instant ([`reservation`]: sampled every 20 ms with a bound on what two drones at ≤ 1 m/s can
+//! do between samples); a blocked trip does not hold back later ones. Paths then avoid only the
+//! observers on the ground. A trip that finds no work hovers out its reserved service time, so
+//! a reservation checked once stays true. Rounds still settle only when every trip is home.
+//!
 //! On arrival the site's counter is checked: with work left, the 5 s service runs and then
 //! decrements it ([`TaskState::serve`]); a site found depleted is logged as `NoWork` (no unit
-//! counted) and the observer returns at once.
+//! counted) and the observer returns at once (sequential mode).
 //!
 //! # Round settling and mission end
 //!
@@ -81,10 +89,11 @@ pub mod config;
 pub mod error;
 pub mod log;
 pub mod navigation;
+pub mod reservation;
 pub mod scheduler;
 pub mod trajectory;
 
-pub use config::{FlightLimits, Modality, SchedulerConfig, Timing};
+pub use config::{FlightLimits, FlightMode, Modality, SchedulerConfig, Timing};
 pub use error::{ConfigError, NavError, SchedulerError};
 pub use log::{EndReason, EventKind, LogEvent, PoseReject, RejectReason};
 pub use proto::Kinematics;

@@ -12,8 +12,9 @@ use crate::config::SchedulerConfig;
 use crate::error::{ConfigError, SchedulerError};
 use crate::log::{EndReason, EventKind, LogEvent, PoseReject, RejectReason, waypoints_um};
 use crate::navigation::{obstacles, plan_path};
+use crate::reservation::{Reservation, admit};
 use crate::trajectory::Leg;
-use proto::Kinematics;
+use proto::{FlightMode, Kinematics};
 
 /// The part of an observer's decision the scheduler acts on.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
@@ -157,7 +158,14 @@ struct Queued {
 #[derive(Debug, Clone, PartialEq)]
 enum Phase {
     Outbound,
-    Service { until_ns: u64 },
+    Service {
+        until_ns: u64,
+    },
+    /// Concurrent mode: no work at the site, but the trip hovers out its reserved service time
+    /// so that every reservation checked against it stays true.
+    Hold {
+        until_ns: u64,
+    },
     Return(Leg),
 }
 
@@ -168,6 +176,8 @@ struct Trip {
     round: u32,
     outbound: Leg,
     phase: Phase,
+    /// The whole trip as committed at departure (what the concurrent router checks).
+    reservation: Reservation,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -196,7 +206,8 @@ pub struct Scheduler {
     last_tick: Option<u64>,
     round: Option<Round>,
     queue: BTreeSet<Queued>,
-    active: Option<Trip>,
+    /// Trips in the air, in departure order (at most one in sequential mode).
+    active: Vec<Trip>,
     ended: Option<(EndReason, u64)>,
     frozen: Option<Vec<ObserverSetpoint>>,
     stats: Stats,
@@ -222,7 +233,7 @@ impl Scheduler {
             last_tick: None,
             round: None,
             queue: BTreeSet::new(),
-            active: None,
+            active: Vec::new(),
             ended: None,
             frozen: None,
             stats: Stats::default(),
@@ -303,7 +314,7 @@ impl Scheduler {
             if self.round.is_none() {
                 self.start_round(1, now, &mut out);
             }
-            self.advance_trip(now, &mut out)?;
+            self.advance_trips(now, &mut out)?;
             self.ingest_decisions(input.decisions, now, &mut out);
             self.advance_rounds(now, input.alive, &mut out)?;
             if let Some(limit) = self.config.time_limit_ns
@@ -331,13 +342,15 @@ impl Scheduler {
         }
         (0..self.ids.len())
             .map(|i| {
-                let k = match &self.active {
-                    Some(trip) if trip.index == i => match &trip.phase {
+                let k = match self.active.iter().find(|trip| trip.index == i) {
+                    Some(trip) => match &trip.phase {
                         Phase::Outbound => trip.outbound.state_at(t_ns),
-                        Phase::Service { .. } => Kinematics::rest(trip.site.position_m()),
+                        Phase::Service { .. } | Phase::Hold { .. } => {
+                            Kinematics::rest(trip.site.position_m())
+                        }
                         Phase::Return(leg) => leg.state_at(t_ns),
                     },
-                    _ => Kinematics::rest(self.homes_m[i]),
+                    None => Kinematics::rest(self.homes_m[i]),
                 };
                 ObserverSetpoint::new(self.ids[i].clone(), k, self.yaws_rad[i])
             })
@@ -528,93 +541,144 @@ impl Scheduler {
         Ok(())
     }
 
-    fn advance_trip(&mut self, now: u64, out: &mut TickOutput) -> Result<(), SchedulerError> {
-        let flight = self.config.flight;
-        let service_ns = self.config.timing.service_ns;
-        while let Some(trip) = self.active.as_mut() {
-            let id = self.ids[trip.index].clone();
-            let site = trip.site;
-            let round = trip.round;
-            match &trip.phase {
-                Phase::Outbound if trip.outbound.end_ns() <= now => {
-                    let t = trip.outbound.end_ns();
-                    let remaining = self.task.remaining(site);
-                    let kinds = if remaining == 0 {
-                        trip.phase = Phase::Return(
-                            trip.outbound
-                                .reversed(t, &flight)
-                                .map_err(|e| nav_error(&id, site, e))?,
-                        );
-                        self.stats.no_work_arrivals += 1;
-                        vec![EventKind::NoWork {
-                            observer: id.clone(),
-                            site,
-                        }]
-                    } else {
-                        trip.phase = Phase::Service {
-                            until_ns: t
-                                .checked_add(service_ns)
-                                .ok_or(SchedulerError::TimeOverflow)?,
-                        };
-                        vec![EventKind::ServiceStarted {
-                            observer: id.clone(),
-                            site,
-                            remaining,
-                        }]
-                    };
-                    self.emit(
-                        out,
-                        t,
-                        EventKind::ArrivalAtSite {
-                            observer: id.clone(),
-                            site,
-                        },
-                    );
-                    for k in kinds {
-                        self.emit(out, t, k);
-                    }
-                }
-                Phase::Service { until_ns } if *until_ns <= now => {
-                    let t = *until_ns;
-                    trip.phase = Phase::Return(
-                        trip.outbound
-                            .reversed(t, &flight)
-                            .map_err(|e| nav_error(&id, site, e))?,
-                    );
-                    match self.task.serve(site) {
-                        Ok(remaining) => {
-                            self.stats.work_units += 1;
-                            self.stats
-                                .services
-                                .entry(id.clone())
-                                .or_default()
-                                .push((round, site));
-                            self.emit(
-                                out,
-                                t,
-                                EventKind::ServiceEnded {
-                                    observer: id,
-                                    site,
-                                    remaining,
-                                },
-                            );
-                        }
-                        // Unreachable while trips are serialised (nobody else serves meanwhile).
-                        Err(_) => {
-                            self.stats.no_work_arrivals += 1;
-                            self.emit(out, t, EventKind::NoWork { observer: id, site });
-                        }
-                    }
-                }
-                Phase::Return(leg) if leg.end_ns() <= now => {
-                    let t = leg.end_ns();
-                    self.active = None;
-                    self.emit(out, t, EventKind::ReturnedHome { observer: id });
-                }
-                _ => break,
+    /// Moves every trip in the air through the phase changes due by `now`, in departure order.
+    fn advance_trips(&mut self, now: u64, out: &mut TickOutput) -> Result<(), SchedulerError> {
+        let mut k = 0;
+        while k < self.active.len() {
+            if self.advance_trip(k, now, out)? {
+                self.active.remove(k);
+            } else {
+                k += 1;
             }
         }
         Ok(())
+    }
+
+    /// Advances trip `k`; true once it is home.
+    fn advance_trip(
+        &mut self,
+        k: usize,
+        now: u64,
+        out: &mut TickOutput,
+    ) -> Result<bool, SchedulerError> {
+        loop {
+            let trip = &self.active[k];
+            let id = self.ids[trip.index].clone();
+            let (site, round) = (trip.site, trip.round);
+            match &trip.phase {
+                Phase::Outbound if trip.outbound.end_ns() <= now => {
+                    let t = trip.outbound.end_ns();
+                    self.arrive(k, t, out)?;
+                }
+                Phase::Service { until_ns } if *until_ns <= now => {
+                    let t = *until_ns;
+                    self.start_return(k, t)?;
+                    self.finish_service(id, site, round, t, out);
+                }
+                Phase::Hold { until_ns } if *until_ns <= now => {
+                    let t = *until_ns;
+                    self.start_return(k, t)?;
+                }
+                Phase::Return(leg) if leg.end_ns() <= now => {
+                    let t = leg.end_ns();
+                    self.emit(out, t, EventKind::ReturnedHome { observer: id });
+                    return Ok(true);
+                }
+                _ => return Ok(false),
+            }
+        }
+    }
+
+    /// Trip `k` reached its site at `t`: service if there is work, else back home (at once in
+    /// sequential mode; after its reserved service time in concurrent mode).
+    fn arrive(&mut self, k: usize, t: u64, out: &mut TickOutput) -> Result<(), SchedulerError> {
+        let service_ns = self.config.timing.service_ns;
+        let trip = &self.active[k];
+        let (id, site) = (self.ids[trip.index].clone(), trip.site);
+        let remaining = self.task.remaining(site);
+        let kinds = if remaining == 0 {
+            self.stats.no_work_arrivals += 1;
+            match self.config.flights {
+                FlightMode::Sequential => self.start_return(k, t)?,
+                FlightMode::Concurrent => {
+                    self.active[k].phase = Phase::Hold {
+                        until_ns: t
+                            .checked_add(service_ns)
+                            .ok_or(SchedulerError::TimeOverflow)?,
+                    };
+                }
+            }
+            vec![EventKind::NoWork {
+                observer: id.clone(),
+                site,
+            }]
+        } else {
+            self.active[k].phase = Phase::Service {
+                until_ns: t
+                    .checked_add(service_ns)
+                    .ok_or(SchedulerError::TimeOverflow)?,
+            };
+            vec![EventKind::ServiceStarted {
+                observer: id.clone(),
+                site,
+                remaining,
+            }]
+        };
+        self.emit(out, t, EventKind::ArrivalAtSite { observer: id, site });
+        for kind in kinds {
+            self.emit(out, t, kind);
+        }
+        Ok(())
+    }
+
+    /// Trip `k` leaves its site at `t` along its outbound path reversed.
+    fn start_return(&mut self, k: usize, t: u64) -> Result<(), SchedulerError> {
+        let flight = self.config.flight;
+        let trip = &mut self.active[k];
+        let id = self.ids[trip.index].clone();
+        let site = trip.site;
+        trip.phase = Phase::Return(
+            trip.outbound
+                .reversed(t, &flight)
+                .map_err(|e| nav_error(&id, site, e))?,
+        );
+        Ok(())
+    }
+
+    /// The end of a service at `t`: one work unit, unless the site ran dry meanwhile.
+    fn finish_service(
+        &mut self,
+        id: ObserverId,
+        site: Site,
+        round: u32,
+        t: u64,
+        out: &mut TickOutput,
+    ) {
+        match self.task.serve(site) {
+            Ok(remaining) => {
+                self.stats.work_units += 1;
+                self.stats
+                    .services
+                    .entry(id.clone())
+                    .or_default()
+                    .push((round, site));
+                self.emit(
+                    out,
+                    t,
+                    EventKind::ServiceEnded {
+                        observer: id,
+                        site,
+                        remaining,
+                    },
+                );
+            }
+            // Two trips never hover at one site together, so this takes a site emptied by
+            // another observer's service that ended first.
+            Err(_) => {
+                self.stats.no_work_arrivals += 1;
+                self.emit(out, t, EventKind::NoWork { observer: id, site });
+            }
+        }
     }
 
     fn all_alive_decided(&self, alive: &BTreeSet<ObserverId>) -> bool {
@@ -704,15 +768,10 @@ impl Scheduler {
                 },
             );
         }
-        // Safety router: one mover at a time, queue order (decision time, observer name).
-        if self.active.is_none()
-            && let Some(next) = self.queue.pop_first()
-        {
-            self.depart(next, now, out)?;
-        }
+        self.route(now, out)?;
         // Settling.
         let settled =
-            self.active.is_none() && self.queue.is_empty() && (now >= deadline_ns || all_decided);
+            self.active.is_empty() && self.queue.is_empty() && (now >= deadline_ns || all_decided);
         if !settled {
             return Ok(false);
         }
@@ -764,13 +823,50 @@ impl Scheduler {
         Ok(())
     }
 
-    fn depart(&mut self, q: Queued, now: u64, out: &mut TickOutput) -> Result<(), SchedulerError> {
+    /// The safety router. Sequential: one mover at a time, queue order (decision time,
+    /// observer name). Concurrent: every queued trip, in queue order, departs as soon as its
+    /// reservation keeps the clearance from every trip in the air (a blocked trip does not hold
+    /// back those behind it).
+    fn route(&mut self, now: u64, out: &mut TickOutput) -> Result<(), SchedulerError> {
+        match self.config.flights {
+            FlightMode::Sequential => {
+                if self.active.is_empty()
+                    && let Some(next) = self.queue.pop_first()
+                    && let Some(trip) = self.plan_trip(&next, now)?
+                {
+                    self.depart(next, trip, now, out);
+                }
+            }
+            FlightMode::Concurrent => {
+                let flight = self.config.flight;
+                for q in self.queue.clone() {
+                    let Some(trip) = self.plan_trip(&q, now)? else {
+                        self.queue.remove(&q);
+                        continue;
+                    };
+                    let flying: Vec<&Reservation> =
+                        self.active.iter().map(|a| &a.reservation).collect();
+                    if admit(&flying, &trip.reservation, now, &flight) {
+                        self.queue.remove(&q);
+                        self.depart(q, trip, now, out);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The trip `q` would fly if it left now: a path around every observer on the ground (trips
+    /// in the air are the router's business) and the sites it is not going to. `None` for an
+    /// observer outside the roster (never queued: decisions are judged first).
+    fn plan_trip(&self, q: &Queued, now: u64) -> Result<Option<Trip>, SchedulerError> {
         let Some(index) = self.index_of(&q.observer) else {
-            return Ok(());
+            return Ok(None);
         };
         let flight = self.config.flight;
+        let flying: BTreeSet<usize> = self.active.iter().map(|t| t.index).collect();
         let others = (0..self.ids.len())
-            .filter(|&j| j != index)
+            .filter(|&j| j != index && !flying.contains(&j))
             .map(|j| (self.ids[j].to_string(), self.positions_m[j]));
         let free_sites = Site::ALL
             .into_iter()
@@ -781,13 +877,24 @@ impl Scheduler {
         let path =
             plan_path(self.homes_m[index], q.site.position_m(), &obs, &flight).map_err(nav)?;
         let outbound = Leg::plan(now, &path, &flight).map_err(nav)?;
-        self.active = Some(Trip {
+        let hover_until_ns = outbound
+            .end_ns()
+            .checked_add(self.config.timing.service_ns)
+            .ok_or(SchedulerError::TimeOverflow)?;
+        let inbound = outbound.reversed(hover_until_ns, &flight).map_err(nav)?;
+        Ok(Some(Trip {
             index,
             site: q.site,
             round: q.round,
+            reservation: Reservation::trip(outbound.clone(), hover_until_ns, inbound),
             outbound,
             phase: Phase::Outbound,
-        });
+        }))
+    }
+
+    fn depart(&mut self, q: Queued, trip: Trip, now: u64, out: &mut TickOutput) {
+        let waypoints = waypoints_um(trip.outbound.waypoints());
+        self.active.push(trip);
         self.stats.departures += 1;
         self.emit(
             out,
@@ -797,10 +904,9 @@ impl Scheduler {
                 site: q.site,
                 round: q.round,
                 decided_ns: q.decided_ns,
-                waypoints: waypoints_um(&path),
+                waypoints,
             },
         );
-        Ok(())
     }
 }
 

@@ -119,6 +119,50 @@ impl std::fmt::Display for RenderPath {
     }
 }
 
+/// How the scheduler's safety router lets observers fly.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default, Serialize, Deserialize,
+)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum FlightMode {
+    /// One observer in the air at a time (the paper's rule).
+    #[default]
+    Sequential,
+    /// Trips overlap whenever their reserved space-time paths keep the clearance.
+    Concurrent,
+}
+
+impl FlightMode {
+    pub const ALL: [FlightMode; 2] = [FlightMode::Sequential, FlightMode::Concurrent];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FlightMode::Sequential => "sequential",
+            FlightMode::Concurrent => "concurrent",
+        }
+    }
+}
+
+impl std::str::FromStr for FlightMode {
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        parse_name(
+            &FlightMode::ALL,
+            FlightMode::as_str,
+            s,
+            "flight mode",
+            "sequential, concurrent",
+        )
+    }
+}
+
+impl std::fmt::Display for FlightMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// The one of `all` named `s`, or an error listing the `expected` names.
 pub(crate) fn parse_name<T: Copy>(
     all: &[T],

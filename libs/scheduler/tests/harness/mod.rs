@@ -52,6 +52,9 @@ struct IdealObserver {
 
 pub struct Run {
     pub outputs: Vec<TickOutput>,
+    /// Least distance between any two observers' commanded positions, sampled every 2 ms
+    /// (`Scheduler::setpoints_at` is exact between ticks), m.
+    pub min_separation_m: f64,
     pub sched: Scheduler,
     /// Complete frames per observer over the mission.
     pub frames: Vec<u64>,
@@ -75,6 +78,7 @@ pub fn run(case: &Case) -> Run {
         .map(|i| (ObserverId::from_index(i), sched.homes_m()[i]))
         .collect();
     let mut outputs = Vec::new();
+    let mut min_separation_m = f64::INFINITY;
     for k in 0..MAX_TICKS {
         let now = k * TICK_NS;
         let dead = |i: usize| case.dies_at_ns.get(&i).is_some_and(|t| now >= *t);
@@ -143,6 +147,7 @@ pub fn run(case: &Case) -> Run {
         for s in &out.setpoints {
             positions.insert(s.observer.clone(), s.kin.pos_m);
         }
+        min_separation_m = min_separation_m.min(least_separation(&sched, out.now_ns));
         let ended = out.mission_end.is_some();
         outputs.push(out);
         if ended {
@@ -152,6 +157,7 @@ pub fn run(case: &Case) -> Run {
     let end = sched.ended().expect("mission ended within the tick budget");
     Run {
         outputs,
+        min_separation_m,
         end,
         frames: obs.iter().map(|o| o.frames).collect(),
         sched,
@@ -221,6 +227,20 @@ impl Run {
             .and_then(|b| b.scheduled.iter().map(|s| s.final_null_start_ns).max())
             .map(|t| t + NULL_CONFIRM_NS)
     }
+}
+
+/// Least pairwise distance of the commanded positions over the tick starting at `now`.
+fn least_separation(sched: &Scheduler, now: u64) -> f64 {
+    let mut least = f64::INFINITY;
+    for t in (now..now + TICK_NS).step_by(2_000_000) {
+        let p: Vec<[f64; 3]> = sched.setpoints_at(t).iter().map(|s| s.kin.pos_m).collect();
+        for i in 0..p.len() {
+            for j in i + 1..p.len() {
+                least = least.min(proto::scene::distance_m(p[i], p[j]));
+            }
+        }
+    }
+    least
 }
 
 pub fn secs(ns: u64) -> f64 {
