@@ -105,6 +105,22 @@ fn default_modalities() -> Vec<Receiver> {
     vec![Receiver::Rgb, Receiver::Events]
 }
 
+/// The longest sim time a case may name (a time limit or a fault instant), s: far beyond any
+/// mission, and small enough that its nanoseconds fit a `u64` exactly.
+pub const MAX_TIME_S: f64 = 1.0e6;
+/// The most rounds a case may ask for.
+pub const MAX_ROUNDS: u32 = 1000;
+/// The longest throttle delay a case may ask for, ms.
+pub const MAX_DELAY_MS: u32 = 60_000;
+
+/// A time field must be a finite number of seconds in `0..=MAX_TIME_S`.
+fn check_time_s(field: &str, value_s: f64) -> Result<()> {
+    if !(value_s.is_finite() && (0.0..=MAX_TIME_S).contains(&value_s)) {
+        bail!("{field} = {value_s} must be a finite number of seconds in 0..={MAX_TIME_S}");
+    }
+    Ok(())
+}
+
 /// A case file.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -158,7 +174,24 @@ impl Case {
         Ok(case)
     }
 
+    /// Checks every field, naming the bad one, so a case is refused before any process
+    /// starts (a child failing at start-up is not a validation).
     fn check(&self) -> Result<()> {
+        if self.name.trim().is_empty() {
+            bail!("name is empty");
+        }
+        if self.rounds == 0 {
+            bail!("rounds = 0: a mission has at least one round");
+        }
+        if self.rounds > MAX_ROUNDS {
+            bail!("rounds = {} exceeds {MAX_ROUNDS}", self.rounds);
+        }
+        if let Some(limit) = self.time_limit_s {
+            check_time_s("time_limit_s", limit)?;
+            if limit == 0.0 {
+                bail!("time_limit_s = 0 would end the mission before it starts");
+            }
+        }
         if !(1..=proto::scene::MAX_OBSERVERS).contains(&self.observers) {
             bail!(
                 "observers = {} is outside 1..={}",
@@ -177,14 +210,31 @@ impl Case {
                     names.join(", ")
                 );
             }
-            if !(f.at_s.is_finite() && f.at_s >= 0.0) {
-                bail!("fault at_s = {} must be a non-negative number", f.at_s);
+            check_time_s(&format!("faults[{}].at_s", f.observer), f.at_s)?;
+            if f.delay_ms > MAX_DELAY_MS {
+                bail!(
+                    "faults[{}].delay_ms = {} exceeds {MAX_DELAY_MS} ms",
+                    f.observer,
+                    f.delay_ms
+                );
             }
             if f.drop_per_mille > 1000 {
                 bail!("fault drop_per_mille = {} exceeds 1000", f.drop_per_mille);
             }
             if f.kind != FaultKind::Throttle && (f.drop_per_mille != 0 || f.delay_ms != 0) {
                 bail!("drop_per_mille and delay_ms apply to throttle faults only");
+            }
+        }
+        for (i, f) in self.faults.iter().enumerate() {
+            if self.faults[..i]
+                .iter()
+                .any(|g| g.observer == f.observer && g.kind == f.kind)
+            {
+                bail!(
+                    "faults: two {:?} faults on {} (one per observer and kind)",
+                    f.kind,
+                    f.observer
+                );
             }
         }
         for s in &self.offer_sites {
@@ -282,6 +332,50 @@ mod tests {
             (
                 "name='x'\nobservers=1\nmodalities=['ideal']\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
                 "ideal applies",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\ntime_limit_s=nan\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "time_limit_s = NaN",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\ntime_limit_s=-10\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "time_limit_s = -10",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\ntime_limit_s=inf\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "time_limit_s = inf",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\ntime_limit_s=0\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "time_limit_s = 0",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\nrounds=0\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "rounds = 0",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\nrounds=-1\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "rounds",
+            ),
+            (
+                "name=''\nobservers=1\nmodalities=['rgb']\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "name is empty",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\n[[faults]]\nobserver='O1'\nkind='dropout'\nat_s=nan\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "faults[O1].at_s = NaN",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\n[[faults]]\nobserver='O1'\nkind='dropout'\nat_s=1e300\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "faults[O1].at_s",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\n[[faults]]\nobserver='O1'\nkind='dropout'\nat_s=3\n[[faults]]\nobserver='O1'\nkind='dropout'\nat_s=4\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "two Dropout faults on O1",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\n[[faults]]\nobserver='O1'\nkind='throttle'\ndelay_ms=99999999\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "delay_ms",
             ),
         ] {
             let path = dir.join("case.toml");

@@ -17,13 +17,13 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use bus::{Bus, Inbound, NodeArgs, Process};
+use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use clap::Parser;
 use perception::runtime::ObserverRuntime;
 use perception::tick::{MissingReason, SensorPacket, Step, TickAssembler, TickInput};
 use proto::{
-    ClockTick, EventPacket, Keys, Modality, ObserverId, RgbReassembler, RgbUpdate, Role, Roster,
-    SessionTick,
+    ClockTick, EventPacket, Keys, Modality, ObserverId, RejectReason, RgbReassembler, RgbUpdate,
+    Role, Roster, SessionTick,
 };
 
 #[derive(Parser)]
@@ -72,6 +72,10 @@ fn main() -> Result<()> {
         missing = observer.missing,
         "observer done"
     );
+    bus.put(
+        &observer.keys.rejects(Role::Observer, args.id.as_str())?,
+        &observer.rejects.report(),
+    )?;
     bus.close()?;
     Ok(())
 }
@@ -97,6 +101,8 @@ struct Observer {
     scheduler_alive: String,
     /// Ticks whose packet was judged missing.
     missing: u64,
+    /// Messages dropped.
+    rejects: Rejects,
 }
 
 impl Observer {
@@ -119,6 +125,7 @@ impl Observer {
             camera_alive: keys.alive(Role::Camera, args.id.as_str())?,
             sim_alive: keys.alive(Role::Sim, Role::Sim.as_str())?,
             scheduler_alive: keys.alive(Role::Scheduler, Role::Scheduler.as_str())?,
+            rejects: Rejects::new(format!("observer-{}", args.id), &keys),
             keys,
             missing: 0,
         })
@@ -211,41 +218,50 @@ impl Observer {
             })
     }
 
-    /// Hands one message to the assembler; a message the decoder rejects is logged and dropped.
+    /// Hands one message to the assembler; a message the decoder rejects, a stale packet and
+    /// anything on a key it does not read are counted and dropped.
     fn receive(&mut self, key: &str, payload: &[u8]) {
         if key == self.clock_key {
-            match bus::decode::<ClockTick>(key, payload) {
-                Ok(c) => {
-                    if c.tick >= self.assembler.next_tick() {
-                        self.clocks.insert(c.tick, Instant::now());
-                    }
-                    self.assembler.clock(c.tick);
+            if let Some(c) = self.rejects.decode::<ClockTick>(key, payload) {
+                if c.tick >= self.assembler.next_tick() {
+                    self.clocks.insert(c.tick, Instant::now());
                 }
-                Err(e) => tracing::warn!(observer = %self.id, "rejected clock message: {e}"),
+                self.assembler.clock(c.tick);
             }
         } else if key == self.session_key {
-            match bus::decode::<SessionTick>(key, payload) {
-                Ok(s) => self.assembler.session(s.tick, s.controls),
-                Err(e) => tracing::warn!(observer = %self.id, "rejected session message: {e}"),
+            if let Some(s) = self.rejects.decode::<SessionTick>(key, payload) {
+                self.assembler.session(s.tick, s.controls);
             }
         } else if key == self.sensor_key {
-            let packet: Result<SensorPacket, String> = match self.modality {
-                Modality::Rgb => bus::decode::<RgbUpdate>(key, payload)
-                    .map_err(|e| e.to_string())
-                    .and_then(|u| self.rgb.apply(u).map_err(|e| e.to_string()))
+            let packet: Option<SensorPacket> = match self.modality {
+                Modality::Rgb => self
+                    .rejects
+                    .decode::<RgbUpdate>(key, payload)
+                    .and_then(|u| match self.rgb.apply(u) {
+                        Ok(f) => Some(f.into()),
+                        Err(e) => {
+                            self.rejects.reject(key, RejectReason::OutOfContract, &e);
+                            None
+                        }
+                    }),
+                Modality::Events => self
+                    .rejects
+                    .decode::<EventPacket>(key, payload)
                     .map(Into::into),
-                Modality::Events => bus::decode::<EventPacket>(key, payload)
-                    .map(Into::into)
-                    .map_err(|e| e.to_string()),
             };
-            match packet {
-                Ok(p) => {
-                    self.assembler.packet(p);
+            if let Some(p) = packet {
+                let (tick, kept) = self.assembler.packet(p);
+                if !kept {
+                    self.rejects.reject(
+                        key,
+                        RejectReason::OutOfContract,
+                        &format_args!("packet of tick {tick}, already processed"),
+                    );
                 }
-                Err(e) => tracing::warn!(observer = %self.id, "rejected sensor message: {e}"),
             }
         } else {
-            tracing::warn!(observer = %self.id, "ignored data on unexpected key {key}");
+            self.rejects
+                .reject(key, RejectReason::UnexpectedKey, &"not this observer's input");
         }
     }
 }

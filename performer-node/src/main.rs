@@ -9,12 +9,12 @@
 use std::time::Duration;
 
 use anyhow::{Context, Result};
-use bus::{Bus, Inbound, NodeArgs, Process};
+use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use clap::Parser;
 use proto::scene::PERFORMER_HOVER_M;
 use proto::{
-    BroadcastTick, Kinematics, Offer, PerformerActivity, PerformerSetpoint, PerformerTruth, Role,
-    TICK_NS,
+    BroadcastTick, Kinematics, Offer, PerformerActivity, PerformerSetpoint, PerformerTruth,
+    RejectReason, Role, TICK_NS,
 };
 use proto::{GestureConfig, Schedule, broadcast};
 
@@ -72,23 +72,44 @@ fn main() -> Result<()> {
     let scheduler_alive = keys.alive(Role::Scheduler, Role::Scheduler.as_str())?;
     let mut schedule: Option<Schedule> = None;
     let mut round = 0;
+    let mut rejects = Rejects::new(Role::Performer.as_str(), &keys);
+    // The scheduler sends one broadcast tick per clock tick, in order, from tick 0.
+    let mut next_tick = 0u64;
     loop {
         match bus.recv(Duration::from_millis(200)) {
             Some(Inbound::Data { key, payload }) if key == keys.sched_broadcast() => {
-                let msg: BroadcastTick = bus::decode(&key, &payload)?;
+                let Some(msg) = rejects.decode::<BroadcastTick>(&key, &payload) else {
+                    continue;
+                };
+                if msg.tick != next_tick {
+                    rejects.reject(
+                        &key,
+                        RejectReason::OutOfContract,
+                        &format_args!("broadcast tick {} while tick {next_tick} is due", msg.tick),
+                    );
+                    continue;
+                }
                 if let Some(b) = &msg.broadcast {
                     let payloads: Vec<u8> = b.offers.iter().map(|o| o.to_payload()).collect();
-                    schedule = Some(
-                        broadcast(b.start_ns, &payloads, b.acquisition, &gesture).with_context(
-                            || format!("building the broadcast of tick {}", b.tick),
-                        )?,
-                    );
-                    round = b.round;
-                    tracing::info!(tick = b.tick, round, offers = payloads.len(), "broadcast");
+                    match broadcast(b.start_ns, &payloads, b.acquisition, &gesture) {
+                        Ok(s) => {
+                            schedule = Some(s);
+                            round = b.round;
+                            tracing::info!(tick = b.tick, round, offers = payloads.len(), "broadcast");
+                        }
+                        Err(e) => {
+                            rejects.reject(&key, RejectReason::OutOfContract, &e);
+                            continue;
+                        }
+                    }
                 }
+                next_tick += 1;
                 let (setpoint, truth) = answer(schedule.as_ref(), round, msg.tick);
                 bus.put(&keys.performer_setpoint(), &setpoint)?;
                 bus.put(&keys.truth_performer(), &truth)?;
+            }
+            Some(Inbound::Data { key, .. }) => {
+                rejects.reject(&key, RejectReason::UnexpectedKey, &"not subscribed");
             }
             _ => {
                 if !bus.is_alive(&sim_alive) && !bus.is_alive(&scheduler_alive) {
@@ -97,6 +118,7 @@ fn main() -> Result<()> {
             }
         }
     }
+    bus.put(&keys.rejects(Role::Performer, Role::Performer.as_str())?, &rejects.report())?;
     bus.close()?;
     Ok(())
 }

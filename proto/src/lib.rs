@@ -19,7 +19,9 @@ pub use logic::{
     allocation, alphabet, decoder, frame, gesture, min_jerk, payload, provenance, rectify, scene,
     schedule, segmenter, task,
 };
-pub use wire::{clock, codec, fault, keys, modality, observer, sched, sensor, token, track, world};
+pub use wire::{
+    clock, codec, fault, keys, modality, observer, rejects, sched, sensor, token, track, world,
+};
 
 pub use allocation::{Allocation, CachedOffer, OfferCache, Roster, RosterEntry, allocate};
 pub use alphabet::{Classification, MatchSettings, Rejection, classify};
@@ -37,6 +39,7 @@ pub use observer::{
 pub use payload::{Offer, PayloadError, Site};
 pub use provenance::{AuditViolation, audit_assignment, decide};
 pub use rectify::{Rectification, Rectifier};
+pub use rejects::{RejectCount, RejectReason, RejectReport};
 pub use sched::{
     Broadcast, BroadcastTick, Departure, MissionReport, ObserverSetpoint, SchedCommand,
     SessionControl, SessionEvent, SessionTick,

@@ -15,9 +15,9 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use bus::{Bus, Inbound, NodeArgs, Process};
+use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use clap::Parser;
-use proto::Role;
+use proto::{RejectReason, Role};
 use recording::foxglove::LogLevel;
 use recording::{Recorded, RecorderOptions, SessionInfo, SessionWriter};
 
@@ -153,6 +153,19 @@ fn main() -> Result<()> {
         undecodable = stats.undecodable.values().sum::<u64>(),
         file = %args.out.display(),
         "recording finished"
+    );
+    // What could not be decoded was recorded raw all the same; reported like every process's
+    // drops so the summary counts it.
+    let mut rejects = Rejects::new(Role::Recorder.as_str(), &keys);
+    for (topic, n) in &stats.undecodable {
+        rejects.add(topic, RejectReason::Undecodable, *n);
+    }
+    for (key, n) in &stats.unknown_keys {
+        rejects.add(key, RejectReason::UnexpectedKey, *n);
+    }
+    let _ = bus.put(
+        &keys.rejects(Role::Recorder, Role::Recorder.as_str())?,
+        &rejects.report(),
     );
     let _ = bus.close();
     Ok(())

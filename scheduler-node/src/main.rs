@@ -13,11 +13,11 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Inbound, NodeArgs, Process};
+use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use clap::Parser;
 use proto::{
-    BroadcastTick, ClockTick, Departure, MissionReport, ObserverId, ObserverStatus, Role,
-    SessionTick, SimState, Site, TICK_NS,
+    BroadcastTick, ClockTick, Departure, MissionReport, ObserverId, ObserverStatus, RejectReason,
+    Role, SessionTick, SimState, Site, TICK_NS,
 };
 use scheduler::{
     DecisionNotice, EventKind, FlightMode, Modality, Scheduler, SchedulerConfig, observer_positions,
@@ -72,6 +72,11 @@ fn main() -> Result<()> {
         .with_offer_sites(&parse_sites(&args.offers)?);
     config.rounds = args.rounds;
     config.flights = args.flights;
+    if let Some(limit) = args.time_limit_s
+        && !(limit.is_finite() && limit > 0.0 && limit <= 1.0e6)
+    {
+        bail!("--time-limit-s {limit}: must be a finite number of seconds in (0, 1e6]");
+    }
     config.time_limit_ns = args.time_limit_s.map(|s| (s * 1e9).round() as u64);
     let mut scheduler = Scheduler::new(config).context("configuring the scheduler")?;
 
@@ -87,6 +92,11 @@ fn main() -> Result<()> {
         .map(|o| Ok((o.clone(), keys.alive(Role::Observer, o.as_str())?)))
         .collect::<Result<_>>()?;
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
+    let status_key: BTreeMap<ObserverId, String> = observers
+        .iter()
+        .map(|o| (o.clone(), keys.observer_status(o)))
+        .collect();
+    let mut rejects = Rejects::new(Role::Scheduler.as_str(), &keys);
 
     let mut states: BTreeMap<u64, SimState> = BTreeMap::new();
     let mut statuses: BTreeMap<u64, BTreeMap<ObserverId, ObserverStatus>> = BTreeMap::new();
@@ -106,22 +116,48 @@ fn main() -> Result<()> {
         if !ready {
             match bus.recv(Duration::from_millis(200)) {
                 Some(Inbound::Data { key, payload }) if key == keys.sim_state() => {
-                    let s: SimState = bus::decode(&key, &payload)?;
-                    if s.stamp_ns == s.tick * TICK_NS && s.tick >= tick {
+                    let Some(s) = rejects.decode::<SimState>(&key, &payload) else {
+                        continue;
+                    };
+                    // Only the states at tick boundaries matter here (the others are the
+                    // cameras' render instants inside a tick).
+                    if s.stamp_ns != s.tick * TICK_NS {
+                        continue;
+                    }
+                    if let Err(why) = in_window(s.tick, tick) {
+                        rejects.reject(&key, RejectReason::OutOfContract, &why);
+                    } else if states.contains_key(&s.stamp_ns) {
+                        rejects.reject(&key, RejectReason::OutOfContract, &"a second state for its tick");
+                    } else {
                         states.insert(s.stamp_ns, s);
                     }
                 }
                 Some(Inbound::Data { key, payload }) => {
-                    let s: ObserverStatus = bus::decode(&key, &payload)?;
-                    if key != keys.observer_status(&s.observer) {
-                        bail!("status of {} published on {key}", s.observer);
+                    let Some(from) = status_key
+                        .iter()
+                        .find_map(|(o, k)| (*k == key).then_some(o))
+                    else {
+                        rejects.reject(&key, RejectReason::UnexpectedKey, &"no such observer in this session");
+                        continue;
+                    };
+                    let Some(s) = rejects.decode::<ObserverStatus>(&key, &payload) else {
+                        continue;
+                    };
+                    let of_tick = statuses.entry(s.tick).or_default();
+                    if s.observer != *from {
+                        rejects.reject(
+                            &key,
+                            RejectReason::OutOfContract,
+                            &format_args!("status of {} on {from}'s key", s.observer),
+                        );
+                    } else if let Err(why) = in_window(s.tick, tick) {
+                        rejects.reject(&key, RejectReason::OutOfContract, &why);
+                    } else if of_tick.contains_key(&s.observer) {
+                        rejects.reject(&key, RejectReason::OutOfContract, &"a second status for its tick");
+                    } else {
+                        of_tick.insert(s.observer.clone(), s);
                     }
-                    if s.tick >= tick {
-                        statuses
-                            .entry(s.tick)
-                            .or_default()
-                            .insert(s.observer.clone(), s);
-                    }
+                    statuses.retain(|_, m| !m.is_empty());
                 }
                 _ => {
                     if !bus.is_alive(&sim_alive) {
@@ -180,7 +216,29 @@ fn main() -> Result<()> {
     while consumers.iter().any(|k| bus.is_alive(k)) && std::time::Instant::now() < until {
         bus.recv(Duration::from_millis(50));
     }
+    bus.put(
+        &keys.rejects(Role::Scheduler, Role::Scheduler.as_str())?,
+        &rejects.report(),
+    )?;
     bus.close()?;
+    Ok(())
+}
+
+/// How far ahead of the tick being assembled a message may be: the lockstep never lets a
+/// peer run more than a tick ahead, so anything beyond is not from the session's peers.
+const TICK_WINDOW: u64 = 4;
+
+/// Whether a message for `msg_tick` belongs to the window of `current` (not past, not far
+/// ahead).
+fn in_window(msg_tick: u64, current: u64) -> std::result::Result<(), String> {
+    if msg_tick < current {
+        return Err(format!("tick {msg_tick} is past (assembling tick {current})"));
+    }
+    if msg_tick > current + TICK_WINDOW {
+        return Err(format!(
+            "tick {msg_tick} is more than {TICK_WINDOW} ahead of tick {current}"
+        ));
+    }
     Ok(())
 }
 

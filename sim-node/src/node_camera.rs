@@ -11,9 +11,11 @@
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Inbound, NodeArgs, Process};
+use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
+use proto::clock::EVENT_RENDER_PERIOD_NS;
 use proto::{
-    Fault, FaultKind, FrameChange, ObserverId, PixelRect, RgbFrame, RgbUpdate, Role, SimState,
+    Fault, FaultKind, FrameChange, ObserverId, PixelRect, RejectReason, RgbFrame, RgbUpdate, Role,
+    SimState,
 };
 use sim::render::{CameraRenderer, RenderCounts, RenderPath};
 use sim::sensor::{Modality, ObserverSensor, SensorOutput};
@@ -166,6 +168,8 @@ pub fn run(args: CameraArgs) -> Result<()> {
     let mut started = false;
     let (mut published, mut dropped, mut sensor_digest) = (0u64, 0u64, 0u64);
     let mut last_rgb_seq: Option<u64> = None;
+    let mut last_state_ns: Option<u64> = None;
+    let mut rejects = Rejects::new(format!("camera-{}", args.observer), &keys);
     loop {
         let Some(item) = bus.recv(Duration::from_millis(200)) else {
             if started && !bus.is_alive(&sim_alive) {
@@ -175,13 +179,29 @@ pub fn run(args: CameraArgs) -> Result<()> {
         };
         match item {
             Inbound::Data { key, payload } if key == keys.sim_state() => {
+                let Some(state) = rejects.decode::<SimState>(&key, &payload) else {
+                    continue;
+                };
+                // The simulator publishes one state per render instant, in order, from 0.
+                let due_ns = last_state_ns.map_or(Some(0), |t| t.checked_add(EVENT_RENDER_PERIOD_NS));
+                if Some(state.stamp_ns) != due_ns {
+                    rejects.reject(
+                        &key,
+                        RejectReason::OutOfContract,
+                        &format_args!("state at {} ns while {due_ns:?} ns is due", state.stamp_ns),
+                    );
+                    continue;
+                }
+                if let Err(e) = pose_world(&mut world, &names, &state) {
+                    rejects.reject(&key, RejectReason::OutOfContract, &e);
+                    continue;
+                }
                 started = true;
-                let state: SimState = bus::decode(&key, &payload)?;
+                last_state_ns = Some(state.stamp_ns);
                 // No render at t = 0 (the first render instant is one period in).
                 if state.stamp_ns == 0 || !state.stamp_ns.is_multiple_of(period_ns) {
                     continue;
                 }
-                pose_world(&mut world, &names, &state)?;
                 let t = state.stamp_ns;
                 let want_black = faults
                     .iter()
@@ -226,21 +246,27 @@ pub fn run(args: CameraArgs) -> Result<()> {
                 }
             }
             Inbound::Data { key, payload } if key == keys.fault(&args.observer) => {
-                let fault: Fault = bus::decode(&key, &payload)?;
+                let Some(fault) = rejects.decode::<Fault>(&key, &payload) else {
+                    continue;
+                };
                 if fault.observer != args.observer {
-                    bail!(
-                        "fault for {} on {}'s fault key",
-                        fault.observer,
-                        args.observer
+                    rejects.reject(
+                        &key,
+                        RejectReason::OutOfContract,
+                        &format_args!("fault for {} on {}'s key", fault.observer, args.observer),
                     );
+                    continue;
                 }
                 if !faults.contains(&fault) {
                     tracing::warn!(observer = %args.observer, ?fault, "fault received");
                     faults.push(fault);
                 }
             }
+            Inbound::Data { key, .. } => {
+                rejects.reject(&key, RejectReason::UnexpectedKey, &"not subscribed");
+            }
             Inbound::Liveliness { key, alive: false } if key == sim_alive => break,
-            _ => {}
+            Inbound::Liveliness { .. } => {}
         }
     }
     closing_lines(
@@ -249,6 +275,10 @@ pub fn run(args: CameraArgs) -> Result<()> {
         (published, dropped, sensor_digest),
         renderer.counts(),
     );
+    bus.put(
+        &keys.rejects(Role::Camera, args.observer.as_str())?,
+        &rejects.report(),
+    )?;
     bus.close()?;
     Ok(())
 }

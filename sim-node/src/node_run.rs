@@ -14,11 +14,11 @@ use std::time::{Duration, Instant};
 const PEER_LOSS_GRACE: Duration = Duration::from_secs(3);
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Inbound, NodeArgs, handshake};
+use bus::{Bus, Inbound, NodeArgs, Rejects, handshake};
 use proto::clock::EVENT_RENDER_PERIOD_NS;
 use proto::{
-    ClockTick, Contact, DronePose, PerformerSetpoint, Role, SchedCommand, SimContacts, SimState,
-    TICK_NS,
+    ClockTick, Contact, DronePose, PerformerSetpoint, RejectReason, Role, SchedCommand, SimContacts,
+    SimState, TICK_NS,
 };
 use sim::control::Reference;
 use sim::world::World;
@@ -64,6 +64,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     let mut setpoints: BTreeMap<u64, PerformerSetpoint> = BTreeMap::new();
     let mut commands: BTreeMap<u64, SchedCommand> = BTreeMap::new();
     let mut tick = 0u64;
+    let mut rejects = Rejects::new(Role::Sim.as_str(), &keys);
     let mut dead_since: Option<Instant> = None;
     publish_state(&mut bus, &world, 0)?;
     publish_tick(&mut bus, &world, 0, Vec::new())?;
@@ -72,12 +73,17 @@ pub fn run(args: RunArgs) -> Result<()> {
         while !(setpoints.contains_key(&tick) && commands.contains_key(&tick)) {
             match bus.recv(Duration::from_millis(200)) {
                 Some(Inbound::Data { key, payload }) if key == keys.performer_setpoint() => {
-                    let sp: PerformerSetpoint = bus::decode(&key, &payload)?;
-                    setpoints.insert(sp.tick, sp);
+                    if let Some(sp) = rejects.decode::<PerformerSetpoint>(&key, &payload) {
+                        admit(&mut rejects, &key, &mut setpoints, tick, sp.tick, sp);
+                    }
                 }
                 Some(Inbound::Data { key, payload }) if key == keys.sched_cmd() => {
-                    let cmd: SchedCommand = bus::decode(&key, &payload)?;
-                    commands.insert(cmd.tick, cmd);
+                    if let Some(cmd) = rejects.decode::<SchedCommand>(&key, &payload) {
+                        admit(&mut rejects, &key, &mut commands, tick, cmd.tick, cmd);
+                    }
+                }
+                Some(Inbound::Data { key, .. }) => {
+                    rejects.reject(&key, RejectReason::UnexpectedKey, &"not subscribed");
                 }
                 _ => {
                     // A token's deletion travels at control priority and may overtake the
@@ -136,8 +142,36 @@ pub fn run(args: RunArgs) -> Result<()> {
         tick = next;
         publish_tick(&mut bus, &world, tick, contacts)?;
     }
+    bus.put(&keys.rejects(Role::Sim, Role::Sim.as_str())?, &rejects.report())?;
     bus.close()?;
     Ok(())
+}
+
+/// How far ahead of the tick being stepped a reference may be: the lockstep never lets a peer
+/// run more than a tick ahead, so anything beyond is not from the session's peers.
+const TICK_WINDOW: u64 = 4;
+
+/// Keeps `msg` for `msg_tick` when it is due now or soon and the first for its tick; counts
+/// it as out of contract otherwise (past, far ahead or a duplicate).
+fn admit<T>(
+    rejects: &mut Rejects,
+    key: &str,
+    pending: &mut BTreeMap<u64, T>,
+    tick: u64,
+    msg_tick: u64,
+    msg: T,
+) {
+    let why = if msg_tick < tick {
+        format!("tick {msg_tick} is past (waiting for tick {tick})")
+    } else if msg_tick > tick + TICK_WINDOW {
+        format!("tick {msg_tick} is more than {TICK_WINDOW} ahead of tick {tick}")
+    } else if pending.contains_key(&msg_tick) {
+        format!("a second message for tick {msg_tick}")
+    } else {
+        pending.insert(msg_tick, msg);
+        return;
+    };
+    rejects.reject(key, RejectReason::OutOfContract, &why);
 }
 
 fn publish_state(bus: &mut Bus, world: &World, tick: u64) -> Result<()> {

@@ -87,9 +87,13 @@ pub fn waggle_with_nodes() -> Command {
 }
 
 /// Starts `waggle run CASE --modality events --quiet --session SESSION --out DIR` in the
-/// background, silent, for tests that interrupt a run (kill a child, send Ctrl-C).
+/// background, silent, for tests that interrupt a run (kill a child, send Ctrl-C). It leads
+/// its own process group (as a command started from a terminal does), so a test can send a
+/// signal to the whole group as Ctrl-C would.
 pub fn spawn_background_run(case: &str, session: &str, dir: &Path) -> Child {
+    use std::os::unix::process::CommandExt;
     waggle_with_nodes()
+        .process_group(0)
         .args(["run", case, "--modality", "events", "--quiet", "--session"])
         .arg(session)
         .arg("--out")

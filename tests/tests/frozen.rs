@@ -22,41 +22,14 @@ use std::sync::Mutex;
 
 use deploy::run_dir::RunSummary;
 use proto::RenderPath;
-use sha2::{Digest, Sha256};
-use waggle_tests::{waggle_with_nodes, workspace_root};
+use waggle_tests::waggle_with_nodes;
+
+mod golden_runs;
+use golden_runs::{golden, golden_entry, sha256_hex};
 
 /// One run at a time: each already keeps both cores busy, and two at once would only invite the
 /// wall-clock grace period into a test that must be exact.
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
-
-/// The golden entries: `[[run]]` tables of `tests/golden/frozen.toml`.
-fn golden() -> Vec<toml::Table> {
-    let path = workspace_root().join("tests/golden/frozen.toml");
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let table: toml::Table = text
-        .parse()
-        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    table["run"]
-        .as_array()
-        .expect("[[run]] entries")
-        .iter()
-        .map(|r| r.as_table().expect("a [[run]] table").clone())
-        .collect()
-}
-
-fn golden_entry(case: &str, modality: &str) -> toml::Table {
-    golden()
-        .into_iter()
-        .find(|r| r["case"].as_str() == Some(case) && r["modality"].as_str() == Some(modality))
-        .unwrap_or_else(|| panic!("no [[run]] for {case} ({modality}) in tests/golden/frozen.toml"))
-}
-
-fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
-}
 
 /// Runs `waggle run CASE --modality M` and compares its outputs with the golden entry. The output
 /// directory is kept when they differ, for a diff against a run of the old tree.

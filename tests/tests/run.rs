@@ -146,9 +146,20 @@ fn ctrl_c_stops_every_child_and_still_writes_the_summary() {
         );
         std::thread::sleep(Duration::from_millis(100));
     }
+    // A second run on the same directory is refused while this one writes it.
+    let second = waggle_with_nodes()
+        .args(["run", "only-a", "--modality", "events", "--quiet", "--out"])
+        .arg(&dir)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert!(!second.status.success(), "a second run on {dir:?} started");
+    assert!(err.contains("in use by another waggle run"), "{err}");
     std::thread::sleep(Duration::from_secs(4));
+    // Ctrl-C in a terminal: SIGINT to the whole foreground process group.
     let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args(["-INT", "--", &format!("-{}", child.id())])
         .status()
         .unwrap();
     assert!(status.success());
@@ -173,6 +184,10 @@ fn ctrl_c_stops_every_child_and_still_writes_the_summary() {
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
     assert!(summary.interrupted);
     assert!(!summary.mission.pass);
+    assert!(
+        dir.join("observers.json").exists(),
+        "an interrupted run still writes observers.json"
+    );
     assert!(summary.mission.mission_time_s > 0.0);
     // The recorder got SIGTERM and finished its file (summary and footer): audit reads it whole.
     let audit = waggle()

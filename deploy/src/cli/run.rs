@@ -54,6 +54,12 @@ pub struct RunArgs {
     /// observer's keys (DESIGN.md §2: the run must still pass).
     #[arg(long)]
     observer_acl: bool,
+    /// Open bus for debugging with Zenoh tools: no authentication, no per-role access control
+    /// (prints a warning; refused with a non-loopback --listen). By default every process
+    /// authenticates to the launcher's router with its own per-session credentials and may
+    /// publish only its own keys and read only what it needs.
+    #[arg(long)]
+    no_auth: bool,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
@@ -86,6 +92,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             throttle: args.throttle,
         },
         observer_acl: args.observer_acl,
+        no_auth: args.no_auth,
         quiet: args.quiet,
         no_record: args.no_record,
         record_all_rgb: args.record_all_rgb,
@@ -142,4 +149,8 @@ fn print_run_figures(s: &RunSummary) {
     for f in &s.faults {
         println!("  fault: {f}");
     }
+    for f in &s.faults_seen {
+        println!("  fault seen on the bus: {f}");
+    }
+    println!("{}", crate::eval::summary::rejects_line(&s.rejects));
 }

@@ -40,6 +40,7 @@ struct Gathered {
     events: BTreeMap<String, u64>,
     packets: BTreeMap<String, u64>,
     empty_packets: BTreeMap<String, u64>,
+    rejects: BTreeMap<String, Vec<proto::RejectCount>>,
 }
 
 impl Gathered {
@@ -77,6 +78,9 @@ impl Gathered {
                 self.contacts = Some(c);
             }
             Decoded::Clock(c) => self.last_tick = self.last_tick.max(c.tick),
+            Decoded::RejectReport(r) => {
+                self.rejects.insert(r.process, r.counts);
+            }
             _ => {}
         }
     }
@@ -255,6 +259,7 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
         packets_per_observer: g.packets,
         empty_packets_per_observer: g.empty_packets,
         undecodable_messages: scanned.undecodable,
+        rejects: g.rejects,
         viewpoints: mission.viewpoints,
         deaf_observers: mission.deaf_observers,
         pass: mission.pass,
@@ -375,6 +380,11 @@ pub fn print_audit(r: &AuditReport) {
         "provenance: {} assignments audited, {} violations",
         r.assignments_audited,
         r.provenance_violations.len()
+    );
+    println!(
+        "{} · undecodable in the recording: {}",
+        crate::eval::summary::rejects_line(&r.rejects),
+        r.undecodable_messages
     );
     for reason in &r.reasons {
         println!("  ✗ {reason}");

@@ -233,3 +233,23 @@ pub fn print_json(value: &impl Serialize) -> anyhow::Result<()> {
     )?;
     Ok(())
 }
+
+/// `messages dropped: 0`, or the total and each process's counts by key and reason.
+pub fn rejects_line(rejects: &BTreeMap<String, Vec<proto::RejectCount>>) -> String {
+    let total: u64 = rejects.values().flatten().map(|c| c.count).sum();
+    if total == 0 {
+        return format!("messages dropped: 0 ({} processes reported)", rejects.len());
+    }
+    let parts: Vec<String> = rejects
+        .iter()
+        .filter(|(_, c)| !c.is_empty())
+        .map(|(p, counts)| {
+            let each: Vec<String> = counts
+                .iter()
+                .map(|c| format!("{} {} ×{}", c.key, c.reason, c.count))
+                .collect();
+            format!("{p}: {}", each.join(", "))
+        })
+        .collect();
+    format!("messages dropped: {total} — {}", parts.join(" · "))
+}

@@ -142,6 +142,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                     grace_ms: 10_000,
                     extra_faults: ExtraFaults::default(),
                     observer_acl: false,
+                    no_auth: false,
                     quiet: opts.quiet,
                     no_record: true,
                     record_all_rgb: false,

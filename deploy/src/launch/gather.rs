@@ -5,11 +5,12 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use bus::BusError;
+use bus::Rejects;
 use proto::scene::distance_m;
 use proto::{
-    ClockTick, Decision, FrameEvent, Key, Keys, MissionReport, ObserverId, ObserverStatus,
-    ObserverTrack, PerformerTruth, SessionEvent, SessionTick, SimContacts, SimState, TokenEvent,
+    ClockTick, Decision, Fault, FrameEvent, Key, Keys, MissionReport, ObserverId, ObserverStatus,
+    ObserverTrack, PerformerTruth, RejectReason, RejectReport, Role, SessionEvent, SessionTick,
+    SimContacts, SimState, TokenEvent,
 };
 
 use crate::eval::summary::ns_s;
@@ -28,6 +29,7 @@ pub fn subscriptions(observers: &[ObserverId]) -> Vec<Key> {
     ];
     for o in observers {
         keys.extend([
+            Key::Fault(o.clone()),
             Key::ObserverTrack(o.clone()),
             Key::ObserverStatus(o.clone()),
             Key::ObserverTokens(o.clone()),
@@ -55,6 +57,22 @@ pub struct Gathered {
     pub excursion_m: BTreeMap<String, f64>,
     /// Performer spans, controls, trips and stays for `session.json`.
     pub session: SessionRecorder,
+    /// What the launcher itself dropped (created with the first sample).
+    pub rejects: Option<Rejects>,
+    /// The reject report of each process that sent one.
+    pub reports: BTreeMap<String, RejectReport>,
+    /// Every fault message that reached the bus.
+    pub faults_seen: Vec<SeenFault>,
+}
+
+/// A fault message seen on the bus.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SeenFault {
+    /// Its key after `waggle/<session>/`.
+    pub key: String,
+    pub fault: Fault,
+    /// The clock tick when it arrived (`None`: before the clock started).
+    pub at_tick: Option<u64>,
 }
 
 impl Gathered {
@@ -72,51 +90,166 @@ impl Gathered {
         self.tick * proto::TICK_NS
     }
 
-    /// Takes one sample published on `key` of the session `keys`; keys outside the session's
-    /// grammar and keys the launcher does not follow are ignored.
-    pub fn take(&mut self, keys: &Keys, key: &str, payload: &[u8]) -> Result<(), BusError> {
+    /// Takes one sample published on `key` of the session `keys`. Keys outside the session's
+    /// grammar, undecodable bytes and messages that break the protocol (a clock out of
+    /// sequence, a body naming another observer than its key, a second report) are counted in
+    /// the launcher's own [`Rejects`] and dropped: nothing on the bus can abort the launcher.
+    pub fn take(&mut self, keys: &Keys, key: &str, payload: &[u8]) {
+        let rejects = self
+            .rejects
+            .get_or_insert_with(|| Rejects::new(Role::Launcher.as_str(), keys));
         let Some(parsed) = keys.parse(key) else {
-            return Ok(());
+            rejects.reject(key, RejectReason::UnexpectedKey, &"outside the key grammar");
+            return;
         };
+        let owner = parsed.observer().cloned();
+        let mismatch = |body: &ObserverId| owner.as_ref().is_some_and(|o| o != body);
         match parsed {
-            Key::Clock => self.clock(bus::decode(key, payload)?),
-            Key::SimState => self.state(bus::decode(key, payload)?),
-            Key::SimContacts => self.contacts = Some(bus::decode(key, payload)?),
+            Key::Clock => {
+                let Some(c) = rejects.decode::<ClockTick>(key, payload) else {
+                    return;
+                };
+                let due = self.clock_started.map_or(0, |_| self.tick + 1);
+                if c.tick != due {
+                    let why = format!("clock tick {} while tick {due} is due", c.tick);
+                    rejects.reject(key, RejectReason::OutOfContract, &why);
+                    return;
+                }
+                self.clock(c);
+            }
+            Key::SimState => {
+                let Some(st) = rejects.decode::<SimState>(key, payload) else {
+                    return;
+                };
+                if self.state.as_ref().is_some_and(|p| st.stamp_ns <= p.stamp_ns) {
+                    let why = format!("state at {} ns is not after the last", st.stamp_ns);
+                    rejects.reject(key, RejectReason::OutOfContract, &why);
+                    return;
+                }
+                self.state(st);
+            }
+            Key::SimContacts => {
+                let Some(c) = rejects.decode::<SimContacts>(key, payload) else {
+                    return;
+                };
+                if self.contacts.as_ref().is_some_and(|p| c.tick <= p.tick) {
+                    let why = format!("contacts of tick {} are not after the last", c.tick);
+                    rejects.reject(key, RejectReason::OutOfContract, &why);
+                    return;
+                }
+                self.contacts = Some(c);
+            }
             Key::SchedReport => {
-                let r: MissionReport = bus::decode(key, payload)?;
+                let Some(r) = rejects.decode::<MissionReport>(key, payload) else {
+                    return;
+                };
+                if self.report.is_some() {
+                    rejects.reject(key, RejectReason::OutOfContract, &"a second mission report");
+                    return;
+                }
                 self.session.report(&r);
                 self.report = Some(r);
             }
             Key::TruthPerformer => {
-                let t: PerformerTruth = bus::decode(key, payload)?;
-                self.session.truth(&t);
+                if let Some(t) = rejects.decode::<PerformerTruth>(key, payload) {
+                    self.session.truth(&t);
+                }
             }
-            Key::SchedSession => self.session_tick(bus::decode(key, payload)?),
+            Key::SchedSession => {
+                if let Some(t) = rejects.decode::<SessionTick>(key, payload) {
+                    self.session_tick(t);
+                }
+            }
             Key::ObserverTrack(_) => {
-                let t: ObserverTrack = bus::decode(key, payload)?;
+                let Some(t) = rejects.decode::<ObserverTrack>(key, payload) else {
+                    return;
+                };
+                if mismatch(&t.observer) {
+                    rejects.reject(key, RejectReason::OutOfContract, &"track of another observer");
+                    return;
+                }
                 self.record(&t.observer).track.extend(t.samples);
             }
             Key::ObserverStatus(_) => {
-                let s: ObserverStatus = bus::decode(key, payload)?;
-                if s.input == proto::InputState::Missing {
-                    *self.missing.entry(s.observer).or_default() += 1;
+                let Some(st) = rejects.decode::<ObserverStatus>(key, payload) else {
+                    return;
+                };
+                if mismatch(&st.observer) {
+                    rejects.reject(key, RejectReason::OutOfContract, &"status of another observer");
+                    return;
+                }
+                if st.input == proto::InputState::Missing {
+                    *self.missing.entry(st.observer).or_default() += 1;
                 }
             }
             Key::ObserverTokens(_) => {
-                let t: TokenEvent = bus::decode(key, payload)?;
+                let Some(t) = rejects.decode::<TokenEvent>(key, payload) else {
+                    return;
+                };
+                if mismatch(&t.observer) {
+                    rejects.reject(key, RejectReason::OutOfContract, &"token of another observer");
+                    return;
+                }
                 self.record(&t.observer.clone()).tokens.push(t);
             }
             Key::ObserverFrames(_) => {
-                let f: FrameEvent = bus::decode(key, payload)?;
+                let Some(f) = rejects.decode::<FrameEvent>(key, payload) else {
+                    return;
+                };
+                if mismatch(&f.observer) {
+                    rejects.reject(key, RejectReason::OutOfContract, &"frame of another observer");
+                    return;
+                }
                 self.record(&f.observer.clone()).frames.push(f);
             }
             Key::ObserverDecision(_) => {
-                let d: Decision = bus::decode(key, payload)?;
+                let Some(d) = rejects.decode::<Decision>(key, payload) else {
+                    return;
+                };
+                if mismatch(&d.observer) {
+                    rejects.reject(key, RejectReason::OutOfContract, &"decision of another observer");
+                    return;
+                }
                 self.record(&d.observer.clone()).decisions.push(d);
             }
-            _ => {}
+            Key::Fault(_) => {
+                let Some(f) = rejects.decode::<Fault>(key, payload) else {
+                    return;
+                };
+                if mismatch(&f.observer) {
+                    rejects.reject(key, RejectReason::OutOfContract, &"fault for another observer");
+                }
+                // Every fault that reached the bus is listed, obeyed or not.
+                self.faults_seen.push(SeenFault {
+                    key: key.strip_prefix(keys.prefix()).unwrap_or(key).trim_start_matches('/').to_string(),
+                    fault: f,
+                    at_tick: self.clock_started.map(|_| self.tick),
+                });
+            }
+            Key::Rejects(role, id) => {
+                let Some(r) = rejects.decode::<RejectReport>(key, payload) else {
+                    return;
+                };
+                if r.process != bus::Process::new(role, id).name() {
+                    rejects.reject(key, RejectReason::OutOfContract, &"report of another process");
+                    return;
+                }
+                self.reports.insert(r.process.clone(), r);
+            }
+            Key::Alive(..) | Key::Ready(..) | Key::SensorEvents(_) | Key::SensorRgb(_)
+            | Key::PerformerSetpoint | Key::SchedCmd | Key::SchedBroadcast => {
+                rejects.reject(key, RejectReason::UnexpectedKey, &"not followed by the launcher");
+            }
         }
-        Ok(())
+    }
+
+    /// Every process's reject report, the launcher's own included.
+    pub fn reject_reports(&self) -> BTreeMap<String, RejectReport> {
+        let mut out = self.reports.clone();
+        if let Some(mine) = &self.rejects {
+            out.insert(Role::Launcher.as_str().to_string(), mine.report());
+        }
+        out
     }
 
     fn record(&mut self, o: &ObserverId) -> &mut ObserverRecord {

@@ -2,8 +2,11 @@
 //! (DESIGN.md §2–§3) — the simulator, one camera and one observer process per observer, the
 //! performer and the scheduler — started, supervised and summarised by this launcher.
 //!
-//! The launcher is a Zenoh peer listening on loopback (multicast scouting off); every child
-//! connects to it and finds the others by gossip. It takes part in the start-up handshake (so
+//! The launcher hosts the session's Zenoh router, listening on loopback unless told otherwise
+//! (multicast scouting off); every child is a client of it. By default each child
+//! authenticates with its own per-session credentials and the router's access-control list
+//! lets it publish only its own keys and receive only what it subscribes to ([`bus::access`]);
+//! `--no-auth` opens the router (loopback only). It takes part in the start-up handshake (so
 //! it sees every message it subscribes to from tick 0), injects faults — black input and
 //! throttling on `fault/Oi` before the clock starts, and the dropout as a real SIGKILL of the
 //! camera process once the clock passes its sim time — and shows a progress bar. When the
@@ -25,10 +28,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Endpoints, NodeArgs, handshake};
+use bus::{Bus, Endpoints, NodeArgs, SessionSecrets, handshake};
 use proto::{Modality, ObserverId, Receiver, RenderPath, Role};
 
 use crate::case::{Case, case_source};
+use crate::run_dir::lock::RunLock;
 use crate::run_dir::{CASE_FILE, LOG_DIR, RECORDING_FILE, RunFiles, RunSummary};
 use fault::{ExtraFaults, Injected, injected_faults};
 use process::{Proc, Spawner};
@@ -52,6 +56,8 @@ pub struct RunOptions {
     pub extra_faults: ExtraFaults,
     /// Run every observer behind an access-control list denying it ground truth.
     pub observer_acl: bool,
+    /// Open bus: no authentication and no per-role access control on the router.
+    pub no_auth: bool,
     /// No progress bar.
     pub quiet: bool,
     /// Do not record the session.
@@ -86,6 +92,8 @@ pub fn run_modality(case: &Case, asked: Option<Modality>) -> Result<Modality> {
 /// Where one run lives.
 struct RunPlace {
     session: String,
+    /// Held until the run directory is written.
+    _lock: RunLock,
     out_dir: PathBuf,
     log_dir: PathBuf,
     bin_dir: PathBuf,
@@ -107,6 +115,7 @@ impl RunPlace {
             Some(d) => d.clone(),
             None => std::env::temp_dir().join(format!("waggle-{session}")),
         };
+        let lock = RunLock::acquire(&out_dir)?;
         let log_dir = out_dir.join(LOG_DIR);
         std::fs::create_dir_all(&log_dir)
             .with_context(|| format!("creating {}", log_dir.display()))?;
@@ -119,6 +128,7 @@ impl RunPlace {
         };
         Ok(Self {
             session,
+            _lock: lock,
             out_dir,
             log_dir,
             bin_dir,
@@ -141,18 +151,18 @@ pub fn run_case(case: &Case, modality: Modality, opts: &RunOptions) -> Result<Ru
     let observers: Vec<ObserverId> = (0..case.observers).map(ObserverId::from_index).collect();
     let place = RunPlace::new(opts)?;
 
-    // The launcher's own session: a listening loopback peer the children connect to.
+    // The launcher's own session is the session's router: every child is a client of it.
     let mut mine = opts.endpoints.clone();
     if mine.listen.is_empty() {
         mine.listen
             .push(format!("tcp/127.0.0.1:{}", free_loopback_port()?));
     }
-    let mut bus =
-        Bus::open(&place.session, &mine).context("opening the launcher's Zenoh session")?;
+    let (mut bus, secrets) = open_router(&place.session, &mine, case.observers, opts)?;
     let keys = bus.keys().clone();
     for key in gather::subscriptions(&observers) {
         bus.subscribe(&keys.of(&key))?;
     }
+    bus.subscribe(&keys.rejects_any())?;
     let me = handshake::Process::singleton(Role::Launcher);
     handshake::announce(&mut bus, &me)?;
 
@@ -166,11 +176,14 @@ pub fn run_case(case: &Case, modality: Modality, opts: &RunOptions) -> Result<Ru
             recorder: !opts.no_record,
             startup_timeout_s: 120.0,
             deny: Vec::new(),
+            client: true,
+            credentials: None,
             endpoints: Endpoints {
                 connect: children_connect(&mine),
                 listen: Vec::new(),
             },
         },
+        secrets: secrets.as_ref(),
     };
     let children = Children {
         case,
@@ -206,6 +219,7 @@ pub fn run_case(case: &Case, modality: Modality, opts: &RunOptions) -> Result<Ru
         render: opts.render,
         session: &place.session,
         started,
+        injected: &injected,
     };
     let out = summarise(&info, supervised, &procs);
     RunFiles::write(&place.out_dir, &out.summary, &out.observers, &out.session)?;
@@ -245,6 +259,45 @@ fn with_logs(e: anyhow::Error, log_dir: &Path, procs: &[Proc]) -> anyhow::Error 
         log_dir.display(),
         logs.join("\n")
     ))
+}
+
+/// Opens the launcher's session as the session's router: with per-process credentials and the
+/// per-role access-control list, or open (`--no-auth`, loopback only, with a warning).
+fn open_router(
+    session: &str,
+    mine: &Endpoints,
+    observers: usize,
+    opts: &RunOptions,
+) -> Result<(Bus, Option<SessionSecrets>)> {
+    if opts.no_auth {
+        let exposed = mine.non_loopback_listeners();
+        if !exposed.is_empty() {
+            bail!(
+                "--no-auth with a non-loopback --listen ({}) would open the session to the \
+                 network: drop --no-auth, or listen on 127.0.0.1",
+                exposed.join(", ")
+            );
+        }
+        eprintln!(
+            "warning: --no-auth: the bus is open — any local process can join session {session}, \
+             read every key (ground truth included) and publish on any"
+        );
+        let config = bus::open_router_config(mine)?;
+        let bus = Bus::open_config(session, config).context("opening the launcher's router")?;
+        return Ok((bus, None));
+    }
+    let keys = proto::Keys::new(session)?;
+    let access = bus::access::role_access(&keys, observers, !opts.no_record);
+    let users: Vec<String> = access.iter().map(|a| a.user.clone()).collect();
+    let secrets = SessionSecrets::create(&std::env::temp_dir(), session, &users)
+        .context("creating the session's credentials")?;
+    let config = bus::router_config(
+        mine,
+        secrets.dictionary(),
+        &bus::access::router_acl(&keys, &access),
+    )?;
+    let bus = Bus::open_config(session, config).context("opening the launcher's router")?;
+    Ok((bus, Some(secrets)))
 }
 
 fn free_loopback_port() -> Result<u16> {

@@ -5,11 +5,12 @@
 use crate::run_dir::CameraRenders;
 use std::fs::File;
 use std::path::{Path, PathBuf};
+use std::os::unix::process::CommandExt;
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
-use bus::NodeArgs;
+use bus::{NodeArgs, SessionSecrets};
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 
@@ -152,6 +153,8 @@ pub struct Spawner<'a> {
     pub bin_dir: &'a Path,
     pub log_dir: &'a Path,
     pub node: NodeArgs,
+    /// Per-process credentials (authenticated sessions): each child gets the path of its own.
+    pub secrets: Option<&'a SessionSecrets>,
 }
 
 impl Spawner<'_> {
@@ -177,8 +180,19 @@ impl Spawner<'_> {
             // same tile code runs either way). A value the user set is kept.
             cmd.env(LLVMPIPE_THREADS, "0");
         }
+        // Each child leads its own process group, so a Ctrl-C in the terminal (SIGINT to the
+        // foreground group) reaches only the launcher, which then stops every child in order —
+        // the recorder with SIGTERM so that it finalises its file — and writes the summary.
+        cmd.process_group(0);
+        let mut node = self.node.clone();
+        if let Some(secrets) = self.secrets {
+            let file = secrets
+                .file_of(name)
+                .with_context(|| format!("no credentials for process {name}"))?;
+            node.credentials = Some(file.to_path_buf());
+        }
         cmd.args(args)
-            .args(self.node.to_args())
+            .args(node.to_args())
             .stdin(Stdio::null())
             .stdout(File::create(&stdout_path)?)
             .stderr(File::create(&stderr_path)?);

@@ -7,7 +7,8 @@ use std::time::Instant;
 use proto::scene::{distance_m, observer_home_m, observer_name};
 use proto::{MissionReport, Modality, ObserverId, RenderPath};
 
-use super::gather::Gathered;
+use super::fault::Injected;
+use super::gather::{Gathered, SeenFault};
 use super::process::Proc;
 use super::supervise::Supervised;
 use crate::case::Case;
@@ -30,6 +31,8 @@ pub struct RunInfo<'a> {
     pub session: &'a str,
     /// When the launcher started.
     pub started: Instant,
+    /// The faults the launcher injected.
+    pub injected: &'a [Injected],
 }
 
 /// Builds the run's outputs.
@@ -72,6 +75,12 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
     }
     let home_error_m = home_errors(case.observers, &g, &mut mission.reasons);
     let (processes, sensor_digests) = process_figures(procs, interrupted, &mut mission.reasons);
+    let faults_seen = seen_faults(&g.faults_seen, info.injected, &mut mission.reasons);
+    let rejects = g
+        .reject_reports()
+        .into_iter()
+        .map(|(p, r)| (p, r.counts))
+        .collect();
     let camera_renders = procs.iter().flat_map(Proc::render_counts).collect();
     mission.pass = mission.reasons.is_empty() && !interrupted;
     let sim_s = ns_s(g.now_ns());
@@ -98,11 +107,47 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
             camera_renders,
             processes,
             faults: fault_log,
+            faults_seen,
+            rejects,
             interrupted,
         },
         observers: records,
         session,
     }
+}
+
+/// One line per fault message seen on the bus; a reason for each the launcher did not inject
+/// (a forged fault may have been obeyed: such a run proves nothing).
+fn seen_faults(seen: &[SeenFault], injected: &[Injected], reasons: &mut Vec<String>) -> Vec<String> {
+    seen.iter()
+        .map(|s| {
+            let ours = injected
+                .iter()
+                .any(|i| matches!(i, Injected::Message(f) if *f == s.fault));
+            let when = s
+                .at_tick
+                .map_or("before the clock started".to_string(), |t| {
+                    format!("at sim {:.2} s", ns_s(t * proto::TICK_NS))
+                });
+            let f = &s.fault;
+            let line = format!(
+                "{}: {:?} on {} from {:.2} s, seen {when}: {}",
+                s.key,
+                f.kind,
+                f.observer,
+                ns_s(f.from_ns),
+                if ours {
+                    "injected by the launcher"
+                } else {
+                    "NOT injected by the launcher"
+                }
+            );
+            if !ours {
+                reasons.push(format!("a fault the launcher did not inject reached the bus ({line})"));
+            }
+            line
+        })
+        .collect()
 }
 
 /// Each observer's record (sorted), its summary line, and the provenance violations.

@@ -205,7 +205,7 @@ impl Supervisor<'_> {
                 .recv(Duration::from_millis(if budget == 256 { 20 } else { 0 }))
         {
             if let Inbound::Data { key, payload } = item {
-                g.take(keys, &key, &payload)?;
+                g.take(keys, &key, &payload);
             }
             budget -= 1;
             if budget == 0 {
@@ -260,7 +260,7 @@ impl Supervisor<'_> {
             && let Some(item) = self.bus.recv(Duration::from_millis(200))
         {
             if let Inbound::Data { key, payload } = item {
-                g.take(&keys, &key, &payload)?;
+                g.take(&keys, &key, &payload);
             }
         }
         Ok(())

@@ -354,6 +354,7 @@ mod tests {
             packets_per_observer: BTreeMap::new(),
             empty_packets_per_observer: BTreeMap::new(),
             undecodable_messages: 0,
+            rejects: BTreeMap::new(),
             viewpoints: BTreeMap::new(),
             deaf_observers: vec![],
             pass,

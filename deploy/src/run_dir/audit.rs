@@ -70,6 +70,9 @@ pub struct AuditReport {
     pub empty_packets_per_observer: BTreeMap<String, u64>,
     #[serde(default)]
     pub undecodable_messages: u64,
+    /// What each process reported it dropped (its recorded `rejects/<role>/<id>` message).
+    #[serde(default)]
+    pub rejects: BTreeMap<String, Vec<proto::RejectCount>>,
     /// Each observer's viewing angle and distance (its home in the case's formation).
     #[serde(default)]
     pub viewpoints: BTreeMap<String, super::ObserverViewpoint>,

@@ -9,6 +9,7 @@
 //! names and the JSON layout are the on-disk format: they do not change.
 
 pub mod audit;
+pub mod lock;
 pub mod session;
 
 use std::collections::BTreeMap;
@@ -161,7 +162,22 @@ pub struct RunSummary {
     pub processes: BTreeMap<String, ProcessFigures>,
     /// Injected faults with the sim time they took effect.
     pub faults: Vec<String>,
+    /// Every fault message that reached the bus, each marked injected by the launcher or not.
+    #[serde(default)]
+    pub faults_seen: Vec<String>,
+    /// What each process dropped instead of obeying (undecodable, unexpected-key and
+    /// out-of-contract messages), by key and reason; a process that sent no report (killed,
+    /// or older) is absent, one that dropped nothing has an empty list.
+    #[serde(default)]
+    pub rejects: BTreeMap<String, Vec<proto::RejectCount>>,
     pub interrupted: bool,
+}
+
+impl RunSummary {
+    /// Messages dropped by every process together.
+    pub fn rejects_total(&self) -> u64 {
+        self.rejects.values().flatten().map(|c| c.count).sum()
+    }
 }
 
 /// Everything one observer published, for `observers.json`.

@@ -14,7 +14,10 @@ use zenoh::qos::CongestionControl;
 use zenoh::sample::{Sample, SampleKind};
 
 use crate::cli::NodeArgs;
-use crate::endpoints::{Endpoints, config};
+use crate::auth::Credentials;
+use crate::endpoints::{
+    Endpoints, client_config, config, deny_on_every_link, open_client_config,
+};
 
 /// Why a bus operation failed.
 #[derive(Debug, thiserror::Error)]
@@ -74,10 +77,17 @@ impl Bus {
         Self::open_with_acl(session, endpoints, &[])
     }
 
-    /// Opens the session of a node process from its command-line options (including its
-    /// `--deny` access-control list).
+    /// Opens the session of a node process from its command-line options: a client of the
+    /// session's router (authenticated with `--credentials` when given), or a peer with its
+    /// `--deny` access-control list.
     pub fn open_node(node: &NodeArgs) -> Result<Self, BusError> {
-        Self::open_with_acl(&node.session, &node.endpoints, &node.deny)
+        let mut config = match &node.credentials {
+            Some(path) => client_config(&node.endpoints, &Credentials::read(path)?)?,
+            None if node.client => open_client_config(&node.endpoints)?,
+            None => return Self::open_with_acl(&node.session, &node.endpoints, &node.deny),
+        };
+        deny_on_every_link(&mut config, &node.deny)?;
+        Self::open_config(&node.session, config)
     }
 
     /// Opens a session whose links deny the key expressions in `deny` (see [`config`]).
@@ -86,8 +96,14 @@ impl Bus {
         endpoints: &Endpoints,
         deny: &[String],
     ) -> Result<Self, BusError> {
+        Self::open_config(session, config(endpoints, deny)?)
+    }
+
+    /// Opens a session for Waggle session id `session` with a ready Zenoh configuration (the
+    /// launcher's router, see [`crate::router_config`]).
+    pub fn open_config(session: &str, config: zenoh::Config) -> Result<Self, BusError> {
         let keys = Keys::new(session)?;
-        let zenoh_session = zenoh::open(config(endpoints, deny)?)
+        let zenoh_session = zenoh::open(config)
             .wait()
             .map_err(|e| zenoh_err("opening the session", e))?;
         let (tx, rx) = mpsc::channel();

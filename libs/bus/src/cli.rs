@@ -28,6 +28,13 @@ pub struct NodeArgs {
     /// Key expression this process's links must deny (Zenoh access control); repeatable.
     #[arg(long = "deny", value_name = "KEYEXPR")]
     pub deny: Vec<String>,
+    /// Join as a client of the session's router (the launcher's) instead of as a peer.
+    #[arg(long)]
+    pub client: bool,
+    /// File holding this process's `user:password` for the session's router (implies
+    /// `--client`). The launcher writes one per process, readable only by its user.
+    #[arg(long, value_name = "FILE")]
+    pub credentials: Option<std::path::PathBuf>,
     #[command(flatten)]
     pub endpoints: Endpoints,
 }
@@ -71,6 +78,13 @@ impl NodeArgs {
             out.push("--deny".into());
             out.push(d.clone());
         }
+        if self.client {
+            out.push("--client".into());
+        }
+        if let Some(c) = &self.credentials {
+            out.push("--credentials".into());
+            out.push(c.display().to_string());
+        }
         out.extend(self.endpoints.to_args());
         out
     }
@@ -96,6 +110,8 @@ mod tests {
             recorder: false,
             startup_timeout_s: 30.0,
             deny: vec!["waggle/run-1/sim/**".into()],
+            client: true,
+            credentials: Some("/tmp/x/sim.credentials".into()),
             endpoints: Endpoints {
                 connect: vec!["tcp/127.0.0.1:7000".into()],
                 listen: vec![],

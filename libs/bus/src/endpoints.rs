@@ -1,5 +1,6 @@
 //! Where a process's Zenoh session listens and what it connects to.
 
+use crate::auth::Credentials;
 use crate::bus::BusError;
 
 /// The endpoint options shared by every Waggle binary.
@@ -15,6 +16,15 @@ pub struct Endpoints {
 }
 
 impl Endpoints {
+    /// The listen endpoints that are not on loopback (`tcp/0.0.0.0:7447`, a LAN address, …).
+    pub fn non_loopback_listeners(&self) -> Vec<String> {
+        self.listen
+            .iter()
+            .filter(|e| !is_loopback_endpoint(e))
+            .cloned()
+            .collect()
+    }
+
     /// The command-line arguments that reproduce these endpoints in a child process.
     pub fn to_args(&self) -> Vec<String> {
         let mut out = Vec::new();
@@ -30,60 +40,156 @@ impl Endpoints {
     }
 }
 
+/// True for a `proto/host:port` endpoint whose host is a loopback address or `localhost`.
+pub fn is_loopback_endpoint(endpoint: &str) -> bool {
+    let Some((_, locator)) = endpoint.split_once('/') else {
+        return false;
+    };
+    // Drop any `#config` or `?metadata` suffix, then the port.
+    let locator = locator.split(['#', '?']).next().unwrap_or("");
+    let host = match locator.rsplit_once(':') {
+        Some((h, _)) => h,
+        None => locator,
+    };
+    let host = host.trim_start_matches('[').trim_end_matches(']');
+    host == "localhost"
+        || host
+            .parse::<std::net::IpAddr>()
+            .is_ok_and(|ip| ip.is_loopback())
+}
+
 /// The loopback listener used when no `--listen` is given.
 pub const LOOPBACK_ANY_PORT: &str = "tcp/127.0.0.1:0";
 
-/// A Zenoh configuration for one Waggle process: peer mode, multicast scouting off (peers find
-/// each other through the endpoints and gossip), listening on loopback unless told otherwise.
-/// Every key expression in `deny` is closed by a Zenoh access-control list on every link of the
-/// process: its subscriptions there never leave it and publications there never enter it.
-pub fn config(endpoints: &Endpoints, deny: &[String]) -> Result<zenoh::Config, BusError> {
-    let listen = if endpoints.listen.is_empty() {
-        vec![LOOPBACK_ANY_PORT.to_string()]
-    } else {
-        endpoints.listen.clone()
-    };
+/// The configuration shared by every mode: multicast scouting off (peers find each other
+/// through the endpoints and gossip), the given connect endpoints.
+fn base(mode: &str, endpoints: &Endpoints, listen: &[String]) -> Result<zenoh::Config, BusError> {
     let mut config = zenoh::Config::default();
-    let set = |config: &mut zenoh::Config, key: &str, value: String| {
-        config
-            .insert_json5(key, &value)
-            .map_err(|e| BusError::Config(format!("{key} = {value}: {e}")))
-    };
-    set(&mut config, "mode", "\"peer\"".into())?;
+    set(&mut config, "mode", format!("\"{mode}\""))?;
     set(&mut config, "scouting/multicast/enabled", "false".into())?;
-    set(&mut config, "listen/endpoints", json_list(&listen))?;
-    set(
-        &mut config,
-        "connect/endpoints",
-        json_list(&endpoints.connect),
-    )?;
-    if !deny.is_empty() {
-        for k in deny {
-            zenoh::key_expr::KeyExpr::try_from(k.as_str())
-                .map_err(|e| BusError::Config(format!("--deny {k:?}: {e}")))?;
-        }
-        let acl = format!(
-            r#"{{
-                enabled: true,
-                default_permission: "allow",
-                rules: [{{
-                    id: "deny",
-                    key_exprs: {keys},
-                    messages: ["put", "delete", "declare_subscriber", "query", "reply"],
-                    flows: ["egress", "ingress"],
-                    permission: "deny",
-                }}],
-                subjects: [{{ id: "every-link", link_protocols: ["tcp"] }}],
-                policies: [{{ rules: ["deny"], subjects: ["every-link"] }}],
-            }}"#,
-            keys = json_list(deny)
-        );
-        set(&mut config, "access_control", acl)?;
-    }
+    set(&mut config, "listen/endpoints", json_list(listen))?;
+    set(&mut config, "connect/endpoints", json_list(&endpoints.connect))?;
     Ok(config)
 }
 
-fn json_list(items: &[String]) -> String {
+fn set(config: &mut zenoh::Config, key: &str, value: String) -> Result<(), BusError> {
+    config
+        .insert_json5(key, &value)
+        .map_err(|e| BusError::Config(format!("{key} = {value}: {e}")))
+}
+
+/// The listen endpoints, loopback on any port when none are given.
+fn listen_or_loopback(endpoints: &Endpoints) -> Vec<String> {
+    if endpoints.listen.is_empty() {
+        vec![LOOPBACK_ANY_PORT.to_string()]
+    } else {
+        endpoints.listen.clone()
+    }
+}
+
+/// A Zenoh configuration for one Waggle process in peer mode (the open bus: `--no-auth` runs
+/// and processes started by hand), listening on loopback unless told otherwise.
+/// Every key expression in `deny` is closed by a Zenoh access-control list on every link of the
+/// process: its subscriptions there never leave it and publications there never enter it.
+pub fn config(endpoints: &Endpoints, deny: &[String]) -> Result<zenoh::Config, BusError> {
+    let mut config = base("peer", endpoints, &listen_or_loopback(endpoints))?;
+    deny_on_every_link(&mut config, deny)?;
+    Ok(config)
+}
+
+/// Closes every key expression of `deny` with an access-control list on every link.
+pub fn deny_on_every_link(config: &mut zenoh::Config, deny: &[String]) -> Result<(), BusError> {
+    if deny.is_empty() {
+        return Ok(());
+    }
+    for k in deny {
+        zenoh::key_expr::KeyExpr::try_from(k.as_str())
+            .map_err(|e| BusError::Config(format!("--deny {k:?}: {e}")))?;
+    }
+    let acl = format!(
+        r#"{{
+            enabled: true,
+            default_permission: "allow",
+            rules: [{{
+                id: "deny",
+                key_exprs: {keys},
+                messages: ["put", "delete", "declare_subscriber", "query", "reply"],
+                flows: ["egress", "ingress"],
+                permission: "deny",
+            }}],
+            subjects: [{{ id: "every-link", link_protocols: ["tcp"] }}],
+            policies: [{{ rules: ["deny"], subjects: ["every-link"] }}],
+        }}"#,
+        keys = json_list(deny)
+    );
+    set(config, "access_control", acl)
+}
+
+/// A node of an authenticated session: a Zenoh client of the session's router (it listens on
+/// nothing, so nothing can connect to it), authenticating as `credentials`.
+pub fn client_config(
+    endpoints: &Endpoints,
+    credentials: &Credentials,
+) -> Result<zenoh::Config, BusError> {
+    if endpoints.connect.is_empty() {
+        return Err(BusError::Config(
+            "an authenticated node needs --connect to the session's router".into(),
+        ));
+    }
+    let mut config = base("client", endpoints, &[])?;
+    set(
+        &mut config,
+        "transport/auth/usrpwd/user",
+        serde_json_string(&credentials.user),
+    )?;
+    set(
+        &mut config,
+        "transport/auth/usrpwd/password",
+        serde_json_string(credentials.password()),
+    )?;
+    Ok(config)
+}
+
+/// The session's router (hosted by the launcher): accepts only the users of `dictionary` and
+/// enforces `acl` (an `access_control` section, see [`crate::access::router_acl`]).
+pub fn router_config(
+    endpoints: &Endpoints,
+    dictionary: &std::path::Path,
+    acl: &str,
+) -> Result<zenoh::Config, BusError> {
+    let mut config = base("router", endpoints, &listen_or_loopback(endpoints))?;
+    set(
+        &mut config,
+        "transport/auth/usrpwd/dictionary_file",
+        serde_json_string(&dictionary.display().to_string()),
+    )?;
+    set(&mut config, "access_control", acl.to_string())?;
+    Ok(config)
+}
+
+/// A client of an open router (`--no-auth`).
+pub fn open_client_config(endpoints: &Endpoints) -> Result<zenoh::Config, BusError> {
+    if endpoints.connect.is_empty() {
+        return Err(BusError::Config(
+            "a client node needs --connect to the session's router".into(),
+        ));
+    }
+    base("client", endpoints, &[])
+}
+
+/// An open router (`--no-auth`): same topology, no authentication, no access control.
+pub fn open_router_config(endpoints: &Endpoints) -> Result<zenoh::Config, BusError> {
+    base("router", endpoints, &listen_or_loopback(endpoints))
+}
+
+fn serde_json_string(s: &str) -> String {
+    json_list(&[s.to_string()])
+        .trim_start_matches('[')
+        .trim_end_matches(']')
+        .to_string()
+}
+
+pub(crate) fn json_list(items: &[String]) -> String {
     let quoted: Vec<String> = items
         .iter()
         .map(|s| format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\"")))
@@ -133,6 +239,21 @@ mod tests {
         assert!(matches!(config(&e, &[]), Err(BusError::Config(_))));
         let bad_key = config(&Endpoints::default(), &["a//b".to_string()]);
         assert!(matches!(bad_key, Err(BusError::Config(m)) if m.contains("a//b")));
+    }
+
+    #[test]
+    fn loopback_endpoints_are_told_apart() {
+        for e in ["tcp/127.0.0.1:7447", "tcp/localhost:1", "tcp/[::1]:7447", "tcp/127.1.2.3:0"] {
+            assert!(is_loopback_endpoint(e), "{e}");
+        }
+        for e in ["tcp/0.0.0.0:7447", "tcp/192.168.1.4:7447", "tcp/[::]:7447", "nonsense"] {
+            assert!(!is_loopback_endpoint(e), "{e}");
+        }
+        let e = Endpoints {
+            connect: vec![],
+            listen: vec!["tcp/127.0.0.1:1".into(), "tcp/0.0.0.0:2".into()],
+        };
+        assert_eq!(e.non_loopback_listeners(), ["tcp/0.0.0.0:2"]);
     }
 
     #[test]

@@ -39,6 +39,15 @@ impl Process {
         Self::new(role, role.as_str())
     }
 
+    /// Its process name: the role for a singleton (`sim`), role and observer otherwise
+    /// (`camera-O1`) — the name in `summary.json` and its user name on the bus.
+    pub fn name(&self) -> String {
+        match self.role {
+            Role::Camera | Role::Observer => format!("{}-{}", self.role.as_str(), self.id),
+            _ => self.role.as_str().to_string(),
+        }
+    }
+
     pub fn alive_key(&self, keys: &Keys) -> Result<String, BusError> {
         Ok(keys.alive(self.role, &self.id)?)
     }

@@ -2,6 +2,8 @@
 //!
 //! - [`Endpoints`]: the `--connect` / `--listen` options every node takes, and the session
 //!   [`config`] built from them (peer mode, multicast scouting off, loopback by default);
+//! - [`auth`] and [`access`]: per-session credentials (Zenoh user/password authentication) and
+//!   the per-role access-control list the session's router enforces;
 //! - [`Bus`]: one Zenoh session with a single ordered inbox. Every subscription and liveliness
 //!   watch of a process feeds the same channel, so data messages from one peer arrive in the
 //!   order that peer published them, whichever key they were on. Liveliness changes are
@@ -10,19 +12,29 @@
 //!   never relies on cross-key order: every per-tick message names its tick);
 //! - [`handshake`]: the start-up protocol (`alive` then `ready` tokens) that guarantees every
 //!   subscriber exists before the simulator publishes tick 0;
+//! - [`Rejects`]: what a process drops instead of aborting (undecodable, unexpected-key and
+//!   out-of-contract messages), counted and reported on `rejects/<role>/<id>`;
 //! - [`on_stop_signal`]: the SIGINT/SIGTERM flag with which processes end cleanly.
 //!
 //! Key expressions come from [`proto::Keys`] only; payloads go through [`proto::encode`] /
 //! [`proto::decode`] only.
 
+pub mod access;
+pub mod auth;
 mod bus;
 pub mod cli;
 mod endpoints;
 pub mod handshake;
+mod rejects;
 mod stop;
 
 pub use bus::{Bus, BusError, Inbound, decode};
 pub use cli::NodeArgs;
-pub use endpoints::{Endpoints, config};
+pub use auth::{Credentials, SessionSecrets};
+pub use endpoints::{
+    Endpoints, client_config, config, is_loopback_endpoint, open_client_config, open_router_config,
+    router_config,
+};
 pub use handshake::{Process, mission_processes};
+pub use rejects::{LOGGED_REJECTS, Rejects};
 pub use stop::on_stop_signal;

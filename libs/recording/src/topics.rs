@@ -7,7 +7,7 @@
 use proto::{
     BroadcastTick, ClockTick, Decision, DecodeError, EventPacket, Fault, FrameEvent, Key,
     MissionReport, ObserverId, ObserverStatus, ObserverTrack, PerformerSetpoint, PerformerTruth,
-    RgbFrame, SchedCommand, SessionTick, SimContacts, SimState, TICK_NS, TokenEvent,
+    RejectReport, RgbFrame, SchedCommand, SessionTick, SimContacts, SimState, TICK_NS, TokenEvent,
 };
 
 /// Message (and schema) encoding of raw channels: the exact bytes of [`proto::encode`].
@@ -33,10 +33,11 @@ pub enum MessageKind {
     SessionTick,
     MissionReport,
     Fault,
+    RejectReport,
 }
 
 impl MessageKind {
-    pub const ALL: [MessageKind; 17] = [
+    pub const ALL: [MessageKind; 18] = [
         MessageKind::Clock,
         MessageKind::SimState,
         MessageKind::SimContacts,
@@ -54,6 +55,7 @@ impl MessageKind {
         MessageKind::SessionTick,
         MessageKind::MissionReport,
         MessageKind::Fault,
+        MessageKind::RejectReport,
     ];
 
     /// Schema name of the raw channel (`waggle.<Rust type>`).
@@ -76,6 +78,7 @@ impl MessageKind {
             MessageKind::SessionTick => "waggle.SessionTick",
             MessageKind::MissionReport => "waggle.MissionReport",
             MessageKind::Fault => "waggle.Fault",
+            MessageKind::RejectReport => "waggle.RejectReport",
         }
     }
 
@@ -117,6 +120,7 @@ impl MessageKind {
             Key::SchedSession => MessageKind::SessionTick,
             Key::SchedReport => MessageKind::MissionReport,
             Key::Fault(_) => MessageKind::Fault,
+            Key::Rejects(..) => MessageKind::RejectReport,
             Key::Alive(..) | Key::Ready(..) => return None,
         })
     }
@@ -164,6 +168,7 @@ pub enum Decoded {
     SessionTick(SessionTick),
     MissionReport(MissionReport),
     Fault(Fault),
+    RejectReport(RejectReport),
 }
 
 /// Decodes `bytes` as a message of `kind` with the one [`proto::decode`].
@@ -187,12 +192,13 @@ pub fn decode(kind: MessageKind, bytes: &[u8]) -> Result<Decoded, DecodeError> {
         MessageKind::SessionTick => Decoded::SessionTick(d(bytes)?),
         MessageKind::MissionReport => Decoded::MissionReport(d(bytes)?),
         MessageKind::Fault => Decoded::Fault(d(bytes)?),
+        MessageKind::RejectReport => Decoded::RejectReport(d(bytes)?),
     })
 }
 
 impl Decoded {
-    /// The message's own sim time, ns (its stamp, or the end of its tick); `None` for faults,
-    /// which carry no time of publication.
+    /// The message's own sim time, ns (its stamp, or the end of its tick); `None` for faults
+    /// and reject reports, which carry no time of publication.
     pub fn sim_time_ns(&self) -> Option<u64> {
         let tick = |k: u64| k.checked_mul(TICK_NS);
         match self {
@@ -212,7 +218,7 @@ impl Decoded {
             Decoded::BroadcastTick(b) => tick(b.tick),
             Decoded::SessionTick(s) => tick(s.tick),
             Decoded::MissionReport(r) => Some(r.end_ns),
-            Decoded::Fault(_) => None,
+            Decoded::Fault(_) | Decoded::RejectReport(_) => None,
         }
     }
 }
@@ -309,6 +315,12 @@ mod tests {
                 None,
             ),
             (k.fault(&o2), MessageKind::Fault, "/fault/O2", Some("O2")),
+            (
+                k.rejects(proto::Role::Camera, "O2").unwrap(),
+                MessageKind::RejectReport,
+                "/rejects/camera/O2",
+                None,
+            ),
         ];
         for (key, kind, topic, observer) in cases {
             let t = classify(k.prefix(), &key).unwrap_or_else(|| panic!("{key}"));

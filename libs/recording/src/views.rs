@@ -125,6 +125,19 @@ pub fn log_line(msg: &Decoded) -> Option<(LogLevel, String, String)> {
                 f.until_ns.map(s)
             ),
         )),
+        Decoded::RejectReport(r) if r.total() > 0 => Some((
+            LogLevel::Warning,
+            r.process.clone(),
+            format!(
+                "dropped {} message(s): {}",
+                r.total(),
+                r.counts
+                    .iter()
+                    .map(|c| format!("{} {} ×{}", c.key, c.reason, c.count))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        )),
         Decoded::ObserverStatus(st) if st.input == InputState::Missing => Some((
             LogLevel::Warning,
             st.observer.to_string(),

@@ -161,6 +161,8 @@ pub enum Key {
     Alive(Role, String),
     /// Readiness token of one process (`ready/<role>/<id>`).
     Ready(Role, String),
+    /// What one process dropped (`rejects/<role>/<id>`), published as it ends.
+    Rejects(Role, String),
 }
 
 impl Key {
@@ -200,6 +202,10 @@ impl Key {
                 let (role, id) = process(role, id)?;
                 Key::Ready(role, id)
             }
+            ["rejects", role, id] => {
+                let (role, id) = process(role, id)?;
+                Key::Rejects(role, id)
+            }
             _ => return None,
         })
     }
@@ -226,6 +232,7 @@ impl Key {
             Key::Fault(o) => format!("fault/{o}"),
             Key::Alive(role, id) => format!("alive/{}/{id}", role.as_str()),
             Key::Ready(role, id) => format!("ready/{}/{id}", role.as_str()),
+            Key::Rejects(role, id) => format!("rejects/{}/{id}", role.as_str()),
         }
     }
 
@@ -394,6 +401,17 @@ impl Keys {
         Ok(self.of(&Key::Ready(role, id.to_owned())))
     }
 
+    /// The reject report of one process (`rejects/<role>/<id>`).
+    pub fn rejects(&self, role: Role, id: &str) -> Result<String, KeyError> {
+        validate_chunk("process", id)?;
+        Ok(self.of(&Key::Rejects(role, id.to_owned())))
+    }
+
+    /// Every reject report of the session (`rejects/**`).
+    pub fn rejects_any(&self) -> String {
+        self.key("rejects/**")
+    }
+
     /// Every readiness token of the session (`ready/**`).
     pub fn ready_any(&self) -> String {
         self.key("ready/**")
@@ -502,6 +520,7 @@ mod tests {
             Key::Fault(o2.clone()),
             Key::Alive(Role::Camera, "O2".into()),
             Key::Ready(Role::Sim, "sim".into()),
+            Key::Rejects(Role::Observer, "O2".into()),
         ];
         for key in &all {
             assert_eq!(k.parse(&k.of(key)).as_ref(), Some(key), "{key:?}");

@@ -8,6 +8,7 @@ pub mod fault;
 pub mod keys;
 pub mod modality;
 pub mod observer;
+pub mod rejects;
 pub mod sched;
 pub mod sensor;
 pub mod token;

@@ -80,6 +80,7 @@ pub fn from_run_files(f: &RunFiles) -> AuditReport {
         })
         .collect();
     AuditReport {
+        rejects: f.summary.rejects.clone(),
         viewpoints: m.viewpoints.clone(),
         deaf_observers: m.deaf_observers.clone(),
         partial: f.summary.interrupted,

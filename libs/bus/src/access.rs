@@ -1,0 +1,211 @@
+//! Who may publish and subscribe to what: the information boundaries of DESIGN.md §2 for every
+//! role, as data ([`role_access`]) and as the Zenoh access-control list that enforces them on
+//! the session's router ([`router_acl`]).
+//!
+//! Each process authenticates with its own user name (its process name: `sim`, `camera-O1`,
+//! …). The router denies by default; a process may publish only the keys it owns and receive
+//! only what it subscribes to. Declarations (which keys someone subscribes to, liveliness
+//! tokens) flow to every authenticated process: they carry no data, and a publisher must know
+//! its subscribers.
+
+use proto::{Keys, ObserverId, Role};
+
+use crate::handshake::{Process, mission_processes};
+
+/// What one process may do on the bus (full key expressions).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RoleAccess {
+    /// The user name it authenticates with (its process name).
+    pub user: String,
+    /// Keys it may publish on.
+    pub publish: Vec<String>,
+    /// Keys it may subscribe to (and be sent).
+    pub subscribe: Vec<String>,
+}
+
+/// The access of every process of a mission with `observers` observers (the launcher excluded:
+/// it hosts the router), plus the recorder when `recorder`.
+pub fn role_access(keys: &Keys, observers: usize, recorder: bool) -> Vec<RoleAccess> {
+    let mut everyone = mission_processes(observers, false);
+    if recorder {
+        everyone.push(Process::singleton(Role::Recorder));
+    }
+    everyone
+        .iter()
+        .map(|p| access_of(keys, p))
+        .collect()
+}
+
+/// The access of process `p`.
+pub fn access_of(keys: &Keys, p: &Process) -> RoleAccess {
+    let report = keys
+        .rejects(p.role, &p.id)
+        .expect("process ids are validated chunks");
+    let (mut publish, subscribe) = match p.role {
+        Role::Sim => (
+            vec![keys.clock(), keys.sim_state(), keys.sim_contacts()],
+            vec![keys.performer_setpoint(), keys.sched_cmd()],
+        ),
+        Role::Camera => {
+            let o = observer(&p.id);
+            (
+                vec![keys.sensor_events(&o), keys.sensor_rgb(&o)],
+                vec![keys.sim_state(), keys.fault(&o)],
+            )
+        }
+        Role::Observer => {
+            let o = observer(&p.id);
+            (
+                vec![keys.observer_all(&o)],
+                vec![keys.sensor_any(&o), keys.clock(), keys.sched_session()],
+            )
+        }
+        Role::Performer => (
+            vec![keys.performer_setpoint(), keys.truth_performer()],
+            vec![keys.sched_broadcast()],
+        ),
+        Role::Scheduler => (
+            vec![
+                keys.sched_cmd(),
+                keys.sched_broadcast(),
+                keys.sched_session(),
+                keys.sched_report(),
+            ],
+            vec![keys.sim_state(), keys.observer_status_any()],
+        ),
+        Role::Recorder => (Vec::new(), vec![keys.all()]),
+        // The launcher hosts the router: nothing of it crosses an access-controlled link.
+        Role::Launcher => (Vec::new(), Vec::new()),
+    };
+    publish.push(report);
+    RoleAccess {
+        user: p.name(),
+        publish,
+        subscribe,
+    }
+}
+
+fn observer(id: &str) -> ObserverId {
+    ObserverId::new(id).expect("camera and observer ids are observer ids")
+}
+
+/// The `access_control` section of the router's Zenoh configuration (JSON5) for `access`.
+pub fn router_acl(keys: &Keys, access: &[RoleAccess]) -> String {
+    let list = |items: &[String]| crate::endpoints::json_list(items);
+    let session = vec![keys.all()];
+    let handshake = vec![keys.alive_any(), keys.ready_any()];
+    let mut rules = vec![
+        // Declarations flow to everyone authenticated; data does not.
+        format!(
+            r#"{{ id: "declarations", permission: "allow", flows: ["egress"],
+                 messages: ["declare_subscriber"], key_exprs: {} }}"#,
+            list(&session)
+        ),
+        format!(
+            r#"{{ id: "handshake", permission: "allow", flows: ["ingress", "egress"],
+                 messages: ["liveliness_token", "declare_liveliness_subscriber", "liveliness_query"],
+                 key_exprs: {} }}"#,
+            list(&handshake)
+        ),
+    ];
+    let mut subjects = Vec::new();
+    let mut policies = Vec::new();
+    for (i, a) in access.iter().enumerate() {
+        let subject = format!("s{i}");
+        subjects.push(format!(
+            r#"{{ id: "{subject}", usernames: {} }}"#,
+            list(std::slice::from_ref(&a.user))
+        ));
+        let mut mine = vec!["declarations".to_string(), "handshake".to_string()];
+        if !a.publish.is_empty() {
+            rules.push(format!(
+                r#"{{ id: "{subject}-publish", permission: "allow", flows: ["ingress"],
+                     messages: ["put", "delete"], key_exprs: {} }}"#,
+                list(&a.publish)
+            ));
+            mine.push(format!("{subject}-publish"));
+        }
+        if !a.subscribe.is_empty() {
+            rules.push(format!(
+                r#"{{ id: "{subject}-subscribe", permission: "allow", flows: ["ingress"],
+                     messages: ["declare_subscriber"], key_exprs: {} }}"#,
+                list(&a.subscribe)
+            ));
+            rules.push(format!(
+                r#"{{ id: "{subject}-receive", permission: "allow", flows: ["egress"],
+                     messages: ["put", "delete"], key_exprs: {} }}"#,
+                list(&a.subscribe)
+            ));
+            mine.push(format!("{subject}-subscribe"));
+            mine.push(format!("{subject}-receive"));
+        }
+        policies.push(format!(
+            r#"{{ rules: {}, subjects: ["{subject}"] }}"#,
+            list(&mine)
+        ));
+    }
+    format!(
+        r#"{{ enabled: true, default_permission: "deny", rules: [{}], subjects: [{}], policies: [{}] }}"#,
+        rules.join(", "),
+        subjects.join(", "),
+        policies.join(", ")
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn includes(pattern: &str, key: &str) -> bool {
+        let p = zenoh::key_expr::KeyExpr::try_from(pattern).unwrap();
+        let k = zenoh::key_expr::KeyExpr::try_from(key).unwrap();
+        p.includes(&k)
+    }
+
+    fn may(list: &[String], key: &str) -> bool {
+        list.iter().any(|p| includes(p, key))
+    }
+
+    #[test]
+    fn every_role_publishes_only_its_own_keys_and_reads_only_what_it_needs() {
+        let keys = Keys::new("s").unwrap();
+        let all = role_access(&keys, 3, true);
+        let get = |u: &str| all.iter().find(|a| a.user == u).unwrap().clone();
+        let o1 = get("observer-O1");
+        assert!(may(&o1.publish, &keys.observer_status(&observer("O1"))));
+        for forbidden in [
+            keys.sched_cmd(),
+            keys.fault(&observer("O1")),
+            keys.sensor_events(&observer("O2")),
+            keys.sensor_events(&observer("O1")),
+            keys.observer_status(&observer("O2")),
+            keys.clock(),
+        ] {
+            assert!(!may(&o1.publish, &forbidden), "O1 may publish {forbidden}");
+        }
+        for truth in [keys.sim_state(), keys.truth_performer(), keys.sched_cmd()] {
+            assert!(!may(&o1.subscribe, &truth), "O1 may read {truth}");
+        }
+        assert!(may(&o1.subscribe, &keys.sensor_events(&observer("O1"))));
+        assert!(!may(&o1.subscribe, &keys.sensor_events(&observer("O2"))));
+        // Nobody but the launcher (the router itself) publishes faults.
+        for a in &all {
+            assert!(!may(&a.publish, &keys.fault(&observer("O1"))), "{}", a.user);
+        }
+        assert!(may(&get("recorder").subscribe, &keys.sim_state()));
+        assert!(may(&get("camera-O2").publish, &keys.sensor_rgb(&observer("O2"))));
+        assert!(!may(&get("camera-O2").publish, &keys.sensor_rgb(&observer("O1"))));
+        let users: Vec<String> = all.iter().map(|a| a.user.clone()).collect();
+        assert_eq!(users.len(), 3 + 6 + 1);
+    }
+
+    #[test]
+    fn the_acl_is_a_valid_zenoh_configuration() {
+        let keys = Keys::new("s").unwrap();
+        let acl = router_acl(&keys, &role_access(&keys, 2, true));
+        let mut c = zenoh::Config::default();
+        c.insert_json5("access_control", &acl).unwrap();
+        assert_eq!(c.get_json("access_control/default_permission").unwrap(), "\"deny\"");
+        assert!(acl.contains("camera-O2"));
+    }
+}

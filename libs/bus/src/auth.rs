@@ -1,0 +1,168 @@
+//! Per-session credentials: every process of a run authenticates to the session's router with
+//! its own user name and a random password (Zenoh's user/password authentication, an HMAC
+//! challenge: the password never crosses the link).
+//!
+//! The launcher creates the secrets in a private directory (mode 0700, files 0600) outside the
+//! run directory, hands each child only the path of its own file (`--credentials FILE`: a path
+//! on the command line, never the secret), and removes the directory when the run ends. The
+//! router reads the dictionary of every user from the same directory.
+
+use std::collections::BTreeMap;
+use std::io::{Read, Write};
+use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
+use std::path::{Path, PathBuf};
+
+use crate::bus::BusError;
+
+/// One process's user name and password.
+#[derive(Clone, PartialEq, Eq)]
+pub struct Credentials {
+    pub user: String,
+    password: String,
+}
+
+impl std::fmt::Debug for Credentials {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Credentials {{ user: {:?}, password: *** }}", self.user)
+    }
+}
+
+impl Credentials {
+    /// Reads a credentials file (`user:password` on one line).
+    pub fn read(path: &Path) -> Result<Self, BusError> {
+        let bad = |why: &str| BusError::Config(format!("credentials file {}: {why}", path.display()));
+        let text = std::fs::read_to_string(path).map_err(|e| bad(&e.to_string()))?;
+        let line = text.trim();
+        let (user, password) = line.split_once(':').ok_or_else(|| bad("not user:password"))?;
+        if user.is_empty() || password.is_empty() || password.contains(char::is_whitespace) {
+            return Err(bad("empty user or password"));
+        }
+        Ok(Self {
+            user: user.to_string(),
+            password: password.to_string(),
+        })
+    }
+
+    pub(crate) fn password(&self) -> &str {
+        &self.password
+    }
+}
+
+/// A random password: 32 hex digits from the kernel's CSPRNG.
+fn random_password() -> Result<String, BusError> {
+    let mut bytes = [0u8; 16];
+    std::fs::File::open("/dev/urandom")
+        .and_then(|mut f| f.read_exact(&mut bytes))
+        .map_err(|e| BusError::Config(format!("reading /dev/urandom: {e}")))?;
+    Ok(bytes.iter().map(|b| format!("{b:02x}")).collect())
+}
+
+/// The secrets of one session, removed from disk when dropped.
+#[derive(Debug)]
+pub struct SessionSecrets {
+    dir: PathBuf,
+    dictionary: PathBuf,
+    files: BTreeMap<String, PathBuf>,
+}
+
+fn write_private(path: &Path, text: &str) -> Result<(), BusError> {
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .mode(0o600)
+        .open(path)
+        .map_err(|e| BusError::Config(format!("creating {}: {e}", path.display())))?;
+    f.write_all(text.as_bytes())
+        .map_err(|e| BusError::Config(format!("writing {}: {e}", path.display())))
+}
+
+impl SessionSecrets {
+    /// Creates a password for each of `users` under `parent/waggle-secrets-<session>`.
+    pub fn create(parent: &Path, session: &str, users: &[String]) -> Result<Self, BusError> {
+        let dir = parent.join(format!("waggle-secrets-{session}"));
+        let io = |what: &str, e: std::io::Error| {
+            BusError::Config(format!("{what} {}: {e}", dir.display()))
+        };
+        if dir.exists() {
+            std::fs::remove_dir_all(&dir).map_err(|e| io("removing the stale", e))?;
+        }
+        std::fs::create_dir_all(&dir).map_err(|e| io("creating", e))?;
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700))
+            .map_err(|e| io("protecting", e))?;
+        let mut out = Self {
+            dictionary: dir.join("dictionary"),
+            dir,
+            files: BTreeMap::new(),
+        };
+        let mut dictionary = String::new();
+        for user in users {
+            if user.is_empty() || user.contains([':', '/', '\n']) {
+                return Err(BusError::Config(format!("user name {user:?}")));
+            }
+            let password = random_password()?;
+            let file = out.dir.join(format!("{user}.credentials"));
+            write_private(&file, &format!("{user}:{password}\n"))?;
+            dictionary.push_str(&format!("{user}:{password}\n"));
+            out.files.insert(user.clone(), file);
+        }
+        write_private(&out.dictionary, &dictionary)?;
+        Ok(out)
+    }
+
+    /// The credentials file of `user`.
+    pub fn file_of(&self, user: &str) -> Option<&Path> {
+        self.files.get(user).map(PathBuf::as_path)
+    }
+
+    /// The router's user/password dictionary.
+    pub fn dictionary(&self) -> &Path {
+        &self.dictionary
+    }
+
+    /// The directory holding them.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+}
+
+impl Drop for SessionSecrets {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn secrets_are_private_distinct_and_gone_when_dropped() {
+        let parent = std::env::temp_dir();
+        let session = format!("t{}", std::process::id());
+        let s = SessionSecrets::create(&parent, &session, &["sim".into(), "camera-O1".into()])
+            .unwrap();
+        let dir = s.dir().to_path_buf();
+        let mode = std::fs::metadata(&dir).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o700);
+        let sim = Credentials::read(s.file_of("sim").unwrap()).unwrap();
+        let cam = Credentials::read(s.file_of("camera-O1").unwrap()).unwrap();
+        assert_eq!(sim.user, "sim");
+        assert_ne!(sim.password(), cam.password());
+        assert_eq!(sim.password().len(), 32);
+        let fmode = std::fs::metadata(s.file_of("sim").unwrap())
+            .unwrap()
+            .permissions()
+            .mode()
+            & 0o777;
+        assert_eq!(fmode, 0o600);
+        let dict = std::fs::read_to_string(s.dictionary()).unwrap();
+        assert_eq!(dict.lines().count(), 2);
+        assert!(!format!("{sim:?}").contains(sim.password()));
+        drop(s);
+        assert!(!dir.exists());
+        let bad = parent.join(format!("waggle-bad-cred-{}", std::process::id()));
+        std::fs::write(&bad, "no colon").unwrap();
+        assert!(matches!(Credentials::read(&bad), Err(BusError::Config(m)) if m.contains("user:password")));
+        std::fs::remove_file(&bad).unwrap();
+    }
+}
