@@ -260,8 +260,11 @@ impl Observer {
                 }
             }
         } else {
-            self.rejects
-                .reject(key, RejectReason::UnexpectedKey, &"not this observer's input");
+            self.rejects.reject(
+                key,
+                RejectReason::UnexpectedKey,
+                &"not this observer's input",
+            );
         }
     }
 }

@@ -95,7 +95,12 @@ fn main() -> Result<()> {
                         Ok(s) => {
                             schedule = Some(s);
                             round = b.round;
-                            tracing::info!(tick = b.tick, round, offers = payloads.len(), "broadcast");
+                            tracing::info!(
+                                tick = b.tick,
+                                round,
+                                offers = payloads.len(),
+                                "broadcast"
+                            );
                         }
                         Err(e) => {
                             rejects.reject(&key, RejectReason::OutOfContract, &e);
@@ -118,7 +123,10 @@ fn main() -> Result<()> {
             }
         }
     }
-    bus.put(&keys.rejects(Role::Performer, Role::Performer.as_str())?, &rejects.report())?;
+    bus.put(
+        &keys.rejects(Role::Performer, Role::Performer.as_str())?,
+        &rejects.report(),
+    )?;
     bus.close()?;
     Ok(())
 }

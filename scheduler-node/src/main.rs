@@ -127,7 +127,11 @@ fn main() -> Result<()> {
                     if let Err(why) = in_window(s.tick, tick) {
                         rejects.reject(&key, RejectReason::OutOfContract, &why);
                     } else if states.contains_key(&s.stamp_ns) {
-                        rejects.reject(&key, RejectReason::OutOfContract, &"a second state for its tick");
+                        rejects.reject(
+                            &key,
+                            RejectReason::OutOfContract,
+                            &"a second state for its tick",
+                        );
                     } else {
                         states.insert(s.stamp_ns, s);
                     }
@@ -137,7 +141,11 @@ fn main() -> Result<()> {
                         .iter()
                         .find_map(|(o, k)| (*k == key).then_some(o))
                     else {
-                        rejects.reject(&key, RejectReason::UnexpectedKey, &"no such observer in this session");
+                        rejects.reject(
+                            &key,
+                            RejectReason::UnexpectedKey,
+                            &"no such observer in this session",
+                        );
                         continue;
                     };
                     let Some(s) = rejects.decode::<ObserverStatus>(&key, &payload) else {
@@ -153,7 +161,11 @@ fn main() -> Result<()> {
                     } else if let Err(why) = in_window(s.tick, tick) {
                         rejects.reject(&key, RejectReason::OutOfContract, &why);
                     } else if of_tick.contains_key(&s.observer) {
-                        rejects.reject(&key, RejectReason::OutOfContract, &"a second status for its tick");
+                        rejects.reject(
+                            &key,
+                            RejectReason::OutOfContract,
+                            &"a second status for its tick",
+                        );
                     } else {
                         of_tick.insert(s.observer.clone(), s);
                     }
@@ -232,7 +244,9 @@ const TICK_WINDOW: u64 = 4;
 /// ahead).
 fn in_window(msg_tick: u64, current: u64) -> std::result::Result<(), String> {
     if msg_tick < current {
-        return Err(format!("tick {msg_tick} is past (assembling tick {current})"));
+        return Err(format!(
+            "tick {msg_tick} is past (assembling tick {current})"
+        ));
     }
     if msg_tick > current + TICK_WINDOW {
         return Err(format!(

@@ -183,7 +183,8 @@ pub fn run(args: CameraArgs) -> Result<()> {
                     continue;
                 };
                 // The simulator publishes one state per render instant, in order, from 0.
-                let due_ns = last_state_ns.map_or(Some(0), |t| t.checked_add(EVENT_RENDER_PERIOD_NS));
+                let due_ns =
+                    last_state_ns.map_or(Some(0), |t| t.checked_add(EVENT_RENDER_PERIOD_NS));
                 if Some(state.stamp_ns) != due_ns {
                     rejects.reject(
                         &key,

@@ -17,8 +17,8 @@ use anyhow::{Context, Result, bail};
 use bus::{Bus, Inbound, NodeArgs, Rejects, handshake};
 use proto::clock::EVENT_RENDER_PERIOD_NS;
 use proto::{
-    ClockTick, Contact, DronePose, PerformerSetpoint, RejectReason, Role, SchedCommand, SimContacts,
-    SimState, TICK_NS,
+    ClockTick, Contact, DronePose, PerformerSetpoint, RejectReason, Role, SchedCommand,
+    SimContacts, SimState, TICK_NS,
 };
 use sim::control::Reference;
 use sim::world::World;
@@ -142,7 +142,10 @@ pub fn run(args: RunArgs) -> Result<()> {
         tick = next;
         publish_tick(&mut bus, &world, tick, contacts)?;
     }
-    bus.put(&keys.rejects(Role::Sim, Role::Sim.as_str())?, &rejects.report())?;
+    bus.put(
+        &keys.rejects(Role::Sim, Role::Sim.as_str())?,
+        &rejects.report(),
+    )?;
     bus.close()?;
     Ok(())
 }

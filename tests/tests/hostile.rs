@@ -70,39 +70,201 @@ fn junk(round: u64) -> Vec<Vec<u8>> {
     vec![random, Vec::new(), truncated, wrong_version, vec![0x02]]
 }
 
-/// A rogue peer publishing junk on `keys` through `endpoint` until `done()` (bounded).
-fn flood(endpoint: &str, keys: &[String], done: impl Fn() -> bool) -> u64 {
-    let mut config = zenoh::Config::default();
-    config.insert_json5("mode", "\"peer\"").unwrap();
-    config
-        .insert_json5("scouting/multicast/enabled", "false")
-        .unwrap();
-    config
-        .insert_json5("connect/endpoints", &format!("[\"{endpoint}\"]"))
-        .unwrap();
-    config.insert_json5("listen/endpoints", "[]").unwrap();
-    let session = zenoh::open(config).wait().expect("rogue session");
-    let huge = vec![0xAB; 2 << 20];
-    let mut sent = 0u64;
-    let deadline = Instant::now() + Duration::from_secs(900);
-    let mut round = 0u64;
-    while !done() && Instant::now() < deadline {
-        for key in keys {
-            let mut payloads = junk(round);
-            if round == 3 {
-                payloads.push(huge.clone());
+/// A rogue Zenoh session reaching the run through `endpoint`: a peer without credentials, or
+/// a client holding someone's `user:password`. It counts every sample of the session it is
+/// sent.
+struct Rogue {
+    session: zenoh::Session,
+    received: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    _subscriber: zenoh::pubsub::Subscriber<()>,
+}
+
+impl Rogue {
+    fn join(endpoint: &str, run_session: &str, credentials: Option<&str>) -> Self {
+        let mut config = zenoh::Config::default();
+        let set = |c: &mut zenoh::Config, k: &str, v: &str| c.insert_json5(k, v).unwrap();
+        set(&mut config, "scouting/multicast/enabled", "false");
+        set(
+            &mut config,
+            "connect/endpoints",
+            &format!("[\"{endpoint}\"]"),
+        );
+        match credentials {
+            None => {
+                set(&mut config, "mode", "\"peer\"");
+                set(&mut config, "listen/endpoints", "[]");
             }
-            for p in payloads {
-                if session.put(key.as_str(), p).wait().is_ok() {
-                    sent += 1;
-                }
+            Some(line) => {
+                let (user, password) = line.trim().split_once(':').unwrap();
+                set(&mut config, "mode", "\"client\"");
+                set(
+                    &mut config,
+                    "transport/auth/usrpwd/user",
+                    &format!("\"{user}\""),
+                );
+                set(
+                    &mut config,
+                    "transport/auth/usrpwd/password",
+                    &format!("\"{password}\""),
+                );
             }
         }
-        round += 1;
-        std::thread::sleep(Duration::from_millis(250));
+        let session = zenoh::open(config).wait().expect("rogue session");
+        let received = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+        let counter = received.clone();
+        let subscriber = session
+            .declare_subscriber(format!("waggle/{run_session}/**"))
+            // Its own puts come back locally: only what crossed a link counts.
+            .allowed_origin(zenoh::sample::Locality::Remote)
+            .callback(move |_| {
+                counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            })
+            .wait()
+            .unwrap();
+        Self {
+            session,
+            received,
+            _subscriber: subscriber,
+        }
     }
-    session.close().wait().ok();
-    sent
+
+    fn received(&self) -> u64 {
+        self.received.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Publishes each payload of `payloads(round)` on each of `keys`, every 250 ms, until
+    /// `done()` (bounded); returns how many puts Zenoh accepted.
+    fn flood(
+        &self,
+        keys: &[String],
+        payloads: impl Fn(u64) -> Vec<Vec<u8>>,
+        done: impl Fn() -> bool,
+    ) -> u64 {
+        let mut sent = 0u64;
+        let deadline = Instant::now() + Duration::from_secs(900);
+        let mut round = 0u64;
+        while !done() && Instant::now() < deadline {
+            for key in keys {
+                for p in payloads(round) {
+                    if self.session.put(key.as_str(), p).wait().is_ok() {
+                        sent += 1;
+                    }
+                }
+            }
+            round += 1;
+            std::thread::sleep(Duration::from_millis(250));
+        }
+        sent
+    }
+}
+
+/// What a run with a rogue beside it left.
+struct Disturbed {
+    summary: RunSummary,
+    observers_sha256: String,
+    /// Puts the rogue made, and samples it received.
+    sent: u64,
+    received: u64,
+}
+
+/// Runs `only-a` with event cameras (`extra` arguments added) while a rogue — made by
+/// `rogue(endpoint, session)` once the run is up — floods `keys` with `payloads`.
+fn run_beside_rogue(
+    name: &str,
+    extra: &[&str],
+    rogue: impl FnOnce(&str, &str) -> Rogue + Send,
+    keys: impl FnOnce(&str) -> Vec<String> + Send,
+    payloads: impl Fn(u64) -> Vec<Vec<u8>> + Send + Sync,
+) -> Disturbed {
+    let session = format!("{name}-{}", std::process::id());
+    let dir = std::env::temp_dir().join(format!("waggle-{session}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let log = std::env::temp_dir().join(format!("waggle-{session}.log"));
+    let mut run = waggle_with_nodes()
+        .args(["run", "only-a", "--modality", "events", "--quiet"])
+        .args(extra)
+        .args(["--session", &session, "--listen", &endpoint, "--out"])
+        .arg(&dir)
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(&log).unwrap())
+        .stderr(Stdio::from(
+            std::fs::File::create(log.with_extension("err")).unwrap(),
+        ))
+        .spawn()
+        .expect("start waggle run");
+    // Until the launcher's router listens and has written the session's credentials.
+    std::thread::sleep(Duration::from_millis(1500));
+    let finished = std::sync::atomic::AtomicBool::new(false);
+    let (sent, received, status) = std::thread::scope(|s| {
+        let flooding = s.spawn(|| {
+            let r = rogue(&endpoint, &session);
+            let keys = keys(&session);
+            let sent = r.flood(&keys, &payloads, || {
+                finished.load(std::sync::atomic::Ordering::SeqCst)
+            });
+            let received = r.received();
+            r.session.close().wait().ok();
+            (sent, received)
+        });
+        let status = wait_bounded(&mut run, Duration::from_secs(900));
+        finished.store(true, std::sync::atomic::Ordering::SeqCst);
+        let (sent, received) = flooding.join().unwrap();
+        (sent, received, status)
+    });
+    let context = format!(
+        "outputs in {}\nstdout:\n{}\nstderr:\n{}",
+        dir.display(),
+        std::fs::read_to_string(&log).unwrap_or_default(),
+        std::fs::read_to_string(log.with_extension("err")).unwrap_or_default()
+    );
+    assert!(status.success(), "{context}");
+    let summary = read_summary(&dir);
+    assert!(
+        summary.mission.pass,
+        "{:?}\n{context}",
+        summary.mission.reasons
+    );
+    let observers_sha256 = sha256_hex(&std::fs::read(dir.join("observers.json")).unwrap());
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_file(&log);
+    let _ = std::fs::remove_file(log.with_extension("err"));
+    Disturbed {
+        summary,
+        observers_sha256,
+        sent,
+        received,
+    }
+}
+
+/// The `observers.json` digest of an undisturbed `only-a` run with event cameras.
+fn undisturbed_sha256() -> String {
+    golden_entry("only-a", "events")["observers_sha256"]
+        .as_str()
+        .unwrap()
+        .to_string()
+}
+
+/// How many messages `process` dropped on `key` for `reason`.
+fn count(summary: &RunSummary, process: &str, key: &str, reason: RejectReason) -> u64 {
+    summary
+        .rejects
+        .get(process)
+        .into_iter()
+        .flatten()
+        .filter(|c| c.key == key && c.reason == reason)
+        .map(|c| c.count)
+        .sum()
+}
+
+/// A well-formed fault that would blind `observer` from the start.
+fn forged_blackout(observer: &str) -> Vec<u8> {
+    proto::encode(&proto::Fault {
+        observer: ObserverId::new(observer).unwrap(),
+        kind: proto::FaultKind::BlackInput,
+        from_ns: 0,
+        until_ns: None,
+    })
 }
 
 fn free_port() -> u16 {
@@ -136,62 +298,28 @@ fn read_summary(dir: &Path) -> RunSummary {
 
 #[test]
 fn junk_on_every_key_leaves_the_run_passing_with_identical_observers_and_counted_rejects() {
-    let (case, modality) = ("only-a", "events");
-    let session = format!("hostile-{}", std::process::id());
-    let dir = std::env::temp_dir().join(format!("waggle-{session}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let log = std::env::temp_dir().join(format!("waggle-{session}.log"));
-    let mut run = waggle_with_nodes()
-        .args(["run", case, "--modality", modality, "--quiet", "--no-auth"])
-        .args(["--session", &session, "--listen", &endpoint, "--out"])
-        .arg(&dir)
-        .stdin(Stdio::null())
-        .stdout(std::fs::File::create(&log).unwrap())
-        .stderr(Stdio::from(std::fs::File::create(log.with_extension("err")).unwrap()))
-        .spawn()
-        .expect("start waggle run");
-    // Let the launcher open its listener before the rogue connects.
-    std::thread::sleep(Duration::from_millis(500));
-    let keys = target_keys(&session, 3);
-    let finished = std::sync::atomic::AtomicBool::new(false);
-    let (sent, out) = std::thread::scope(|s| {
-        let rogue = s.spawn(|| {
-            flood(&endpoint, &keys, || {
-                finished.load(std::sync::atomic::Ordering::SeqCst)
-            })
-        });
-        let status = wait_bounded(&mut run, Duration::from_secs(900));
-        finished.store(true, std::sync::atomic::Ordering::SeqCst);
-        (rogue.join().unwrap(), status)
-    });
-    let context = format!(
-        "outputs in {}\nstdout:\n{}\nstderr:\n{}",
-        dir.display(),
-        std::fs::read_to_string(&log).unwrap_or_default(),
-        std::fs::read_to_string(log.with_extension("err")).unwrap_or_default()
+    let d = run_beside_rogue(
+        "hostile-junk",
+        &["--no-auth"],
+        |endpoint, session| Rogue::join(endpoint, session, None),
+        |session| target_keys(session, 3),
+        |round| {
+            let mut p = junk(round);
+            if round == 3 {
+                p.push(vec![0xAB; 2 << 20]);
+            }
+            p
+        },
     );
-    assert!(out.success(), "{context}");
-    assert!(sent > 1000, "the rogue sent only {sent} messages");
-    let summary = read_summary(&dir);
-    assert!(summary.mission.pass, "{:?}\n{context}", summary.mission.reasons);
-    let want = golden_entry(case, modality);
-    let observers = std::fs::read(dir.join("observers.json")).unwrap();
+    assert!(d.sent > 1000, "the rogue sent only {}", d.sent);
+    // On the open bus the rogue reads everything: what authentication takes away.
+    assert!(d.received > 1000, "the rogue received only {}", d.received);
     assert_eq!(
-        sha256_hex(&observers),
-        want["observers_sha256"].as_str().unwrap(),
-        "observers.json differs from the undisturbed run\n{context}"
+        d.observers_sha256,
+        undisturbed_sha256(),
+        "observers.json differs from the undisturbed run"
     );
-    let count = |process: &str, key: &str, reason: RejectReason| -> u64 {
-        summary
-            .rejects
-            .get(process)
-            .into_iter()
-            .flatten()
-            .filter(|c| c.key == key && c.reason == reason)
-            .map(|c| c.count)
-            .sum()
-    };
+    let s = &d.summary;
     let undecodable = RejectReason::Undecodable;
     for (process, key) in [
         ("sim", "sched/cmd"),
@@ -210,15 +338,120 @@ fn junk_on_every_key_leaves_the_run_passing_with_identical_observers_and_counted
         ("launcher", "rejects/sim/sim"),
     ] {
         assert!(
-            count(process, key, undecodable) > 0,
+            count(s, process, key, undecodable) > 0,
             "{process} counted no undecodable message on {key}: {:?}",
-            summary.rejects.get(process)
+            s.rejects.get(process)
         );
     }
-    assert!(count("observer-O1", "sensor/O1/rgb", RejectReason::UnexpectedKey) > 0);
-    assert!(count("scheduler", "observer/O9/status", RejectReason::UnexpectedKey) > 0);
-    assert!(summary.faults_seen.is_empty(), "{:?}", summary.faults_seen);
-    let _ = std::fs::remove_dir_all(&dir);
-    let _ = std::fs::remove_file(&log);
-    let _ = std::fs::remove_file(log.with_extension("err"));
+    assert!(
+        count(
+            s,
+            "observer-O1",
+            "sensor/O1/rgb",
+            RejectReason::UnexpectedKey
+        ) > 0
+    );
+    assert!(
+        count(
+            s,
+            "scheduler",
+            "observer/O9/status",
+            RejectReason::UnexpectedKey
+        ) > 0
+    );
+    assert!(s.faults_seen.is_empty(), "{:?}", s.faults_seen);
+}
+
+#[test]
+fn a_rogue_without_credentials_neither_receives_nor_delivers_anything() {
+    let d = run_beside_rogue(
+        "hostile-nocred",
+        &[],
+        |endpoint, session| Rogue::join(endpoint, session, None),
+        |session| target_keys(session, 3),
+        |round| {
+            let mut p = junk(round);
+            p.push(forged_blackout("O1"));
+            p
+        },
+    );
+    assert!(d.sent > 1000, "the rogue sent only {}", d.sent);
+    assert_eq!(
+        d.received, 0,
+        "a rogue without credentials received samples"
+    );
+    assert_eq!(d.observers_sha256, undisturbed_sha256());
+    assert_eq!(d.summary.rejects_total(), 0, "{:?}", d.summary.rejects);
+    assert!(
+        d.summary.faults_seen.is_empty(),
+        "{:?}",
+        d.summary.faults_seen
+    );
+}
+
+#[test]
+fn a_process_holding_o1_credentials_cannot_publish_outside_its_own_keys() {
+    let d = run_beside_rogue(
+        "hostile-o1",
+        &[],
+        |endpoint, session| {
+            let file = std::env::temp_dir()
+                .join(format!("waggle-secrets-{session}"))
+                .join("observer-O1.credentials");
+            let line = std::fs::read_to_string(&file)
+                .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+            Rogue::join(endpoint, session, Some(&line))
+        },
+        |session| {
+            let k = proto::Keys::new(session).unwrap();
+            let o = |s: &str| ObserverId::new(s).unwrap();
+            vec![
+                k.sched_cmd(),
+                k.fault(&o("O1")),
+                k.fault(&o("O2")),
+                k.sensor_events(&o("O2")),
+                k.clock(),
+                // Its own key: allowed, so the scheduler counts the junk (the rogue is in).
+                k.observer_status(&o("O1")),
+            ]
+        },
+        |round| {
+            let mut p = junk(round);
+            p.push(forged_blackout("O1"));
+            p.push(forged_blackout("O2"));
+            p
+        },
+    );
+    assert!(d.sent > 100, "the rogue sent only {}", d.sent);
+    let s = &d.summary;
+    assert!(
+        count(
+            s,
+            "scheduler",
+            "observer/O1/status",
+            RejectReason::Undecodable
+        ) > 0,
+        "the rogue's junk on its own key never arrived: {:?}",
+        s.rejects
+    );
+    assert_eq!(d.observers_sha256, undisturbed_sha256());
+    assert!(s.faults_seen.is_empty(), "{:?}", s.faults_seen);
+    for (process, key) in [
+        ("sim", "sched/cmd"),
+        ("camera-O1", "fault/O1"),
+        ("camera-O2", "fault/O2"),
+        ("observer-O2", "sensor/O2/events"),
+        ("observer-O2", "clock"),
+        ("launcher", "clock"),
+    ] {
+        for reason in [RejectReason::Undecodable, RejectReason::OutOfContract] {
+            assert_eq!(
+                count(s, process, key, reason),
+                0,
+                "{process} got {key} from the rogue"
+            );
+        }
+    }
+    // Its subscription to the whole session is not among O1's: the router refuses it.
+    assert_eq!(d.received, 0, "O1's credentials read beyond O1's inputs");
 }

@@ -121,7 +121,11 @@ impl Gathered {
                 let Some(st) = rejects.decode::<SimState>(key, payload) else {
                     return;
                 };
-                if self.state.as_ref().is_some_and(|p| st.stamp_ns <= p.stamp_ns) {
+                if self
+                    .state
+                    .as_ref()
+                    .is_some_and(|p| st.stamp_ns <= p.stamp_ns)
+                {
                     let why = format!("state at {} ns is not after the last", st.stamp_ns);
                     rejects.reject(key, RejectReason::OutOfContract, &why);
                     return;
@@ -165,7 +169,11 @@ impl Gathered {
                     return;
                 };
                 if mismatch(&t.observer) {
-                    rejects.reject(key, RejectReason::OutOfContract, &"track of another observer");
+                    rejects.reject(
+                        key,
+                        RejectReason::OutOfContract,
+                        &"track of another observer",
+                    );
                     return;
                 }
                 self.record(&t.observer).track.extend(t.samples);
@@ -175,7 +183,11 @@ impl Gathered {
                     return;
                 };
                 if mismatch(&st.observer) {
-                    rejects.reject(key, RejectReason::OutOfContract, &"status of another observer");
+                    rejects.reject(
+                        key,
+                        RejectReason::OutOfContract,
+                        &"status of another observer",
+                    );
                     return;
                 }
                 if st.input == proto::InputState::Missing {
@@ -187,7 +199,11 @@ impl Gathered {
                     return;
                 };
                 if mismatch(&t.observer) {
-                    rejects.reject(key, RejectReason::OutOfContract, &"token of another observer");
+                    rejects.reject(
+                        key,
+                        RejectReason::OutOfContract,
+                        &"token of another observer",
+                    );
                     return;
                 }
                 self.record(&t.observer.clone()).tokens.push(t);
@@ -197,7 +213,11 @@ impl Gathered {
                     return;
                 };
                 if mismatch(&f.observer) {
-                    rejects.reject(key, RejectReason::OutOfContract, &"frame of another observer");
+                    rejects.reject(
+                        key,
+                        RejectReason::OutOfContract,
+                        &"frame of another observer",
+                    );
                     return;
                 }
                 self.record(&f.observer.clone()).frames.push(f);
@@ -207,7 +227,11 @@ impl Gathered {
                     return;
                 };
                 if mismatch(&d.observer) {
-                    rejects.reject(key, RejectReason::OutOfContract, &"decision of another observer");
+                    rejects.reject(
+                        key,
+                        RejectReason::OutOfContract,
+                        &"decision of another observer",
+                    );
                     return;
                 }
                 self.record(&d.observer.clone()).decisions.push(d);
@@ -217,11 +241,19 @@ impl Gathered {
                     return;
                 };
                 if mismatch(&f.observer) {
-                    rejects.reject(key, RejectReason::OutOfContract, &"fault for another observer");
+                    rejects.reject(
+                        key,
+                        RejectReason::OutOfContract,
+                        &"fault for another observer",
+                    );
                 }
                 // Every fault that reached the bus is listed, obeyed or not.
                 self.faults_seen.push(SeenFault {
-                    key: key.strip_prefix(keys.prefix()).unwrap_or(key).trim_start_matches('/').to_string(),
+                    key: key
+                        .strip_prefix(keys.prefix())
+                        .unwrap_or(key)
+                        .trim_start_matches('/')
+                        .to_string(),
                     fault: f,
                     at_tick: self.clock_started.map(|_| self.tick),
                 });
@@ -231,14 +263,27 @@ impl Gathered {
                     return;
                 };
                 if r.process != bus::Process::new(role, id).name() {
-                    rejects.reject(key, RejectReason::OutOfContract, &"report of another process");
+                    rejects.reject(
+                        key,
+                        RejectReason::OutOfContract,
+                        &"report of another process",
+                    );
                     return;
                 }
                 self.reports.insert(r.process.clone(), r);
             }
-            Key::Alive(..) | Key::Ready(..) | Key::SensorEvents(_) | Key::SensorRgb(_)
-            | Key::PerformerSetpoint | Key::SchedCmd | Key::SchedBroadcast => {
-                rejects.reject(key, RejectReason::UnexpectedKey, &"not followed by the launcher");
+            Key::Alive(..)
+            | Key::Ready(..)
+            | Key::SensorEvents(_)
+            | Key::SensorRgb(_)
+            | Key::PerformerSetpoint
+            | Key::SchedCmd
+            | Key::SchedBroadcast => {
+                rejects.reject(
+                    key,
+                    RejectReason::UnexpectedKey,
+                    &"not followed by the launcher",
+                );
             }
         }
     }

@@ -118,7 +118,11 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
 
 /// One line per fault message seen on the bus; a reason for each the launcher did not inject
 /// (a forged fault may have been obeyed: such a run proves nothing).
-fn seen_faults(seen: &[SeenFault], injected: &[Injected], reasons: &mut Vec<String>) -> Vec<String> {
+fn seen_faults(
+    seen: &[SeenFault],
+    injected: &[Injected],
+    reasons: &mut Vec<String>,
+) -> Vec<String> {
     seen.iter()
         .map(|s| {
             let ours = injected
@@ -143,7 +147,9 @@ fn seen_faults(seen: &[SeenFault], injected: &[Injected], reasons: &mut Vec<Stri
                 }
             );
             if !ours {
-                reasons.push(format!("a fault the launcher did not inject reached the bus ({line})"));
+                reasons.push(format!(
+                    "a fault the launcher did not inject reached the bus ({line})"
+                ));
             }
             line
         })

@@ -30,10 +30,7 @@ pub fn role_access(keys: &Keys, observers: usize, recorder: bool) -> Vec<RoleAcc
     if recorder {
         everyone.push(Process::singleton(Role::Recorder));
     }
-    everyone
-        .iter()
-        .map(|p| access_of(keys, p))
-        .collect()
+    everyone.iter().map(|p| access_of(keys, p)).collect()
 }
 
 /// The access of process `p`.
@@ -193,8 +190,14 @@ mod tests {
             assert!(!may(&a.publish, &keys.fault(&observer("O1"))), "{}", a.user);
         }
         assert!(may(&get("recorder").subscribe, &keys.sim_state()));
-        assert!(may(&get("camera-O2").publish, &keys.sensor_rgb(&observer("O2"))));
-        assert!(!may(&get("camera-O2").publish, &keys.sensor_rgb(&observer("O1"))));
+        assert!(may(
+            &get("camera-O2").publish,
+            &keys.sensor_rgb(&observer("O2"))
+        ));
+        assert!(!may(
+            &get("camera-O2").publish,
+            &keys.sensor_rgb(&observer("O1"))
+        ));
         let users: Vec<String> = all.iter().map(|a| a.user.clone()).collect();
         assert_eq!(users.len(), 3 + 6 + 1);
     }
@@ -205,7 +208,10 @@ mod tests {
         let acl = router_acl(&keys, &role_access(&keys, 2, true));
         let mut c = zenoh::Config::default();
         c.insert_json5("access_control", &acl).unwrap();
-        assert_eq!(c.get_json("access_control/default_permission").unwrap(), "\"deny\"");
+        assert_eq!(
+            c.get_json("access_control/default_permission").unwrap(),
+            "\"deny\""
+        );
         assert!(acl.contains("camera-O2"));
     }
 }

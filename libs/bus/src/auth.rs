@@ -30,10 +30,13 @@ impl std::fmt::Debug for Credentials {
 impl Credentials {
     /// Reads a credentials file (`user:password` on one line).
     pub fn read(path: &Path) -> Result<Self, BusError> {
-        let bad = |why: &str| BusError::Config(format!("credentials file {}: {why}", path.display()));
+        let bad =
+            |why: &str| BusError::Config(format!("credentials file {}: {why}", path.display()));
         let text = std::fs::read_to_string(path).map_err(|e| bad(&e.to_string()))?;
         let line = text.trim();
-        let (user, password) = line.split_once(':').ok_or_else(|| bad("not user:password"))?;
+        let (user, password) = line
+            .split_once(':')
+            .ok_or_else(|| bad("not user:password"))?;
         if user.is_empty() || password.is_empty() || password.contains(char::is_whitespace) {
             return Err(bad("empty user or password"));
         }
@@ -139,8 +142,8 @@ mod tests {
     fn secrets_are_private_distinct_and_gone_when_dropped() {
         let parent = std::env::temp_dir();
         let session = format!("t{}", std::process::id());
-        let s = SessionSecrets::create(&parent, &session, &["sim".into(), "camera-O1".into()])
-            .unwrap();
+        let s =
+            SessionSecrets::create(&parent, &session, &["sim".into(), "camera-O1".into()]).unwrap();
         let dir = s.dir().to_path_buf();
         let mode = std::fs::metadata(&dir).unwrap().permissions().mode() & 0o777;
         assert_eq!(mode, 0o700);
@@ -162,7 +165,9 @@ mod tests {
         assert!(!dir.exists());
         let bad = parent.join(format!("waggle-bad-cred-{}", std::process::id()));
         std::fs::write(&bad, "no colon").unwrap();
-        assert!(matches!(Credentials::read(&bad), Err(BusError::Config(m)) if m.contains("user:password")));
+        assert!(
+            matches!(Credentials::read(&bad), Err(BusError::Config(m)) if m.contains("user:password"))
+        );
         std::fs::remove_file(&bad).unwrap();
     }
 }

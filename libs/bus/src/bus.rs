@@ -13,11 +13,9 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
 use zenoh::sample::{Sample, SampleKind};
 
-use crate::cli::NodeArgs;
 use crate::auth::Credentials;
-use crate::endpoints::{
-    Endpoints, client_config, config, deny_on_every_link, open_client_config,
-};
+use crate::cli::NodeArgs;
+use crate::endpoints::{Endpoints, client_config, config, deny_on_every_link, open_client_config};
 
 /// Why a bus operation failed.
 #[derive(Debug, thiserror::Error)]

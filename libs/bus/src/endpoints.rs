@@ -68,7 +68,11 @@ fn base(mode: &str, endpoints: &Endpoints, listen: &[String]) -> Result<zenoh::C
     set(&mut config, "mode", format!("\"{mode}\""))?;
     set(&mut config, "scouting/multicast/enabled", "false".into())?;
     set(&mut config, "listen/endpoints", json_list(listen))?;
-    set(&mut config, "connect/endpoints", json_list(&endpoints.connect))?;
+    set(
+        &mut config,
+        "connect/endpoints",
+        json_list(&endpoints.connect),
+    )?;
     Ok(config)
 }
 
@@ -243,10 +247,20 @@ mod tests {
 
     #[test]
     fn loopback_endpoints_are_told_apart() {
-        for e in ["tcp/127.0.0.1:7447", "tcp/localhost:1", "tcp/[::1]:7447", "tcp/127.1.2.3:0"] {
+        for e in [
+            "tcp/127.0.0.1:7447",
+            "tcp/localhost:1",
+            "tcp/[::1]:7447",
+            "tcp/127.1.2.3:0",
+        ] {
             assert!(is_loopback_endpoint(e), "{e}");
         }
-        for e in ["tcp/0.0.0.0:7447", "tcp/192.168.1.4:7447", "tcp/[::]:7447", "nonsense"] {
+        for e in [
+            "tcp/0.0.0.0:7447",
+            "tcp/192.168.1.4:7447",
+            "tcp/[::]:7447",
+            "nonsense",
+        ] {
             assert!(!is_loopback_endpoint(e), "{e}");
         }
         let e = Endpoints {

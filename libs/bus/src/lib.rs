@@ -28,9 +28,9 @@ pub mod handshake;
 mod rejects;
 mod stop;
 
+pub use auth::{Credentials, SessionSecrets};
 pub use bus::{Bus, BusError, Inbound, decode};
 pub use cli::NodeArgs;
-pub use auth::{Credentials, SessionSecrets};
 pub use endpoints::{
     Endpoints, client_config, config, is_loopback_endpoint, open_client_config, open_router_config,
     router_config,

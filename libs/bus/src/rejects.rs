@@ -60,7 +60,11 @@ impl Rejects {
 
     /// Decodes a message received on `key`; counts it as undecodable and returns `None` when
     /// the bytes are not one.
-    pub fn decode<T: DeserializeOwned + Validate>(&mut self, key: &str, payload: &[u8]) -> Option<T> {
+    pub fn decode<T: DeserializeOwned + Validate>(
+        &mut self,
+        key: &str,
+        payload: &[u8],
+    ) -> Option<T> {
         match proto::decode(payload) {
             Ok(m) => Some(m),
             Err(e) => {
@@ -109,10 +113,17 @@ mod tests {
         let keys = Keys::new("s").unwrap();
         let mut r = Rejects::new("sim", &keys);
         assert!(r.decode::<proto::ClockTick>(&keys.clock(), &[]).is_none());
-        assert!(r.decode::<proto::ClockTick>(&keys.clock(), &[9; 64]).is_none());
+        assert!(
+            r.decode::<proto::ClockTick>(&keys.clock(), &[9; 64])
+                .is_none()
+        );
         let good = proto::encode(&proto::ClockTick::at(3).unwrap());
         assert!(r.decode::<proto::ClockTick>(&keys.clock(), &good).is_some());
-        r.reject(&keys.sched_cmd(), RejectReason::OutOfContract, &"tick 2 is past");
+        r.reject(
+            &keys.sched_cmd(),
+            RejectReason::OutOfContract,
+            &"tick 2 is past",
+        );
         r.reject("elsewhere/x", RejectReason::UnexpectedKey, &"not ours");
         let long = "k".repeat(10_000);
         r.reject(&long, RejectReason::UnexpectedKey, &"long");

@@ -101,7 +101,10 @@ mod tests {
                 count("sched/cmd", RejectReason::OutOfContract, 2),
             ],
         };
-        assert_eq!(crate::decode::<RejectReport>(&crate::encode(&r)).unwrap(), r);
+        assert_eq!(
+            crate::decode::<RejectReport>(&crate::encode(&r)).unwrap(),
+            r
+        );
         assert_eq!(r.total(), 6);
         let mut unsorted = r.clone();
         unsorted.counts.swap(0, 2);
