@@ -43,10 +43,11 @@ struct Args {
     /// Rate of the event-frame pictures in the `/view/<o>/events` channels, Hz (0: none).
     #[arg(long, default_value_t = 2.0)]
     event_view_hz: f64,
-    /// Record every n-th RGB frame (raw and as an image).
+    /// A view image (`/view/<o>/rgb`) of every n-th RGB frame; the raw channel holds every
+    /// update the camera published (lossless: replayable) whatever this is.
     #[arg(long, default_value_t = 25)]
     rgb_every: u64,
-    /// Record every RGB frame (same as `--rgb-every 1`).
+    /// A view image of every RGB frame (same as `--rgb-every 1`).
     #[arg(long)]
     all_rgb: bool,
     /// Uncompressed chunk size, KiB.
@@ -100,7 +101,6 @@ fn main() -> Result<()> {
                             mission_end_at.get_or_insert_with(Instant::now);
                         }
                     }
-                    Recorded::Skipped => {}
                     Recorded::UnknownKey => {
                         warnings += 1;
                         if warnings <= 20 {

@@ -67,7 +67,8 @@ pub struct RunArgs {
     /// case in its metadata; see `waggle audit` and `waggle replay`).
     #[arg(long)]
     no_record: bool,
-    /// Record every RGB frame (by default one in 25, i.e. 1 Hz).
+    /// A view image of every RGB frame in the recording (by default one in 25, i.e. 1 Hz; the
+    /// raw channel holds every frame losslessly either way).
     #[arg(long)]
     record_all_rgb: bool,
     /// The launcher's own endpoints (default: listen on a free loopback port). Children

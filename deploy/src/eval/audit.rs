@@ -56,7 +56,7 @@ impl Gathered {
                 }
                 return;
             }
-            Decoded::RgbFrame(_) => {
+            Decoded::RgbFrame(_) | Decoded::RgbUpdate(_) => {
                 *self.packets.entry(observer()).or_default() += 1;
                 return;
             }

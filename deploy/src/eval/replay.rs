@@ -1,13 +1,19 @@
-//! `waggle replay DIR/session.mcap [--json]`: the event receivers re-run from a recording.
+//! `waggle replay DIR/session.mcap [--json]`: the receivers re-run from a recording.
 //!
-//! Loads no MuJoCo scene and no RGB image. For each observer it feeds a fresh
-//! [`ObserverRuntime`] — the very code path `observer-node` runs — with that observer's
-//! recorded raw event packets and the recorded session controls (reception windows, round
-//! resets, mission end), tick by tick in the observer process's order: the controls of tick
-//! k−1, then packet k, or "missing" when the recording holds no packet k (a later packet of that
-//! camera exists, or the recording ends). It then compares every released payload and final-NULL
-//! time — and, more strictly, every token, decision and per-tick input state — with the live
-//! decodes recorded on `observer/Oi/{frames,tokens,decision,status}`. Any mismatch fails.
+//! Loads no MuJoCo scene. For each observer it feeds a fresh [`ObserverRuntime`] — the very
+//! code path `observer-node` runs — with that observer's recorded raw sensor input (event
+//! packets, or the RGB camera's key frames and changed rectangles, rebuilt into whole frames)
+//! and the recorded session controls (reception windows, round resets, mission end), tick by
+//! tick in the observer process's order: the controls of tick k−1, then packet k, or "missing"
+//! when the recording holds no packet k (a later packet of that camera exists, or the recording
+//! ends). It then compares every released payload and final-NULL time — and, more strictly,
+//! every token, decision and per-tick input state — with the live decodes recorded on
+//! `observer/Oi/{frames,tokens,decision,status}`. Any mismatch fails.
+//!
+//! A damaged or cut recording is compared only where it covers the run: for each observer, up
+//! to the last tick whose sensor input and live status both survive (and before the first
+//! damaged stretch). The report says so (`partial`, `covered_through_s`); a mismatch inside
+//! that range is still a mismatch.
 
 use std::collections::BTreeMap;
 
@@ -16,7 +22,8 @@ use perception::perception::Modality;
 use perception::runtime::ObserverRuntime;
 use perception::tick::{MissingReason, Step, TickAssembler};
 use proto::{
-    Decision, EventPacket, FrameEvent, InputState, ObserverId, Roster, SessionControl, TokenEvent,
+    Decision, EventPacket, FrameEvent, InputState, ObserverId, RgbReassembler, RgbUpdate, Roster,
+    SessionControl, TICK_NS, TokenEvent,
 };
 use recording::Decoded;
 use serde::Serialize;
@@ -43,36 +50,52 @@ pub struct ObserverReplay {
     pub ticks_replayed: u64,
     pub packets: u64,
     pub events: u64,
+    /// RGB updates that built on a frame the recording does not hold (treated as missing).
+    pub unassembled: u64,
+    /// The last tick compared (`None`: the whole run).
+    pub covered_through_tick: Option<u64>,
 }
 
 /// What `waggle replay --json` prints.
 #[derive(Debug, Clone, Serialize)]
 pub struct ReplayReport {
+    /// The recording is cut or damaged: each observer is compared up to its
+    /// `covered_through_tick`.
     pub partial: bool,
+    /// Why, when partial.
+    pub partial_reason: Option<String>,
+    /// `rgb` or `events`.
+    pub modality: String,
     pub observers: BTreeMap<String, ObserverReplay>,
     pub all_matched: bool,
 }
 
 /// One observer's receiver driven exactly as `observer-node`'s main loop drives it: the
-/// shared tick assembler ([`TickAssembler`]) orders the recorded session controls and event
-/// packets, the recording's clock is its watermark, and its end judges a packet missing.
+/// shared tick assembler ([`TickAssembler`]) orders the recorded session controls and sensor
+/// packets, the recording's clock is its watermark, and its end judges a packet missing. Every
+/// output is kept with the tick that produced it, so a partial recording can be compared up to
+/// where it covers the run.
 struct Replayer {
     runtime: ObserverRuntime,
     assembler: TickAssembler,
     done: bool,
-    tokens: Vec<TokenEvent>,
-    frames: Vec<FrameEvent>,
-    decisions: Vec<Decision>,
+    tokens: Vec<(u64, TokenEvent)>,
+    frames: Vec<(u64, FrameEvent)>,
+    decisions: Vec<(u64, Decision)>,
     inputs: BTreeMap<u64, InputState>,
     packets_seen: u64,
     events_seen: u64,
+    /// Rebuilds RGB frames from the recorded updates (RGB sessions).
+    rgb: RgbReassembler,
+    unassembled: u64,
+    last_packet_tick: Option<u64>,
 }
 
 impl Replayer {
-    fn new(id: ObserverId, observers: usize) -> Result<Self> {
+    fn new(id: ObserverId, observers: usize, modality: Modality) -> Result<Self> {
         Ok(Self {
-            runtime: ObserverRuntime::new(id, Roster::default_scene(observers), Modality::Events)
-                .context("building the event receiver")?,
+            runtime: ObserverRuntime::new(id, Roster::default_scene(observers), modality)
+                .context("building the receiver")?,
             assembler: TickAssembler::new(),
             done: false,
             tokens: Vec::new(),
@@ -81,13 +104,29 @@ impl Replayer {
             inputs: BTreeMap::new(),
             packets_seen: 0,
             events_seen: 0,
+            rgb: RgbReassembler::default(),
+            unassembled: 0,
+            last_packet_tick: None,
         })
     }
 
     fn packet(&mut self, p: EventPacket) {
         self.packets_seen += 1;
         self.events_seen += p.len() as u64;
-        self.assembler.packet(p);
+        let (tick, _) = self.assembler.packet(p);
+        self.last_packet_tick = self.last_packet_tick.max(Some(tick));
+    }
+
+    fn rgb_update(&mut self, u: RgbUpdate) {
+        match self.rgb.apply(u) {
+            Ok(frame) => {
+                self.packets_seen += 1;
+                let (tick, _) = self.assembler.packet(frame);
+                self.last_packet_tick = self.last_packet_tick.max(Some(tick));
+            }
+            // Its base frame is not in the recording (damage): the tick is judged missing.
+            Err(_) => self.unassembled += 1,
+        }
     }
 
     /// Advances as far as the recording read so far allows (`last_clock`: the latest recorded
@@ -113,9 +152,12 @@ impl Replayer {
                         .runtime
                         .step(tick, input.data())
                         .with_context(|| format!("replaying tick {tick}"))?;
-                    self.tokens.extend(report.tokens);
-                    self.frames.extend(report.frames);
-                    self.decisions.extend(report.decision);
+                    self.tokens
+                        .extend(report.tokens.into_iter().map(|t| (tick, t)));
+                    self.frames
+                        .extend(report.frames.into_iter().map(|f| (tick, f)));
+                    self.decisions
+                        .extend(report.decision.into_iter().map(|d| (tick, d)));
                     self.inputs.insert(tick, report.status.input);
                 }
             }
@@ -132,27 +174,27 @@ struct Live {
     inputs: BTreeMap<u64, InputState>,
 }
 
+impl Live {
+    fn last_status_tick(&self) -> Option<u64> {
+        self.inputs.keys().next_back().copied()
+    }
+}
+
 /// Replays the recording at `path` and compares with its live decodes.
 pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
     let mut replayers: BTreeMap<ObserverId, Replayer> = BTreeMap::new();
     let mut live: BTreeMap<ObserverId, Live> = BTreeMap::new();
-    let mut observers: Option<usize> = None;
-    let mut modality: Option<String> = None;
     let mut sessions_all: BTreeMap<u64, Vec<SessionControl>> = BTreeMap::new();
     let mut last_clock: Option<u64> = None;
-    let mut rgb_frames = 0u64;
+    let mut whole_rgb_frames = 0u64;
     let info = recording::leading_metadata(&resolve(path), recording::SESSION_METADATA)?
         .map(|m| recording::SessionInfo::from_metadata(&m));
-    if let Some(info) = info {
-        observers = Some(info.observers).filter(|n| *n > 0);
-        modality = info.modality;
-    }
-    if modality.as_deref() == Some("rgb") {
-        bail!(
-            "replay needs raw event packets: this recording is of an RGB session (modality rgb); \
-             the event receivers cannot be replayed from it"
-        );
-    }
+    let observers = info.as_ref().map(|i| i.observers).filter(|n| *n > 0);
+    let recorded_modality = info.as_ref().and_then(|i| i.modality.clone());
+    let modality = match recorded_modality.as_deref() {
+        Some("rgb") => Modality::Rgb,
+        _ => Modality::Events,
+    };
     let n = observers.unwrap_or(proto::scene::MAX_OBSERVERS);
     let scanned = scan(path, |item| {
         match item.msg {
@@ -163,13 +205,17 @@ pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
                 }
                 sessions_all.insert(s.tick, s.controls);
             }
-            Decoded::EventPacket(p) => {
+            Decoded::EventPacket(p) if modality == Modality::Events => {
                 let o = topic_observer(item.topic)
                     .with_context(|| format!("no observer in topic {}", item.topic))?;
-                let r = replayer(&mut replayers, &o, n, &sessions_all)?;
-                r.packet(p);
+                replayer(&mut replayers, &o, n, modality, &sessions_all)?.packet(p);
             }
-            Decoded::RgbFrame(_) => rgb_frames += 1,
+            Decoded::RgbUpdate(u) if modality == Modality::Rgb => {
+                let o = topic_observer(item.topic)
+                    .with_context(|| format!("no observer in topic {}", item.topic))?;
+                replayer(&mut replayers, &o, n, modality, &sessions_all)?.rgb_update(u);
+            }
+            Decoded::RgbFrame(_) => whole_rgb_frames += 1,
             Decoded::FrameEvent(f) => live.entry(f.observer.clone()).or_default().frames.push(f),
             Decoded::TokenEvent(t) => live.entry(t.observer.clone()).or_default().tokens.push(t),
             Decoded::Decision(d) => live
@@ -191,23 +237,49 @@ pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
         Ok(())
     })?;
     if replayers.is_empty() {
-        if rgb_frames > 0 {
+        if whole_rgb_frames > 0 {
             bail!(
-                "replay needs raw event packets: this recording holds RGB frames only (an RGB \
-                 session); the event receivers cannot be replayed from it"
+                "this RGB recording holds one whole frame in 25 (made before every RGB update was \
+                 recorded): the RGB receivers cannot be replayed from it; record it again"
             );
         }
-        bail!("the recording holds no event packets: nothing to replay");
+        bail!(
+            "the recording holds no {} sensor input: nothing to replay",
+            match modality {
+                Modality::Rgb => "RGB",
+                Modality::Events => "event",
+            }
+        );
     }
+    let partial = !scanned.outcome.complete;
     let mut report = ReplayReport {
-        partial: !scanned.outcome.complete,
+        partial,
+        partial_reason: scanned.outcome.problem.clone(),
+        modality: match modality {
+            Modality::Rgb => "rgb",
+            Modality::Events => "events",
+        }
+        .to_string(),
         observers: BTreeMap::new(),
         all_matched: true,
     };
+    let first_damage_tick = scanned
+        .outcome
+        .first_damage_ns
+        .map(|t| (t / TICK_NS).saturating_sub(1));
     for (id, r) in &mut replayers {
         r.advance(last_clock, true)?;
         let l = live.remove(id).unwrap_or_default();
-        let o = compare(r, l);
+        // Where the recording covers this observer: its input and its live outputs both
+        // survive, and nothing before is damaged.
+        let horizon = partial.then(|| {
+            [r.last_packet_tick, l.last_status_tick(), first_damage_tick]
+                .into_iter()
+                .flatten()
+                .min()
+                .unwrap_or(0)
+        });
+        let o = compare(r, l, horizon);
         if !o.mismatches.is_empty()
             || !o.tokens_identical
             || !o.decisions_identical
@@ -224,11 +296,12 @@ fn replayer<'a>(
     replayers: &'a mut BTreeMap<ObserverId, Replayer>,
     id: &ObserverId,
     n: usize,
+    modality: Modality,
     sessions: &BTreeMap<u64, Vec<SessionControl>>,
 ) -> Result<&'a mut Replayer> {
     if !replayers.contains_key(id) {
         // Session ticks recorded before this observer's first packet apply to it too.
-        let mut r = Replayer::new(id.clone(), n)?;
+        let mut r = Replayer::new(id.clone(), n, modality)?;
         for (tick, controls) in sessions {
             r.assembler.session(*tick, controls.clone());
         }
@@ -237,19 +310,55 @@ fn replayer<'a>(
     Ok(replayers.get_mut(id).expect("inserted above"))
 }
 
-fn compare(r: &Replayer, mut l: Live) -> ObserverReplay {
+/// Compares the replay with the live decodes: wholly, or (`horizon`) what the ticks up to
+/// `horizon` produced — the live streams must begin with exactly that.
+fn compare(r: &Replayer, mut l: Live, horizon: Option<u64>) -> ObserverReplay {
     l.frames.sort_by_key(|f| f.seq);
     l.tokens.sort_by_key(|t| t.seq);
+    let within = |tick: u64| horizon.is_none_or(|h| tick <= h);
+    let frames: Vec<&FrameEvent> = r
+        .frames
+        .iter()
+        .filter(|(t, _)| within(*t))
+        .map(|(_, f)| f)
+        .collect();
+    let tokens: Vec<TokenEvent> = r
+        .tokens
+        .iter()
+        .filter(|(t, _)| within(*t))
+        .map(|(_, x)| x.clone())
+        .collect();
+    let decisions: Vec<Decision> = r
+        .decisions
+        .iter()
+        .filter(|(t, _)| within(*t))
+        .map(|(_, d)| d.clone())
+        .collect();
+    // A partial recording's live streams may go on past the horizon: compare their prefix.
+    let cut = |n_live: usize, n_replay: usize| {
+        if horizon.is_some() {
+            n_live.min(n_replay)
+        } else {
+            n_live
+        }
+    };
+    let live_frames = &l.frames[..cut(l.frames.len(), frames.len())];
+    let live_tokens = &l.tokens[..cut(l.tokens.len(), tokens.len())];
+    let live_decisions = &l.decisions[..cut(l.decisions.len(), decisions.len())];
     let mut out = ObserverReplay {
-        payloads_live: l.frames.len(),
-        payloads_replayed: r.frames.len(),
-        tokens_live: l.tokens.len(),
-        tokens_replayed: r.tokens.len(),
-        tokens_identical: l.tokens == r.tokens,
-        decisions_identical: l.decisions == r.decisions,
-        ticks_replayed: r.assembler.next_tick(),
+        payloads_live: live_frames.len(),
+        payloads_replayed: frames.len(),
+        tokens_live: live_tokens.len(),
+        tokens_replayed: tokens.len(),
+        tokens_identical: live_tokens == tokens.as_slice(),
+        decisions_identical: live_decisions == decisions.as_slice(),
+        ticks_replayed: horizon.map_or(r.assembler.next_tick(), |h| {
+            (h + 1).min(r.assembler.next_tick())
+        }),
         packets: r.packets_seen,
         events: r.events_seen,
+        unassembled: r.unassembled,
+        covered_through_tick: horizon,
         ..ObserverReplay::default()
     };
     let label = |f: Option<&FrameEvent>| {
@@ -261,8 +370,8 @@ fn compare(r: &Replayer, mut l: Live) -> ObserverReplay {
             )
         })
     };
-    for i in 0..l.frames.len().max(r.frames.len()) {
-        let (a, b) = (l.frames.get(i), r.frames.get(i));
+    for i in 0..live_frames.len().max(frames.len()) {
+        let (a, b) = (live_frames.get(i), frames.get(i).copied());
         match (a, b) {
             (Some(a), Some(b))
                 if a.frame.payload == b.frame.payload
@@ -280,6 +389,7 @@ fn compare(r: &Replayer, mut l: Live) -> ObserverReplay {
     out.input_disagreements = l
         .inputs
         .iter()
+        .filter(|(t, _)| within(**t))
         .filter(|(t, s)| r.inputs.get(t).is_some_and(|x| x != *s))
         .map(|(t, _)| *t)
         .collect();
@@ -289,7 +399,10 @@ fn compare(r: &Replayer, mut l: Live) -> ObserverReplay {
 /// Prints the replay as text (`waggle replay` without `--json`).
 pub fn print_replay(report: &ReplayReport) {
     if report.partial {
-        println!("(partial recording: replayed what could be read)");
+        println!(
+            "partial recording ({}): each observer compared up to the last tick it covers",
+            report.partial_reason.as_deref().unwrap_or("cut or damaged")
+        );
     }
     for (o, r) in &report.observers {
         println!(
@@ -314,6 +427,12 @@ pub fn print_replay(report: &ReplayReport) {
             r.events,
             r.ticks_replayed
         );
+        if let Some(t) = r.covered_through_tick {
+            println!(
+                "  compared through tick {t} (sim {:.2} s)",
+                ns_s(t * TICK_NS)
+            );
+        }
         for m in &r.mismatches {
             println!("  ✗ {m}");
         }

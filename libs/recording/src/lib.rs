@@ -16,7 +16,9 @@ pub mod topics;
 pub mod views;
 pub mod writer;
 
-pub use reader::{ReadError, ReadOutcome, RecordedMessage, leading_metadata, read_recording};
+pub use reader::{
+    Damage, ReadError, ReadOutcome, RecordedMessage, leading_metadata, read_recording,
+};
 pub use topics::{Decoded, MessageKind, RAW_ENCODING, Topic, classify, decode};
 pub use writer::{
     RECORDER_METADATA, RecordError, RecordStats, Recorded, RecorderOptions, SESSION_METADATA,
@@ -147,7 +149,7 @@ mod tests {
     }
 
     #[test]
-    fn rgb_frames_are_recorded_at_the_reduced_rate_raw_and_as_images() {
+    fn every_rgb_update_is_recorded_raw_and_views_come_at_the_reduced_rate() {
         let keys = Keys::new("r").unwrap();
         let o2 = ObserverId::new("O2").unwrap();
         let info = SessionInfo {
@@ -160,7 +162,8 @@ mod tests {
             ..RecorderOptions::default()
         };
         let mut w = SessionWriter::new(Cursor::new(Vec::new()), &info, options).unwrap();
-        let mut kept = Vec::new();
+        let mut sent = Vec::new();
+        let mut frames = Vec::new();
         for k in 1..=60u64 {
             let f = proto::RgbFrame {
                 seq: k - 1,
@@ -171,7 +174,6 @@ mod tests {
                 continuous: true,
                 rgb: vec![k as u8; 6],
             };
-            let bytes = proto::encode(&f);
             // Cameras publish updates: a key frame, then only what changed (here everything).
             let update = if k == 1 {
                 proto::RgbUpdate::key(&f)
@@ -184,22 +186,26 @@ mod tests {
                 };
                 proto::RgbUpdate::delta(&f, k - 2, whole)
             };
-            match w
-                .record(&keys.sensor_rgb(&o2), &proto::encode(&update))
-                .unwrap()
-            {
-                Recorded::Message { .. } => kept.push(bytes),
-                Recorded::Skipped => {}
+            let bytes = proto::encode(&update);
+            match w.record(&keys.sensor_rgb(&o2), &bytes).unwrap() {
+                Recorded::Message { kind, .. } => assert_eq!(kind, MessageKind::RgbUpdate),
                 other => panic!("{other:?}"),
             }
+            sent.push(bytes);
+            frames.push(f);
         }
-        assert_eq!(kept.len(), 3, "frames 1, 26 and 51");
         assert_eq!(w.stats().rgb_skipped["O2"], 57);
         let bytes = w.finish(Default::default()).unwrap().into_inner();
         let (out, got) = read_bytes(&bytes);
         assert!(out.complete);
         let raw: Vec<_> = got.iter().filter(|m| m.0 == "/sensor/O2/rgb").collect();
-        assert_eq!(raw.iter().map(|m| m.3.clone()).collect::<Vec<_>>(), kept);
+        assert_eq!(raw.iter().map(|m| m.3.clone()).collect::<Vec<_>>(), sent);
+        // The raw updates rebuild every frame, bit for bit.
+        let mut rx = proto::RgbReassembler::default();
+        for (m, f) in raw.iter().zip(&frames) {
+            let u: proto::RgbUpdate = proto::decode(&m.3).unwrap();
+            assert_eq!(&rx.apply(u).unwrap(), f);
+        }
         let images: Vec<_> = got.iter().filter(|m| m.0 == "/view/O2/rgb").collect();
         assert_eq!(images.len(), 3);
         assert_eq!(images[1].1, "foxglove.RawImage");
@@ -270,5 +276,99 @@ mod tests {
         }
         let (out, _) = read_bytes(&bad);
         assert!(!out.complete && out.problem.is_some());
+    }
+
+    /// Offsets of the top-level records of an intact file: (offset, opcode, body length).
+    fn records_of(bytes: &[u8]) -> Vec<(usize, u8, usize)> {
+        let mut out = Vec::new();
+        let mut pos = 8;
+        while pos + 9 <= bytes.len() - 8 {
+            let len = u64::from_le_bytes(bytes[pos + 1..pos + 9].try_into().unwrap()) as usize;
+            out.push((pos, bytes[pos], len));
+            pos += 9 + len;
+        }
+        out
+    }
+
+    fn packets_of(path_bytes: &[u8]) -> (ReadOutcome, Vec<Vec<u8>>) {
+        let (out, got) = read_bytes(path_bytes);
+        let packets = got
+            .into_iter()
+            .filter(|m| m.0 == "/sensor/O1/events")
+            .map(|m| m.3)
+            .collect();
+        (out, packets)
+    }
+
+    #[test]
+    fn a_damaged_chunk_is_skipped_and_reading_resumes_at_the_next_intact_one() {
+        let options = RecorderOptions {
+            chunk_bytes: 16 << 10,
+            ..RecorderOptions::default()
+        };
+        let (bytes, sent) = record(300, options);
+        let (intact, all) = packets_of(&bytes);
+        assert!(intact.complete, "{:?}", intact.problem);
+        assert_eq!(intact.data_crc_ok, Some(true));
+        assert_eq!(intact.summary_crc_ok, Some(true));
+        assert_eq!(all, sent);
+        let chunks: Vec<_> = records_of(&bytes)
+            .into_iter()
+            .filter(|r| r.1 == mcap::records::op::CHUNK)
+            .collect();
+        assert!(chunks.len() > 6, "{} chunks", chunks.len());
+        let (at, _, len) = chunks[3];
+
+        // 1. Bytes flipped inside one chunk: its CRC fails, the next chunk is read.
+        let mut bad = bytes.clone();
+        for b in &mut bad[at + 9 + len / 2..at + 9 + len / 2 + 8] {
+            *b ^= 0xff;
+        }
+        let (out, got) = packets_of(&bad);
+        assert!(!out.complete);
+        assert_eq!(out.damaged.len(), 1, "{:?}", out.damaged);
+        let d = &out.damaged[0];
+        assert_eq!((d.from_byte, d.to_byte), (at as u64, (at + 9 + len) as u64));
+        assert!(d.resumed_ns.is_some() && d.after_ns.is_some(), "{d:?}");
+        assert!(d.after_ns < d.resumed_ns);
+        assert_eq!(out.first_damage_ns, d.after_ns);
+        assert_eq!(out.summary_crc_ok, Some(true));
+        assert_eq!(out.data_crc_ok, None, "not checkable after damage");
+        // Every packet read is one that was sent, in order, with one contiguous gap.
+        let first = got.iter().position(|p| !sent.contains(p));
+        assert_eq!(first, None);
+        let lost = sent.len() - got.len();
+        assert!(lost > 0 && lost < sent.len() / 3, "lost {lost}");
+        let gap = got.iter().zip(&sent).position(|(a, b)| a != b).unwrap();
+        assert_eq!(got[gap..], sent[gap + lost..]);
+        assert!(
+            out.problem
+                .unwrap()
+                .contains("resumed at the next intact chunk")
+        );
+
+        // 2. A garbled record length: framing is lost; the reader finds the next chunk.
+        let mut garbled = bytes.clone();
+        garbled[at + 1..at + 9].copy_from_slice(&u64::MAX.to_le_bytes());
+        let (out, got) = packets_of(&garbled);
+        assert_eq!(out.damaged.len(), 1, "{:?}", out.damaged);
+        assert_eq!(out.damaged[0].from_byte, at as u64);
+        assert!(out.damaged[0].to_byte > at as u64);
+        assert!(got.len() < sent.len() && got.len() > sent.len() / 2);
+        assert_eq!(got.last(), sent.last(), "the end of the file is read again");
+
+        // 3. A flipped byte in the summary section: every message is read, the CRC says so.
+        let summary_at = records_of(&bytes)
+            .into_iter()
+            .find(|r| r.1 == mcap::records::op::DATA_END)
+            .map(|r| r.0 + 9 + r.2)
+            .unwrap();
+        let mut bad_summary = bytes.clone();
+        bad_summary[summary_at + 12] ^= 0x01;
+        let (out, got) = packets_of(&bad_summary);
+        assert_eq!(got, sent);
+        assert_eq!(out.summary_crc_ok, Some(false));
+        assert!(!out.complete);
+        assert!(out.problem.unwrap().contains("summary section CRC"));
     }
 }

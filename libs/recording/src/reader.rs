@@ -1,12 +1,14 @@
 //! Reading a recording back, chunk by chunk, tolerating a cut or damaged tail.
 //!
-//! The file is streamed (memory stays at about one chunk) with chunk CRCs checked before any
-//! record of a chunk is handed out, so a truncated or corrupt recording yields every message of
-//! the chunks before the damage and then stops with [`ReadOutcome::complete`] false and the
-//! reason — never a panic.
+//! The file is read record by record (memory stays at about one chunk) with chunk CRCs checked
+//! before any record of a chunk is handed out. A damaged chunk is skipped; broken framing (a
+//! garbled length, a cut) makes the reader search for the next intact chunk and resume there.
+//! Each skipped stretch is reported with its byte range and the log times around it, the data
+//! and summary section CRCs are verified, and [`ReadOutcome::complete`] is true only for an
+//! intact file — never a panic.
 
 use std::collections::BTreeMap;
-use std::io::Read;
+use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
 
 use mcap::records::{Record, op};
@@ -24,13 +26,56 @@ pub struct RecordedMessage<'a> {
     pub data: &'a [u8],
 }
 
+/// A stretch of a recording that could not be read.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Damage {
+    /// Byte range `[from_byte, to_byte)` skipped.
+    pub from_byte: u64,
+    pub to_byte: u64,
+    /// Log time of the last message read before it, ns (`None`: none before).
+    pub after_ns: Option<u64>,
+    /// Log time of the first message read after it, ns (`None`: nothing after).
+    pub resumed_ns: Option<u64>,
+    pub reason: String,
+}
+
+impl std::fmt::Display for Damage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = |t: Option<u64>| t.map_or("-".to_string(), |t| format!("{:.3} s", t as f64 * 1e-9));
+        write!(
+            f,
+            "bytes {}..{} ({}; messages from {} to {} lost{})",
+            self.from_byte,
+            self.to_byte,
+            self.reason,
+            s(self.after_ns),
+            s(self.resumed_ns),
+            if self.resumed_ns.is_some() {
+                ", resumed at the next intact chunk"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
 /// How far a recording could be read.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct ReadOutcome {
-    /// The whole file was read, through its footer and closing magic.
+    /// The whole file was read, through its footer and closing magic, without damage and with
+    /// matching data and summary CRCs.
     pub complete: bool,
-    /// Why reading stopped early (truncation, corruption), when it did.
+    /// Why it is not complete (every damaged stretch, a CRC mismatch, a missing footer).
     pub problem: Option<String>,
+    /// The stretches skipped; reading resumed at the next intact chunk after each.
+    pub damaged: Vec<Damage>,
+    /// Log time of the last message read before the first damage, ns: the recording covers
+    /// the run without gaps up to there.
+    pub first_damage_ns: Option<u64>,
+    /// The data section's CRC (`None`: not stored, or not checkable after damage).
+    pub data_crc_ok: Option<bool>,
+    /// The summary section's CRC (`None`: no footer, or not stored).
+    pub summary_crc_ok: Option<bool>,
     /// Metadata records by name.
     pub metadata: BTreeMap<String, BTreeMap<String, String>>,
     pub messages: u64,
@@ -60,117 +105,344 @@ struct ChannelInfo {
 /// Largest record accepted (a chunk is bounded by the writer's chunk size; a single message may
 /// exceed it, e.g. a raw RGB frame).
 const RECORD_LIMIT_BYTES: usize = 1 << 30;
+/// Bytes of a chunk record before its compression string: start and end time, uncompressed
+/// size, uncompressed CRC.
+const CHUNK_FIXED_BYTES: u64 = 8 + 8 + 8 + 4;
 
-/// Streams every message of `path` to `visit`, in file order. A visitor error stops reading
-/// and is returned as is.
+/// Schemas, channels and the outcome while reading.
+struct Reading {
+    schemas: BTreeMap<u16, String>,
+    channels: BTreeMap<u16, ChannelInfo>,
+    out: ReadOutcome,
+    last_log_ns: Option<u64>,
+    /// A damage whose first message after it is still to come.
+    open_damage: Option<usize>,
+}
+
+impl Reading {
+    fn damage(&mut self, from_byte: u64, to_byte: u64, reason: String) {
+        if self.out.damaged.is_empty() {
+            self.out.first_damage_ns = Some(self.last_log_ns.unwrap_or(0));
+        }
+        self.out.damaged.push(Damage {
+            from_byte,
+            to_byte,
+            after_ns: self.last_log_ns,
+            resumed_ns: None,
+            reason,
+        });
+        self.open_damage = Some(self.out.damaged.len() - 1);
+    }
+
+    /// Handles one record (top level or inside a chunk).
+    fn record<E>(
+        &mut self,
+        record: Record<'_>,
+        visit: &mut impl FnMut(&RecordedMessage<'_>) -> Result<(), E>,
+    ) -> Result<(), E> {
+        match record {
+            Record::Schema { header, .. } => {
+                self.schemas.insert(header.id, header.name);
+            }
+            Record::Channel(c) => {
+                self.channels.insert(
+                    c.id,
+                    ChannelInfo {
+                        topic: c.topic,
+                        schema_id: c.schema_id,
+                        encoding: c.message_encoding,
+                    },
+                );
+            }
+            Record::Message { header, data } => {
+                let Some(c) = self.channels.get(&header.channel_id) else {
+                    self.out.orphan_messages += 1;
+                    return Ok(());
+                };
+                self.out.messages += 1;
+                if let Some(i) = self.open_damage.take() {
+                    self.out.damaged[i].resumed_ns = Some(header.log_time);
+                }
+                self.last_log_ns = Some(header.log_time);
+                visit(&RecordedMessage {
+                    topic: &c.topic,
+                    schema: self.schemas.get(&c.schema_id).map_or("", String::as_str),
+                    message_encoding: &c.encoding,
+                    log_time_ns: header.log_time,
+                    publish_time_ns: header.publish_time,
+                    data: &data,
+                })?;
+            }
+            Record::Metadata(m) => {
+                self.out.metadata.insert(m.name, m.metadata);
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}
+
+/// The records inside one chunk record (`bytes`: opcode, length, body), decompressed and
+/// checked against the chunk's CRC before any is returned.
+fn chunk_records(bytes: &[u8]) -> Result<Vec<(u8, Vec<u8>)>, String> {
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_skip_start_magic(true)
+            .with_skip_end_magic(true)
+            .with_prevalidate_chunk_crcs(true)
+            .with_record_length_limit(RECORD_LIMIT_BYTES),
+    );
+    let mut fed = false;
+    let mut out = Vec::new();
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| e.to_string())? {
+            LinearReadEvent::ReadRequest(need) => {
+                if fed {
+                    reader.notify_read(0);
+                } else {
+                    let n = need.max(bytes.len());
+                    let buf = reader.insert(n);
+                    buf[..bytes.len()].copy_from_slice(bytes);
+                    reader.notify_read(bytes.len());
+                    fed = true;
+                }
+            }
+            LinearReadEvent::Record { data, opcode } => out.push((opcode, data.to_vec())),
+        }
+    }
+    Ok(out)
+}
+
+/// True when `body` (a record body following opcode `CHUNK`) looks like a chunk: a known
+/// compression and a records length that fills the record exactly.
+fn plausible_chunk(body_len: u64, head: &[u8]) -> bool {
+    let at = CHUNK_FIXED_BYTES as usize;
+    let Some(len_bytes) = head.get(at..at + 4) else {
+        return false;
+    };
+    let n = u32::from_le_bytes(len_bytes.try_into().expect("4 bytes")) as usize;
+    if n > 8 {
+        return false;
+    }
+    let Some(name) = head.get(at + 4..at + 4 + n) else {
+        return false;
+    };
+    if !matches!(name, b"" | b"zstd" | b"lz4") {
+        return false;
+    }
+    let Some(rl) = head.get(at + 4 + n..at + 4 + n + 8) else {
+        return false;
+    };
+    let records_len = u64::from_le_bytes(rl.try_into().expect("8 bytes"));
+    CHUNK_FIXED_BYTES + 4 + n as u64 + 8 + records_len == body_len
+}
+
+/// The file, read at arbitrary offsets (resynchronisation seeks).
+struct Source {
+    file: std::fs::File,
+    len: u64,
+}
+
+impl Source {
+    fn read_at(&mut self, pos: u64, buf: &mut [u8]) -> std::io::Result<()> {
+        self.file.seek(SeekFrom::Start(pos))?;
+        self.file.read_exact(buf)
+    }
+
+    /// The next offset after `from` where an intact chunk record starts, with its bytes.
+    fn next_chunk(&mut self, from: u64) -> std::io::Result<Option<(u64, Vec<u8>)>> {
+        const WINDOW: u64 = 1 << 20;
+        const HEAD: u64 = 9 + CHUNK_FIXED_BYTES + 4 + 8 + 8;
+        let mut start = from;
+        while start + HEAD <= self.len {
+            let n = WINDOW.min(self.len - start);
+            let mut window = vec![0u8; n as usize];
+            self.read_at(start, &mut window)?;
+            for (i, &b) in window.iter().enumerate() {
+                if b != op::CHUNK {
+                    continue;
+                }
+                let q = start + i as u64;
+                if q + HEAD > self.len {
+                    return Ok(None);
+                }
+                let mut head = vec![0u8; HEAD as usize];
+                self.read_at(q, &mut head)?;
+                let body_len = u64::from_le_bytes(head[1..9].try_into().expect("8 bytes"));
+                if body_len > RECORD_LIMIT_BYTES as u64
+                    || q + 9 + body_len > self.len
+                    || !plausible_chunk(body_len, &head[9..])
+                {
+                    continue;
+                }
+                let mut record = vec![0u8; (9 + body_len) as usize];
+                self.read_at(q, &mut record)?;
+                if chunk_records(&record).is_ok() {
+                    return Ok(Some((q, record)));
+                }
+            }
+            // Overlap the windows so a header across their border is still seen.
+            start += n.saturating_sub(HEAD).max(1);
+        }
+        Ok(None)
+    }
+}
+
+/// Streams every message of `path` to `visit`, in file order. Chunk CRCs are checked before
+/// any message of a chunk is handed out; a damaged chunk (or broken record framing) is
+/// skipped, reported with its byte and time range, and reading resumes at the next intact
+/// chunk; the data and summary section CRCs are verified when stored. A visitor error stops
+/// reading and is returned as is.
 pub fn read_recording<E: From<ReadError>>(
     path: &Path,
     mut visit: impl FnMut(&RecordedMessage<'_>) -> Result<(), E>,
 ) -> Result<ReadOutcome, E> {
     let shown = path.display().to_string();
-    let mut file = std::fs::File::open(path).map_err(|source| ReadError::Io {
+    let io = |source| ReadError::Io {
         path: shown.clone(),
         source,
-    })?;
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            .with_prevalidate_chunk_crcs(true)
-            .with_record_length_limit(RECORD_LIMIT_BYTES),
-    );
-    let mut out = ReadOutcome::default();
-    let mut schemas: BTreeMap<u16, String> = BTreeMap::new();
-    let mut channels: BTreeMap<u16, ChannelInfo> = BTreeMap::new();
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    let len = file.metadata().map_err(io)?.len();
+    let mut src = Source { file, len };
+    let not_mcap = |reason: &str| ReadError::NotMcap {
+        path: shown.clone(),
+        reason: reason.to_string(),
+    };
+    let mut magic = [0u8; 8];
+    if len < 8 || src.read_at(0, &mut magic).is_err() || magic != *mcap::MAGIC {
+        return Err(not_mcap("no MCAP magic at the start").into());
+    }
+    let mut r = Reading {
+        schemas: BTreeMap::new(),
+        channels: BTreeMap::new(),
+        out: ReadOutcome::default(),
+        last_log_ns: None,
+        open_damage: None,
+    };
+    let mut data_crc = crc32fast::Hasher::new();
+    data_crc.update(&magic);
+    let mut in_data = true;
+    let mut summary_crc = crc32fast::Hasher::new();
     let mut saw_footer = false;
-    let mut any_record = false;
-    while let Some(event) = reader.next_event() {
-        let event = match event {
-            Ok(e) => e,
-            Err(e) => {
-                if !any_record {
-                    return Err(ReadError::NotMcap {
-                        path: shown,
-                        reason: e.to_string(),
-                    }
-                    .into());
-                }
-                out.problem = Some(format!("stopped after {} messages: {e}", out.messages));
-                return Ok(out);
+    let mut pos = 8u64;
+    while pos < len {
+        if saw_footer {
+            let mut end = [0u8; 8];
+            let ok = len - pos == 8 && src.read_at(pos, &mut end).is_ok() && end == *mcap::MAGIC;
+            if !ok {
+                r.damage(
+                    pos,
+                    len,
+                    "bytes after the footer are not the closing magic".into(),
+                );
             }
-        };
-        match event {
-            LinearReadEvent::ReadRequest(need) => {
-                let n = match file.read(reader.insert(need)) {
-                    Ok(n) => n,
-                    Err(source) => {
-                        return Err(ReadError::Io {
-                            path: shown,
-                            source,
-                        }
-                        .into());
-                    }
-                };
-                reader.notify_read(n);
-            }
-            LinearReadEvent::Record { data, opcode } => {
-                any_record = true;
-                if opcode == op::FOOTER {
-                    saw_footer = true;
+            break;
+        }
+        let mut header = [0u8; 9];
+        if len - pos < 9 {
+            r.damage(pos, len, "cut inside a record header".into());
+            break;
+        }
+        src.read_at(pos, &mut header).map_err(io)?;
+        let opcode = header[0];
+        let body_len = u64::from_le_bytes(header[1..9].try_into().expect("8 bytes"));
+        let fits = body_len <= RECORD_LIMIT_BYTES as u64 && pos + 9 + body_len <= len;
+        if !fits {
+            // Either the file was cut inside this record, or its header is garbage: look for
+            // the next intact chunk either way.
+            match src.next_chunk(pos + 1).map_err(io)? {
+                Some((q, _)) => {
+                    r.damage(
+                        pos,
+                        q,
+                        format!("record {opcode:#04x} does not fit the file"),
+                    );
+                    pos = q;
+                    continue;
                 }
-                let record = match mcap::parse_record(opcode, data) {
-                    Ok(r) => r,
-                    Err(e) => {
-                        out.problem = Some(format!(
-                            "record {opcode:#04x} after {} messages does not parse: {e}",
-                            out.messages
-                        ));
-                        return Ok(out);
-                    }
-                };
-                match record {
-                    Record::Schema { header, .. } => {
-                        schemas.insert(header.id, header.name);
-                    }
-                    Record::Channel(c) => {
-                        channels.insert(
-                            c.id,
-                            ChannelInfo {
-                                topic: c.topic,
-                                schema_id: c.schema_id,
-                                encoding: c.message_encoding,
-                            },
-                        );
-                    }
-                    Record::Message { header, data } => {
-                        let Some(c) = channels.get(&header.channel_id) else {
-                            out.orphan_messages += 1;
-                            continue;
-                        };
-                        out.messages += 1;
-                        visit(&RecordedMessage {
-                            topic: &c.topic,
-                            schema: schemas.get(&c.schema_id).map_or("", String::as_str),
-                            message_encoding: &c.encoding,
-                            log_time_ns: header.log_time,
-                            publish_time_ns: header.publish_time,
-                            data: &data,
-                        })?;
-                    }
-                    Record::Metadata(m) => {
-                        out.metadata.insert(m.name, m.metadata);
-                    }
-                    _ => {}
+                None => {
+                    r.damage(
+                        pos,
+                        len,
+                        "cut short (a record runs past the end of the file)".into(),
+                    );
+                    break;
                 }
             }
         }
+        let mut record = vec![0u8; (9 + body_len) as usize];
+        src.read_at(pos, &mut record).map_err(io)?;
+        let next = pos + 9 + body_len;
+        if opcode == op::DATA_END {
+            in_data = false;
+        } else if in_data {
+            data_crc.update(&record);
+        } else if opcode != op::FOOTER {
+            summary_crc.update(&record);
+        }
+        match opcode {
+            op::CHUNK => match chunk_records(&record) {
+                Ok(inner) => {
+                    for (op_inner, data) in inner {
+                        match mcap::parse_record(op_inner, &data) {
+                            Ok(rec) => r.record(rec, &mut visit)?,
+                            Err(e) => {
+                                r.damage(
+                                    pos,
+                                    next,
+                                    format!("record in a chunk does not parse: {e}"),
+                                );
+                                break;
+                            }
+                        }
+                    }
+                }
+                Err(e) => r.damage(pos, next, format!("chunk: {e}")),
+            },
+            _ => match mcap::parse_record(opcode, &record[9..]) {
+                Ok(Record::DataEnd(d)) => {
+                    let damaged = !r.out.damaged.is_empty();
+                    if d.data_section_crc != 0 && !damaged {
+                        r.out.data_crc_ok = Some(d.data_section_crc == data_crc.clone().finalize());
+                    }
+                }
+                Ok(Record::Footer(f)) => {
+                    saw_footer = true;
+                    if f.summary_crc != 0 {
+                        // The summary CRC covers the summary sections and the footer up to
+                        // its own CRC field.
+                        summary_crc.update(&record[..9 + 8 + 8]);
+                        r.out.summary_crc_ok =
+                            Some(f.summary_crc == summary_crc.clone().finalize());
+                    }
+                }
+                Ok(rec) => r.record(rec, &mut visit)?,
+                Err(e) => r.damage(
+                    pos,
+                    next,
+                    format!("record {opcode:#04x} does not parse: {e}"),
+                ),
+            },
+        }
+        pos = next;
     }
-    out.complete = saw_footer;
+    let mut problems: Vec<String> = r.out.damaged.iter().map(|d| d.to_string()).collect();
+    if r.out.data_crc_ok == Some(false) {
+        problems.push("the data section CRC does not match".into());
+    }
+    if r.out.summary_crc_ok == Some(false) {
+        problems.push("the summary section CRC does not match".into());
+    }
     if !saw_footer {
-        out.problem = Some(format!(
+        problems.push(format!(
             "no footer after {} messages: the recording was cut short",
-            out.messages
+            r.out.messages
         ));
     }
-    Ok(out)
+    r.out.complete = problems.is_empty();
+    r.out.problem = (!problems.is_empty()).then(|| problems.join("; "));
+    Ok(r.out)
 }
 
 /// The metadata record `name` if it precedes the first message (the writer puts the session

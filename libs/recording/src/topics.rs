@@ -7,7 +7,8 @@
 use proto::{
     BroadcastTick, ClockTick, Decision, DecodeError, EventPacket, Fault, FrameEvent, Key,
     MissionReport, ObserverId, ObserverStatus, ObserverTrack, PerformerSetpoint, PerformerTruth,
-    RejectReport, RgbFrame, SchedCommand, SessionTick, SimContacts, SimState, TICK_NS, TokenEvent,
+    RejectReport, RgbFrame, RgbUpdate, SchedCommand, SessionTick, SimContacts, SimState, TICK_NS,
+    TokenEvent,
 };
 
 /// Message (and schema) encoding of raw channels: the exact bytes of [`proto::encode`].
@@ -34,10 +35,11 @@ pub enum MessageKind {
     MissionReport,
     Fault,
     RejectReport,
+    RgbUpdate,
 }
 
 impl MessageKind {
-    pub const ALL: [MessageKind; 18] = [
+    pub const ALL: [MessageKind; 19] = [
         MessageKind::Clock,
         MessageKind::SimState,
         MessageKind::SimContacts,
@@ -56,6 +58,7 @@ impl MessageKind {
         MessageKind::MissionReport,
         MessageKind::Fault,
         MessageKind::RejectReport,
+        MessageKind::RgbUpdate,
     ];
 
     /// Schema name of the raw channel (`waggle.<Rust type>`).
@@ -79,6 +82,7 @@ impl MessageKind {
             MessageKind::MissionReport => "waggle.MissionReport",
             MessageKind::Fault => "waggle.Fault",
             MessageKind::RejectReport => "waggle.RejectReport",
+            MessageKind::RgbUpdate => "waggle.RgbUpdate",
         }
     }
 
@@ -107,7 +111,9 @@ impl MessageKind {
             Key::SimState => MessageKind::SimState,
             Key::SimContacts => MessageKind::SimContacts,
             Key::SensorEvents(_) => MessageKind::EventPacket,
-            Key::SensorRgb(_) => MessageKind::RgbFrame,
+            // What RGB cameras publish: key frames and changed rectangles (recordings made
+            // before every update was recorded hold whole frames, `MessageKind::RgbFrame`).
+            Key::SensorRgb(_) => MessageKind::RgbUpdate,
             Key::ObserverTokens(_) => MessageKind::TokenEvent,
             Key::ObserverFrames(_) => MessageKind::FrameEvent,
             Key::ObserverDecision(_) => MessageKind::Decision,
@@ -169,6 +175,7 @@ pub enum Decoded {
     MissionReport(MissionReport),
     Fault(Fault),
     RejectReport(RejectReport),
+    RgbUpdate(RgbUpdate),
 }
 
 /// Decodes `bytes` as a message of `kind` with the one [`proto::decode`].
@@ -193,6 +200,7 @@ pub fn decode(kind: MessageKind, bytes: &[u8]) -> Result<Decoded, DecodeError> {
         MessageKind::MissionReport => Decoded::MissionReport(d(bytes)?),
         MessageKind::Fault => Decoded::Fault(d(bytes)?),
         MessageKind::RejectReport => Decoded::RejectReport(d(bytes)?),
+        MessageKind::RgbUpdate => Decoded::RgbUpdate(d(bytes)?),
     })
 }
 
@@ -207,6 +215,7 @@ impl Decoded {
             Decoded::SimContacts(c) => tick(c.tick),
             Decoded::EventPacket(p) => Some(p.end_ns),
             Decoded::RgbFrame(f) => Some(f.stamp_ns),
+            Decoded::RgbUpdate(u) => Some(u.stamp_ns),
             Decoded::TokenEvent(t) => Some(t.confirmed_ns),
             Decoded::FrameEvent(f) => Some(f.frame.final_null_ns()),
             Decoded::Decision(d) => Some(d.decided_ns),
@@ -249,7 +258,7 @@ mod tests {
             ),
             (
                 k.sensor_rgb(&o2),
-                MessageKind::RgbFrame,
+                MessageKind::RgbUpdate,
                 "/sensor/O2/rgb",
                 Some("O2"),
             ),

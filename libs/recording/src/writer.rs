@@ -50,7 +50,8 @@ pub struct RecorderOptions {
     pub chunk_bytes: u64,
     /// Sim-time period of the event-frame pictures (`None`: no event view).
     pub event_view_period_ns: Option<u64>,
-    /// Record every n-th RGB frame (raw and as an image); 1 = all.
+    /// A view image of every n-th RGB frame (`/view/<o>/rgb`); 1 = all. The raw channel
+    /// holds every update the camera published, whatever this is.
     pub rgb_every: u64,
     /// zstd level (0 = zstd's default).
     pub zstd_level: u32,
@@ -120,19 +121,12 @@ pub struct RecordStats {
     pub unknown_keys: BTreeMap<String, u64>,
     /// Payloads that did not decode, per topic (recorded raw all the same).
     pub undecodable: BTreeMap<String, u64>,
-    /// RGB frames not recorded because of the reduced rate, per observer.
+    /// RGB frames without a view image (the view's reduced rate), per observer.
     pub rgb_skipped: BTreeMap<String, u64>,
-    /// RGB updates that built on a frame the recorder did not hold (not recorded), per
-    /// observer.
+    /// RGB updates that built on a frame the recorder did not hold (recorded, no view image),
+    /// per observer.
     pub rgb_unassembled: BTreeMap<String, u64>,
     pub view_images: u64,
-}
-
-/// What the recorder does with one RGB update.
-enum RgbArrival {
-    Keep(proto::RgbFrame),
-    Skip,
-    Undecodable,
 }
 
 /// What became of one received message.
@@ -143,8 +137,6 @@ pub enum Recorded {
         kind: MessageKind,
         mission_end: bool,
     },
-    /// An RGB frame left out by the reduced rate.
-    Skipped,
     /// Recorded raw on a schema-less channel: the key has no known type.
     UnknownKey,
     /// Recorded raw on its channel, but the bytes did not decode.
@@ -164,8 +156,7 @@ pub struct SessionWriter<W: Write + Seek> {
     sequence: BTreeMap<u16, u32>,
     event_views: BTreeMap<ObserverId, EventView>,
     rgb_seen: BTreeMap<ObserverId, u64>,
-    /// Rebuilds each camera's frames from its updates (cameras publish [`proto::RgbUpdate`]s;
-    /// the recording holds whole [`proto::RgbFrame`]s).
+    /// Rebuilds each camera's frames from its updates, for the view images.
     rgb_frames: BTreeMap<ObserverId, proto::RgbReassembler>,
     sim_time_ns: u64,
     stats: RecordStats,
@@ -271,9 +262,6 @@ impl<W: Write + Seek> SessionWriter<W> {
         );
         let mut metadata = BTreeMap::new();
         metadata.insert("key".to_string(), key.to_string());
-        if kind == MessageKind::RgbFrame {
-            metadata.insert("recorded_every".into(), self.options.rgb_every.to_string());
-        }
         self.channel(
             topic,
             Some((kind.schema_name(), RAW_ENCODING, description.into_bytes())),
@@ -299,24 +287,24 @@ impl<W: Write + Seek> SessionWriter<W> {
         self.put(id, time_ns, data)
     }
 
-    /// Applies one RGB update of camera `o`: the whole frame when the reduced rate keeps it
-    /// (frames left out are never encoded, ≈ 1 MB each).
-    fn rgb_frame(&mut self, o: &ObserverId, payload: &[u8]) -> RgbArrival {
-        let Ok(update) = proto::decode::<proto::RgbUpdate>(payload) else {
-            return RgbArrival::Undecodable;
-        };
+    /// Applies one RGB update of camera `o`; the whole frame when its view image is due.
+    fn rgb_view_frame(
+        &mut self,
+        o: &ObserverId,
+        update: &proto::RgbUpdate,
+    ) -> Option<proto::RgbFrame> {
         let frames = self.rgb_frames.entry(o.clone()).or_default();
-        let Ok(frame) = frames.apply(update) else {
+        let Ok(frame) = frames.apply(update.clone()) else {
             *self.stats.rgb_unassembled.entry(o.to_string()).or_insert(0) += 1;
-            return RgbArrival::Skip;
+            return None;
         };
         let n = self.rgb_seen.entry(o.clone()).or_insert(0);
         *n += 1;
         if !(*n - 1).is_multiple_of(self.options.rgb_every.max(1)) {
             *self.stats.rgb_skipped.entry(o.to_string()).or_insert(0) += 1;
-            return RgbArrival::Skip;
+            return None;
         }
-        RgbArrival::Keep(frame)
+        Some(frame)
     }
 
     /// Records one message received on `key`. Never fails on the message itself: unknown keys
@@ -342,19 +330,6 @@ impl<W: Write + Seek> SessionWriter<W> {
             let t = self.sim_time_ns;
             self.put(id, t, payload)?;
             return Ok(Recorded::UnknownKey);
-        };
-        let rebuilt;
-        let payload = match (topic.kind, &topic.observer) {
-            (MessageKind::RgbFrame, Some(o)) => match self.rgb_frame(o, payload) {
-                RgbArrival::Keep(frame) => {
-                    rebuilt = proto::encode(&frame);
-                    &rebuilt[..]
-                }
-                RgbArrival::Skip => return Ok(Recorded::Skipped),
-                // Recorded raw on the frame topic and counted as undecodable below.
-                RgbArrival::Undecodable => payload,
-            },
-            _ => payload,
         };
         let decoded = match decode(topic.kind, payload) {
             Ok(d) => d,
@@ -420,21 +395,23 @@ impl<W: Write + Seek> SessionWriter<W> {
                     }
                 }
             }
-            (Decoded::RgbFrame(f), Some(o)) => {
-                let data = foxglove::raw_image(
-                    f.stamp_ns,
-                    o.as_str(),
-                    u32::from(f.width),
-                    u32::from(f.height),
-                    &f.rgb,
-                );
-                self.foxglove(
-                    &format!("/view/{o}/rgb"),
-                    foxglove::RAW_IMAGE,
-                    f.stamp_ns,
-                    &data,
-                )?;
-                self.stats.view_images += 1;
+            (Decoded::RgbUpdate(u), Some(o)) => {
+                if let Some(f) = self.rgb_view_frame(o, u) {
+                    let data = foxglove::raw_image(
+                        f.stamp_ns,
+                        o.as_str(),
+                        u32::from(f.width),
+                        u32::from(f.height),
+                        &f.rgb,
+                    );
+                    self.foxglove(
+                        &format!("/view/{o}/rgb"),
+                        foxglove::RAW_IMAGE,
+                        f.stamp_ns,
+                        &data,
+                    )?;
+                    self.stats.view_images += 1;
+                }
             }
             (Decoded::SimState(s), _) if s.stamp_ns % TICK_NS == 0 => {
                 let data = foxglove::frame_transforms(s);
