@@ -9,6 +9,7 @@
 //! mission's last tick `cmd` carries `mission_end` and `sched/report` the account of the
 //! mission.
 
+use std::collections::btree_map::Entry;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 
@@ -92,14 +93,16 @@ fn main() -> Result<()> {
         .map(|o| Ok((o.clone(), keys.alive(Role::Observer, o.as_str())?)))
         .collect::<Result<_>>()?;
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
-    let status_key: BTreeMap<ObserverId, String> = observers
-        .iter()
-        .map(|o| (o.clone(), keys.observer_status(o)))
-        .collect();
-    let mut rejects = Rejects::new(Role::Scheduler.as_str(), &keys);
-
-    let mut states: BTreeMap<u64, SimState> = BTreeMap::new();
-    let mut statuses: BTreeMap<u64, BTreeMap<ObserverId, ObserverStatus>> = BTreeMap::new();
+    let mut inbox = Inbox {
+        sim_state_key: keys.sim_state(),
+        status_key: observers
+            .iter()
+            .map(|o| (o.clone(), keys.observer_status(o)))
+            .collect(),
+        rejects: Rejects::new(Role::Scheduler.as_str(), &keys),
+        states: BTreeMap::new(),
+        statuses: BTreeMap::new(),
+    };
     let mut tick = 0u64;
     loop {
         let t_k = tick * TICK_NS;
@@ -108,69 +111,14 @@ fn main() -> Result<()> {
             .filter(|o| bus.is_alive(&alive_key[*o]))
             .cloned()
             .collect();
-        let have = statuses.get(&tick);
-        let ready = states.contains_key(&t_k)
+        let have = inbox.statuses.get(&tick);
+        let ready = inbox.states.contains_key(&t_k)
             && alive
                 .iter()
                 .all(|o| have.is_some_and(|s| s.contains_key(o)));
         if !ready {
             match bus.recv(Duration::from_millis(200)) {
-                Some(Inbound::Data { key, payload }) if key == keys.sim_state() => {
-                    let Some(s) = rejects.decode::<SimState>(&key, &payload) else {
-                        continue;
-                    };
-                    // Only the states at tick boundaries matter here (the others are the
-                    // cameras' render instants inside a tick).
-                    if s.stamp_ns != s.tick * TICK_NS {
-                        continue;
-                    }
-                    if let Err(why) = in_window(s.tick, tick) {
-                        rejects.reject(&key, RejectReason::OutOfContract, &why);
-                    } else if states.contains_key(&s.stamp_ns) {
-                        rejects.reject(
-                            &key,
-                            RejectReason::OutOfContract,
-                            &"a second state for its tick",
-                        );
-                    } else {
-                        states.insert(s.stamp_ns, s);
-                    }
-                }
-                Some(Inbound::Data { key, payload }) => {
-                    let Some(from) = status_key
-                        .iter()
-                        .find_map(|(o, k)| (*k == key).then_some(o))
-                    else {
-                        rejects.reject(
-                            &key,
-                            RejectReason::UnexpectedKey,
-                            &"no such observer in this session",
-                        );
-                        continue;
-                    };
-                    let Some(s) = rejects.decode::<ObserverStatus>(&key, &payload) else {
-                        continue;
-                    };
-                    let of_tick = statuses.entry(s.tick).or_default();
-                    if s.observer != *from {
-                        rejects.reject(
-                            &key,
-                            RejectReason::OutOfContract,
-                            &format_args!("status of {} on {from}'s key", s.observer),
-                        );
-                    } else if let Err(why) = in_window(s.tick, tick) {
-                        rejects.reject(&key, RejectReason::OutOfContract, &why);
-                    } else if of_tick.contains_key(&s.observer) {
-                        rejects.reject(
-                            &key,
-                            RejectReason::OutOfContract,
-                            &"a second status for its tick",
-                        );
-                    } else {
-                        of_tick.insert(s.observer.clone(), s);
-                    }
-                    statuses.retain(|_, m| !m.is_empty());
-                }
+                Some(Inbound::Data { key, payload }) => inbox.take(&key, &payload, tick),
                 _ => {
                     if !bus.is_alive(&sim_alive) {
                         bail!("the simulator disappeared at tick {tick}");
@@ -179,8 +127,8 @@ fn main() -> Result<()> {
             }
             continue;
         }
-        let state = states.remove(&t_k).expect("checked");
-        let of_tick = statuses.remove(&tick).unwrap_or_default();
+        let state = inbox.states.remove(&t_k).expect("checked");
+        let of_tick = inbox.statuses.remove(&tick).unwrap_or_default();
         let mut decisions: Vec<DecisionNotice> = of_tick
             .values()
             .filter_map(|s| s.decision.as_ref().map(DecisionNotice::from))
@@ -230,10 +178,79 @@ fn main() -> Result<()> {
     }
     bus.put(
         &keys.rejects(Role::Scheduler, Role::Scheduler.as_str())?,
-        &rejects.report(),
+        &inbox.rejects.report(),
     )?;
     bus.close()?;
     Ok(())
+}
+
+/// What the scheduler reads, gathered per tick; everything else counted and dropped.
+struct Inbox {
+    sim_state_key: String,
+    status_key: BTreeMap<ObserverId, String>,
+    rejects: Rejects,
+    /// Ground truth at tick boundaries, by stamp.
+    states: BTreeMap<u64, SimState>,
+    statuses: BTreeMap<u64, BTreeMap<ObserverId, ObserverStatus>>,
+}
+
+impl Inbox {
+    /// Takes one message while assembling `tick`.
+    fn take(&mut self, key: &str, payload: &[u8], tick: u64) {
+        if key == self.sim_state_key {
+            let Some(s) = self.rejects.decode::<SimState>(key, payload) else {
+                return;
+            };
+            // Only the states at tick boundaries matter here (the others are the cameras'
+            // render instants inside a tick).
+            if s.stamp_ns != s.tick * TICK_NS {
+                return;
+            }
+            let why = match in_window(s.tick, tick) {
+                Err(why) => why,
+                Ok(()) => match self.states.entry(s.stamp_ns) {
+                    Entry::Vacant(slot) => {
+                        slot.insert(s);
+                        return;
+                    }
+                    Entry::Occupied(_) => "a second state for its tick".to_string(),
+                },
+            };
+            self.rejects.reject(key, RejectReason::OutOfContract, &why);
+            return;
+        }
+        let Some(from) = self
+            .status_key
+            .iter()
+            .find_map(|(o, k)| (k == key).then_some(o.clone()))
+        else {
+            let why = "no such observer in this session";
+            self.rejects.reject(key, RejectReason::UnexpectedKey, &why);
+            return;
+        };
+        let Some(s) = self.rejects.decode::<ObserverStatus>(key, payload) else {
+            return;
+        };
+        let why = if s.observer != from {
+            format!("status of {} on {from}'s key", s.observer)
+        } else if let Err(why) = in_window(s.tick, tick) {
+            why
+        } else {
+            match self
+                .statuses
+                .entry(s.tick)
+                .or_default()
+                .entry(s.observer.clone())
+            {
+                Entry::Vacant(slot) => {
+                    slot.insert(s);
+                    return;
+                }
+                Entry::Occupied(_) => "a second status for its tick".to_string(),
+            }
+        };
+        self.rejects.reject(key, RejectReason::OutOfContract, &why);
+    }
 }
 
 /// How far ahead of the tick being assembled a message may be: the lockstep never lets a

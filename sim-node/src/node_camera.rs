@@ -129,6 +129,61 @@ fn pose_world(world: &mut World, names: &[String], state: &SimState) -> Result<(
     Ok(())
 }
 
+/// Decodes a `sim/state`; the simulator publishes one per render instant, in order, from 0,
+/// so anything else is counted and dropped.
+fn admit_state(
+    rejects: &mut Rejects,
+    key: &str,
+    payload: &[u8],
+    last_state_ns: Option<u64>,
+) -> Option<SimState> {
+    let state = rejects.decode::<SimState>(key, payload)?;
+    let due_ns = last_state_ns.map_or(Some(0), |t| t.checked_add(EVENT_RENDER_PERIOD_NS));
+    if Some(state.stamp_ns) != due_ns {
+        let why = format!("state at {} ns while {due_ns:?} ns is due", state.stamp_ns);
+        rejects.reject(key, RejectReason::OutOfContract, &why);
+        return None;
+    }
+    Some(state)
+}
+
+/// What `faults` do at `t_ns`: black input, and the throttle (drop ‰, delay ms) if any.
+fn in_force(faults: &[Fault], t_ns: u64) -> (bool, Option<(u16, u32)>) {
+    let black = faults
+        .iter()
+        .any(|f| f.kind == FaultKind::BlackInput && f.active_at(t_ns));
+    let throttle = faults.iter().find_map(|f| match f.kind {
+        FaultKind::Throttle {
+            drop_per_mille,
+            delay_ms,
+        } if f.active_at(t_ns) => Some((drop_per_mille, delay_ms)),
+        _ => None,
+    });
+    (black, throttle)
+}
+
+/// Takes a fault message for `observer`'s camera (a new one is logged and kept).
+fn take_fault(
+    rejects: &mut Rejects,
+    key: &str,
+    payload: &[u8],
+    observer: &ObserverId,
+    faults: &mut Vec<Fault>,
+) {
+    let Some(fault) = rejects.decode::<Fault>(key, payload) else {
+        return;
+    };
+    if fault.observer != *observer {
+        let why = format!("fault for {} on {observer}'s key", fault.observer);
+        rejects.reject(key, RejectReason::OutOfContract, &why);
+        return;
+    }
+    if !faults.contains(&fault) {
+        tracing::warn!(%observer, ?fault, "fault received");
+        faults.push(fault);
+    }
+}
+
 pub fn run(args: CameraArgs) -> Result<()> {
     let node = args.node;
     let index = observer_index(&args.observer, node.observers)?;
@@ -179,20 +234,9 @@ pub fn run(args: CameraArgs) -> Result<()> {
         };
         match item {
             Inbound::Data { key, payload } if key == keys.sim_state() => {
-                let Some(state) = rejects.decode::<SimState>(&key, &payload) else {
+                let Some(state) = admit_state(&mut rejects, &key, &payload, last_state_ns) else {
                     continue;
                 };
-                // The simulator publishes one state per render instant, in order, from 0.
-                let due_ns =
-                    last_state_ns.map_or(Some(0), |t| t.checked_add(EVENT_RENDER_PERIOD_NS));
-                if Some(state.stamp_ns) != due_ns {
-                    rejects.reject(
-                        &key,
-                        RejectReason::OutOfContract,
-                        &format_args!("state at {} ns while {due_ns:?} ns is due", state.stamp_ns),
-                    );
-                    continue;
-                }
                 if let Err(e) = pose_world(&mut world, &names, &state) {
                     rejects.reject(&key, RejectReason::OutOfContract, &e);
                     continue;
@@ -204,21 +248,12 @@ pub fn run(args: CameraArgs) -> Result<()> {
                     continue;
                 }
                 let t = state.stamp_ns;
-                let want_black = faults
-                    .iter()
-                    .any(|f| f.kind == FaultKind::BlackInput && f.active_at(t));
+                let (want_black, want_throttle) = in_force(&faults, t);
                 if want_black != black {
                     tracing::warn!(observer = %args.observer, t_s = t as f64 * 1e-9, black = want_black, "black-input fault");
                     black = want_black;
                     sensor.set_black(black);
                 }
-                let want_throttle = faults.iter().find_map(|f| match f.kind {
-                    FaultKind::Throttle {
-                        drop_per_mille,
-                        delay_ms,
-                    } if f.active_at(t) => Some((drop_per_mille, delay_ms)),
-                    _ => None,
-                });
                 if want_throttle != throttle {
                     tracing::warn!(observer = %args.observer, t_s = t as f64 * 1e-9, ?want_throttle, "throttle fault");
                     throttle = want_throttle;
@@ -247,21 +282,7 @@ pub fn run(args: CameraArgs) -> Result<()> {
                 }
             }
             Inbound::Data { key, payload } if key == keys.fault(&args.observer) => {
-                let Some(fault) = rejects.decode::<Fault>(&key, &payload) else {
-                    continue;
-                };
-                if fault.observer != args.observer {
-                    rejects.reject(
-                        &key,
-                        RejectReason::OutOfContract,
-                        &format_args!("fault for {} on {}'s key", fault.observer, args.observer),
-                    );
-                    continue;
-                }
-                if !faults.contains(&fault) {
-                    tracing::warn!(observer = %args.observer, ?fault, "fault received");
-                    faults.push(fault);
-                }
+                take_fault(&mut rejects, &key, &payload, &args.observer, &mut faults);
             }
             Inbound::Data { key, .. } => {
                 rejects.reject(&key, RejectReason::UnexpectedKey, &"not subscribed");

@@ -8,6 +8,7 @@
 //! the run.
 
 use std::collections::BTreeMap;
+use std::collections::btree_map::Entry;
 use std::time::{Duration, Instant};
 
 /// How long the messages of a peer whose token disappeared may still take to arrive.
@@ -168,11 +169,14 @@ fn admit<T>(
         format!("tick {msg_tick} is past (waiting for tick {tick})")
     } else if msg_tick > tick + TICK_WINDOW {
         format!("tick {msg_tick} is more than {TICK_WINDOW} ahead of tick {tick}")
-    } else if pending.contains_key(&msg_tick) {
-        format!("a second message for tick {msg_tick}")
     } else {
-        pending.insert(msg_tick, msg);
-        return;
+        match pending.entry(msg_tick) {
+            Entry::Vacant(slot) => {
+                slot.insert(msg);
+                return;
+            }
+            Entry::Occupied(_) => format!("a second message for tick {msg_tick}"),
+        }
     };
     rejects.reject(key, RejectReason::OutOfContract, &why);
 }

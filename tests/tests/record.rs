@@ -358,7 +358,7 @@ fn assert_foxglove_views(path: &Path, modality: &str) {
             format!(
                 "waggle.{}",
                 if modality == "rgb" {
-                    "RgbFrame"
+                    "RgbUpdate"
                 } else {
                     "EventPacket"
                 }

@@ -95,15 +95,22 @@ impl Gathered {
     /// sequence, a body naming another observer than its key, a second report) are counted in
     /// the launcher's own [`Rejects`] and dropped: nothing on the bus can abort the launcher.
     pub fn take(&mut self, keys: &Keys, key: &str, payload: &[u8]) {
-        let rejects = self
+        let mut rejects = self
             .rejects
-            .get_or_insert_with(|| Rejects::new(Role::Launcher.as_str(), keys));
-        let Some(parsed) = keys.parse(key) else {
-            rejects.reject(key, RejectReason::UnexpectedKey, &"outside the key grammar");
-            return;
-        };
-        let owner = parsed.observer().cloned();
-        let mismatch = |body: &ObserverId| owner.as_ref().is_some_and(|o| o != body);
+            .take()
+            .unwrap_or_else(|| Rejects::new(Role::Launcher.as_str(), keys));
+        match keys.parse(key) {
+            None => rejects.reject(key, RejectReason::UnexpectedKey, &"outside the key grammar"),
+            Some(parsed) if parsed.observer().is_some() => {
+                self.observer_output(keys, &parsed, key, payload, &mut rejects);
+            }
+            Some(parsed) => self.session_message(parsed, key, payload, &mut rejects),
+        }
+        self.rejects = Some(rejects);
+    }
+
+    /// A message on a key of no observer: the clock, ground truth, the scheduler's, reports.
+    fn session_message(&mut self, parsed: Key, key: &str, payload: &[u8], rejects: &mut Rejects) {
         match parsed {
             Key::Clock => {
                 let Some(c) = rejects.decode::<ClockTick>(key, payload) else {
@@ -164,100 +171,6 @@ impl Gathered {
                     self.session_tick(t);
                 }
             }
-            Key::ObserverTrack(_) => {
-                let Some(t) = rejects.decode::<ObserverTrack>(key, payload) else {
-                    return;
-                };
-                if mismatch(&t.observer) {
-                    rejects.reject(
-                        key,
-                        RejectReason::OutOfContract,
-                        &"track of another observer",
-                    );
-                    return;
-                }
-                self.record(&t.observer).track.extend(t.samples);
-            }
-            Key::ObserverStatus(_) => {
-                let Some(st) = rejects.decode::<ObserverStatus>(key, payload) else {
-                    return;
-                };
-                if mismatch(&st.observer) {
-                    rejects.reject(
-                        key,
-                        RejectReason::OutOfContract,
-                        &"status of another observer",
-                    );
-                    return;
-                }
-                if st.input == proto::InputState::Missing {
-                    *self.missing.entry(st.observer).or_default() += 1;
-                }
-            }
-            Key::ObserverTokens(_) => {
-                let Some(t) = rejects.decode::<TokenEvent>(key, payload) else {
-                    return;
-                };
-                if mismatch(&t.observer) {
-                    rejects.reject(
-                        key,
-                        RejectReason::OutOfContract,
-                        &"token of another observer",
-                    );
-                    return;
-                }
-                self.record(&t.observer.clone()).tokens.push(t);
-            }
-            Key::ObserverFrames(_) => {
-                let Some(f) = rejects.decode::<FrameEvent>(key, payload) else {
-                    return;
-                };
-                if mismatch(&f.observer) {
-                    rejects.reject(
-                        key,
-                        RejectReason::OutOfContract,
-                        &"frame of another observer",
-                    );
-                    return;
-                }
-                self.record(&f.observer.clone()).frames.push(f);
-            }
-            Key::ObserverDecision(_) => {
-                let Some(d) = rejects.decode::<Decision>(key, payload) else {
-                    return;
-                };
-                if mismatch(&d.observer) {
-                    rejects.reject(
-                        key,
-                        RejectReason::OutOfContract,
-                        &"decision of another observer",
-                    );
-                    return;
-                }
-                self.record(&d.observer.clone()).decisions.push(d);
-            }
-            Key::Fault(_) => {
-                let Some(f) = rejects.decode::<Fault>(key, payload) else {
-                    return;
-                };
-                if mismatch(&f.observer) {
-                    rejects.reject(
-                        key,
-                        RejectReason::OutOfContract,
-                        &"fault for another observer",
-                    );
-                }
-                // Every fault that reached the bus is listed, obeyed or not.
-                self.faults_seen.push(SeenFault {
-                    key: key
-                        .strip_prefix(keys.prefix())
-                        .unwrap_or(key)
-                        .trim_start_matches('/')
-                        .to_string(),
-                    fault: f,
-                    at_tick: self.clock_started.map(|_| self.tick),
-                });
-            }
             Key::Rejects(role, id) => {
                 let Some(r) = rejects.decode::<RejectReport>(key, payload) else {
                     return;
@@ -272,19 +185,94 @@ impl Gathered {
                 }
                 self.reports.insert(r.process.clone(), r);
             }
-            Key::Alive(..)
-            | Key::Ready(..)
-            | Key::SensorEvents(_)
-            | Key::SensorRgb(_)
-            | Key::PerformerSetpoint
-            | Key::SchedCmd
-            | Key::SchedBroadcast => {
+            _ => rejects.reject(
+                key,
+                RejectReason::UnexpectedKey,
+                &"not followed by the launcher",
+            ),
+        }
+    }
+
+    /// A message on an observer's key: its outputs, or a fault for its camera. The body must
+    /// name the observer of its key.
+    fn observer_output(
+        &mut self,
+        keys: &Keys,
+        parsed: &Key,
+        key: &str,
+        payload: &[u8],
+        rejects: &mut Rejects,
+    ) {
+        let owner = parsed.observer().cloned();
+        let mismatch = |body: &ObserverId, rejects: &mut Rejects| {
+            let wrong = owner.as_ref().is_some_and(|o| o != body);
+            if wrong {
                 rejects.reject(
                     key,
-                    RejectReason::UnexpectedKey,
-                    &"not followed by the launcher",
+                    RejectReason::OutOfContract,
+                    &format_args!("body names {body}"),
                 );
             }
+            wrong
+        };
+        match parsed {
+            Key::ObserverTrack(_) => {
+                if let Some(t) = rejects.decode::<ObserverTrack>(key, payload)
+                    && !mismatch(&t.observer, rejects)
+                {
+                    self.record(&t.observer).track.extend(t.samples);
+                }
+            }
+            Key::ObserverStatus(_) => {
+                if let Some(st) = rejects.decode::<ObserverStatus>(key, payload)
+                    && !mismatch(&st.observer, rejects)
+                    && st.input == proto::InputState::Missing
+                {
+                    *self.missing.entry(st.observer).or_default() += 1;
+                }
+            }
+            Key::ObserverTokens(_) => {
+                if let Some(t) = rejects.decode::<TokenEvent>(key, payload)
+                    && !mismatch(&t.observer, rejects)
+                {
+                    self.record(&t.observer.clone()).tokens.push(t);
+                }
+            }
+            Key::ObserverFrames(_) => {
+                if let Some(f) = rejects.decode::<FrameEvent>(key, payload)
+                    && !mismatch(&f.observer, rejects)
+                {
+                    self.record(&f.observer.clone()).frames.push(f);
+                }
+            }
+            Key::ObserverDecision(_) => {
+                if let Some(d) = rejects.decode::<Decision>(key, payload)
+                    && !mismatch(&d.observer, rejects)
+                {
+                    self.record(&d.observer.clone()).decisions.push(d);
+                }
+            }
+            Key::Fault(_) => {
+                let Some(f) = rejects.decode::<Fault>(key, payload) else {
+                    return;
+                };
+                mismatch(&f.observer, rejects);
+                // Every fault that reached the bus is listed, obeyed or not.
+                self.faults_seen.push(SeenFault {
+                    key: key
+                        .strip_prefix(keys.prefix())
+                        .unwrap_or(key)
+                        .trim_start_matches('/')
+                        .to_string(),
+                    fault: f,
+                    at_tick: self.clock_started.map(|_| self.tick),
+                });
+            }
+            _ => rejects.reject(
+                key,
+                RejectReason::UnexpectedKey,
+                &"not followed by the launcher",
+            ),
         }
     }
 

@@ -117,6 +117,12 @@ struct Reading {
     last_log_ns: Option<u64>,
     /// A damage whose first message after it is still to come.
     open_damage: Option<usize>,
+    /// CRC of the data section so far (magic and every record before `DataEnd`).
+    data_crc: crc32fast::Hasher,
+    in_data: bool,
+    /// CRC of the summary section so far (every record after `DataEnd`).
+    summary_crc: crc32fast::Hasher,
+    saw_footer: bool,
 }
 
 impl Reading {
@@ -132,6 +138,78 @@ impl Reading {
             reason,
         });
         self.open_damage = Some(self.out.damaged.len() - 1);
+    }
+
+    /// Handles one top-level record (`record`: opcode, length, body) at `[at.0, at.1)`.
+    fn top_level<E>(
+        &mut self,
+        opcode: u8,
+        record: &[u8],
+        (pos, next): (u64, u64),
+        visit: &mut impl FnMut(&RecordedMessage<'_>) -> Result<(), E>,
+    ) -> Result<(), E> {
+        match opcode {
+            op::CHUNK => match chunk_records(record) {
+                Ok(inner) => {
+                    for (op_inner, data) in inner {
+                        match mcap::parse_record(op_inner, &data) {
+                            Ok(rec) => self.record(rec, visit)?,
+                            Err(e) => {
+                                let why = format!("record in a chunk does not parse: {e}");
+                                self.damage(pos, next, why);
+                                break;
+                            }
+                        }
+                    }
+                }
+                Err(e) => self.damage(pos, next, format!("chunk: {e}")),
+            },
+            _ => match mcap::parse_record(opcode, &record[9..]) {
+                Ok(Record::DataEnd(d)) => {
+                    if d.data_section_crc != 0 && self.out.damaged.is_empty() {
+                        let ok = d.data_section_crc == self.data_crc.clone().finalize();
+                        self.out.data_crc_ok = Some(ok);
+                    }
+                }
+                Ok(Record::Footer(f)) => {
+                    self.saw_footer = true;
+                    if f.summary_crc != 0 {
+                        // The summary CRC covers the summary sections and the footer up to
+                        // its own CRC field.
+                        self.summary_crc.update(&record[..9 + 8 + 8]);
+                        let ok = f.summary_crc == self.summary_crc.clone().finalize();
+                        self.out.summary_crc_ok = Some(ok);
+                    }
+                }
+                Ok(rec) => self.record(rec, visit)?,
+                Err(e) => self.damage(
+                    pos,
+                    next,
+                    format!("record {opcode:#04x} does not parse: {e}"),
+                ),
+            },
+        }
+        Ok(())
+    }
+
+    /// The outcome, with every problem named.
+    fn finish(mut self) -> ReadOutcome {
+        let mut problems: Vec<String> = self.out.damaged.iter().map(|d| d.to_string()).collect();
+        if self.out.data_crc_ok == Some(false) {
+            problems.push("the data section CRC does not match".into());
+        }
+        if self.out.summary_crc_ok == Some(false) {
+            problems.push("the summary section CRC does not match".into());
+        }
+        if !self.saw_footer {
+            problems.push(format!(
+                "no footer after {} messages: the recording was cut short",
+                self.out.messages
+            ));
+        }
+        self.out.complete = problems.is_empty();
+        self.out.problem = (!problems.is_empty()).then(|| problems.join("; "));
+        self.out
     }
 
     /// Handles one record (top level or inside a chunk).
@@ -319,11 +397,12 @@ pub fn read_recording<E: From<ReadError>>(
         out: ReadOutcome::default(),
         last_log_ns: None,
         open_damage: None,
+        data_crc: crc32fast::Hasher::new(),
+        in_data: true,
+        summary_crc: crc32fast::Hasher::new(),
+        saw_footer: false,
     };
-    let mut data_crc = crc32fast::Hasher::new();
-    data_crc.update(&magic);
-    let mut in_data = true;
-    let mut summary_crc = crc32fast::Hasher::new();
+    r.data_crc.update(&magic);
     let mut saw_footer = false;
     let mut pos = 8u64;
     while pos < len {
@@ -375,74 +454,17 @@ pub fn read_recording<E: From<ReadError>>(
         src.read_at(pos, &mut record).map_err(io)?;
         let next = pos + 9 + body_len;
         if opcode == op::DATA_END {
-            in_data = false;
-        } else if in_data {
-            data_crc.update(&record);
+            r.in_data = false;
+        } else if r.in_data {
+            r.data_crc.update(&record);
         } else if opcode != op::FOOTER {
-            summary_crc.update(&record);
+            r.summary_crc.update(&record);
         }
-        match opcode {
-            op::CHUNK => match chunk_records(&record) {
-                Ok(inner) => {
-                    for (op_inner, data) in inner {
-                        match mcap::parse_record(op_inner, &data) {
-                            Ok(rec) => r.record(rec, &mut visit)?,
-                            Err(e) => {
-                                r.damage(
-                                    pos,
-                                    next,
-                                    format!("record in a chunk does not parse: {e}"),
-                                );
-                                break;
-                            }
-                        }
-                    }
-                }
-                Err(e) => r.damage(pos, next, format!("chunk: {e}")),
-            },
-            _ => match mcap::parse_record(opcode, &record[9..]) {
-                Ok(Record::DataEnd(d)) => {
-                    let damaged = !r.out.damaged.is_empty();
-                    if d.data_section_crc != 0 && !damaged {
-                        r.out.data_crc_ok = Some(d.data_section_crc == data_crc.clone().finalize());
-                    }
-                }
-                Ok(Record::Footer(f)) => {
-                    saw_footer = true;
-                    if f.summary_crc != 0 {
-                        // The summary CRC covers the summary sections and the footer up to
-                        // its own CRC field.
-                        summary_crc.update(&record[..9 + 8 + 8]);
-                        r.out.summary_crc_ok =
-                            Some(f.summary_crc == summary_crc.clone().finalize());
-                    }
-                }
-                Ok(rec) => r.record(rec, &mut visit)?,
-                Err(e) => r.damage(
-                    pos,
-                    next,
-                    format!("record {opcode:#04x} does not parse: {e}"),
-                ),
-            },
-        }
+        r.top_level(opcode, &record, (pos, next), &mut visit)?;
+        saw_footer = r.saw_footer;
         pos = next;
     }
-    let mut problems: Vec<String> = r.out.damaged.iter().map(|d| d.to_string()).collect();
-    if r.out.data_crc_ok == Some(false) {
-        problems.push("the data section CRC does not match".into());
-    }
-    if r.out.summary_crc_ok == Some(false) {
-        problems.push("the summary section CRC does not match".into());
-    }
-    if !saw_footer {
-        problems.push(format!(
-            "no footer after {} messages: the recording was cut short",
-            r.out.messages
-        ));
-    }
-    r.out.complete = problems.is_empty();
-    r.out.problem = (!problems.is_empty()).then(|| problems.join("; "));
-    Ok(r.out)
+    Ok(r.finish())
 }
 
 /// The metadata record `name` if it precedes the first message (the writer puts the session
