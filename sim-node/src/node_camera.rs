@@ -34,6 +34,11 @@ pub struct CameraArgs {
     /// launcher also publishes it on `fault/Oi` for the record.
     #[arg(long)]
     black: bool,
+    /// The stream stops at this sim time, ns (the dropout fault): nothing is published from the
+    /// render at this instant on. Given on the command line, like `--black`, so it holds
+    /// whatever the arrival order of messages; also published on `fault/Oi`.
+    #[arg(long, value_name = "NS")]
+    dropout_ns: Option<u64>,
     /// How the camera renders: `damage` (default) redraws only what moved, `full` every pixel of
     /// every frame (the reference; both deliver identical bytes).
     #[arg(long, value_enum, default_value_t)]
@@ -147,8 +152,15 @@ fn admit_state(
     Some(state)
 }
 
-/// What `faults` do at `t_ns`: black input, and the throttle (drop ‰, delay ms) if any.
-fn in_force(faults: &[Fault], t_ns: u64) -> (bool, Option<(u16, u32)>) {
+/// What `faults` do at `t_ns`: `None` when the stream has stopped (dropout), else black
+/// input and the throttle (drop ‰, delay ms) if any.
+fn in_force(faults: &[Fault], t_ns: u64) -> Option<(bool, Option<(u16, u32)>)> {
+    if faults
+        .iter()
+        .any(|f| f.kind == FaultKind::StreamDropout && f.active_at(t_ns))
+    {
+        return None;
+    }
     let black = faults
         .iter()
         .any(|f| f.kind == FaultKind::BlackInput && f.active_at(t_ns));
@@ -159,7 +171,7 @@ fn in_force(faults: &[Fault], t_ns: u64) -> (bool, Option<(u16, u32)>) {
         } if f.active_at(t_ns) => Some((drop_per_mille, delay_ms)),
         _ => None,
     });
-    (black, throttle)
+    Some((black, throttle))
 }
 
 /// Takes a fault message for `observer`'s camera (a new one is logged and kept).
@@ -218,6 +230,14 @@ pub fn run(args: CameraArgs) -> Result<()> {
             until_ns: None,
         });
     }
+    if let Some(at_ns) = args.dropout_ns {
+        faults.push(Fault {
+            observer: args.observer.clone(),
+            kind: FaultKind::StreamDropout,
+            from_ns: at_ns,
+            until_ns: None,
+        });
+    }
     let mut black = false;
     let mut throttle: Option<(u16, u32)> = None;
     let mut started = false;
@@ -248,7 +268,9 @@ pub fn run(args: CameraArgs) -> Result<()> {
                     continue;
                 }
                 let t = state.stamp_ns;
-                let (want_black, want_throttle) = in_force(&faults, t);
+                let Some((want_black, want_throttle)) = in_force(&faults, t) else {
+                    continue;
+                };
                 if want_black != black {
                     tracing::warn!(observer = %args.observer, t_s = t as f64 * 1e-9, black = want_black, "black-input fault");
                     black = want_black;

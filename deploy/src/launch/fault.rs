@@ -170,6 +170,19 @@ impl Injected {
         }
     }
 
+    /// The sim time from which `o`'s stream stops, if this is such a fault.
+    pub fn dropout_from(&self, o: &ObserverId) -> Option<u64> {
+        match self {
+            Injected::Message(Fault {
+                observer,
+                kind: FaultKind::StreamDropout,
+                from_ns,
+                ..
+            }) if observer == o => Some(*from_ns),
+            _ => None,
+        }
+    }
+
     /// True for black input of `o` from start-up (its camera starts black).
     pub fn black_from_start(&self, o: &ObserverId) -> bool {
         matches!(self, Injected::Message(Fault { observer, kind: FaultKind::BlackInput, from_ns: 0, .. }) if observer == o)
@@ -178,6 +191,18 @@ impl Injected {
 
 fn secs_ns(s: f64) -> u64 {
     (s * 1e9).round() as u64
+}
+
+/// The stream stops at exactly `at_ns` of sim time: the camera publishes nothing from its
+/// render at `at_ns` on, so what its observer received does not depend on when the SIGKILL
+/// that follows lands (wall-clock time never decides what an observer sees).
+fn dropout(observer: ObserverId, at_ns: u64) -> Injected {
+    Injected::Message(Fault {
+        observer,
+        kind: FaultKind::StreamDropout,
+        from_ns: at_ns,
+        until_ns: None,
+    })
 }
 
 fn black(observer: ObserverId) -> Injected {
@@ -206,20 +231,28 @@ pub fn injected_faults(case: &Case, extra: &ExtraFaults) -> anyhow::Result<Vec<I
     let mut out = Vec::new();
     for f in &case.faults {
         let observer = ObserverId::new(f.observer.as_str())?;
-        out.push(match f.kind {
-            CaseFault::Black => black(observer),
-            CaseFault::Dropout => Injected::KillCamera {
-                observer,
-                at_ns: secs_ns(f.at_s),
-            },
-            CaseFault::Throttle => throttle(observer, f.at_s, f.drop_per_mille, f.delay_ms),
-        });
+        match f.kind {
+            CaseFault::Black => out.push(black(observer)),
+            CaseFault::Dropout => {
+                out.push(dropout(observer.clone(), secs_ns(f.at_s)));
+                out.push(Injected::KillCamera {
+                    observer,
+                    at_ns: secs_ns(f.at_s),
+                });
+            }
+            CaseFault::Throttle => {
+                out.push(throttle(observer, f.at_s, f.drop_per_mille, f.delay_ms));
+            }
+        }
     }
     out.extend(extra.black.iter().map(|b| black(b.observer.clone())));
-    out.extend(extra.kill.iter().map(|k| Injected::KillCamera {
-        observer: k.observer.clone(),
-        at_ns: secs_ns(k.at_s),
-    }));
+    for k in &extra.kill {
+        out.push(dropout(k.observer.clone(), secs_ns(k.at_s)));
+        out.push(Injected::KillCamera {
+            observer: k.observer.clone(),
+            at_ns: secs_ns(k.at_s),
+        });
+    }
     out.extend(
         extra
             .throttle

@@ -354,6 +354,10 @@ impl Children<'_> {
             if self.injected.iter().any(|f| f.black_from_start(o)) {
                 camera_args.push("--black".into());
             }
+            if let Some(at_ns) = self.injected.iter().find_map(|f| f.dropout_from(o)) {
+                camera_args.push("--dropout-ns".into());
+                camera_args.push(at_ns.to_string());
+            }
             procs.push(spawner.spawn(&format!("camera-{o}"), "sim-node", &camera_args)?);
             let observer_args = self.observer_args(o, &m);
             procs.push(spawner.spawn(&format!("observer-{o}"), "observer-node", &observer_args)?);
