@@ -33,6 +33,12 @@ enum Cli {
     /// Measure decode success against viewing angle and distance: observers placed at each
     /// viewpoint, one flight per group of up to eight, per receiver and rectification.
     Viewpoints(cli::viewpoints::ViewpointsArgs),
+    /// One condition, N seeded trials under a perturbation: success rate with its Wilson 95 %
+    /// interval and per-trial measurements in DIR/trials.json.
+    Trials(cli::trials::TrialsArgs),
+    /// Run a study (conditions × levels × modalities as seeded trials) and write DIR/report.md
+    /// with success probabilities, their 95 % intervals and a figure.
+    Study(cli::study::StudyArgs),
     /// Rebuild report.md and its figures from a run or sweep directory, without re-running.
     Report(cli::report::ReportArgs),
     /// Re-run the event receivers from a recording's raw event packets and session controls
@@ -56,5 +62,7 @@ fn main() -> anyhow::Result<()> {
         Cli::Sweep(args) => cli::sweep::run(args),
         Cli::Report(args) => cli::report::run(args),
         Cli::Viewpoints(args) => cli::viewpoints::run(args),
+        Cli::Trials(args) => cli::trials::run(args),
+        Cli::Study(args) => cli::study::run(args),
     }
 }

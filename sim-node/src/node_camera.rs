@@ -196,7 +196,27 @@ fn take_fault(
     }
 }
 
+/// The faults given on the command line (`--black`, `--dropout-ns`): in force from the start,
+/// whatever order the fault messages arrive in.
+fn command_line_faults(args: &CameraArgs) -> Vec<Fault> {
+    let fault = |kind, from_ns| Fault {
+        observer: args.observer.clone(),
+        kind,
+        from_ns,
+        until_ns: None,
+    };
+    let mut faults = Vec::new();
+    if args.black {
+        faults.push(fault(FaultKind::BlackInput, 0));
+    }
+    if let Some(at_ns) = args.dropout_ns {
+        faults.push(fault(FaultKind::StreamDropout, at_ns));
+    }
+    faults
+}
+
 pub fn run(args: CameraArgs) -> Result<()> {
+    let mut faults = command_line_faults(&args);
     let node = args.node;
     let index = observer_index(&args.observer, node.observers)?;
     let mut world = World::new(node.observers).context("building the scene")?;
@@ -221,23 +241,6 @@ pub fn run(args: CameraArgs) -> Result<()> {
         Modality::Events => keys.sensor_events(&args.observer),
     };
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
-    let mut faults: Vec<Fault> = Vec::new();
-    if args.black {
-        faults.push(Fault {
-            observer: args.observer.clone(),
-            kind: FaultKind::BlackInput,
-            from_ns: 0,
-            until_ns: None,
-        });
-    }
-    if let Some(at_ns) = args.dropout_ns {
-        faults.push(Fault {
-            observer: args.observer.clone(),
-            kind: FaultKind::StreamDropout,
-            from_ns: at_ns,
-            until_ns: None,
-        });
-    }
     let mut black = false;
     let mut throttle: Option<(u16, u32)> = None;
     let mut started = false;

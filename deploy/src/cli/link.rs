@@ -9,8 +9,8 @@ use clap::Args;
 use proto::scene::Placement;
 use proto::{Receiver, Rectification};
 
-pub use crate::harness::link::parse_bits6;
 use crate::harness::link::{LinkOptions, fly_link, print_table};
+pub use crate::harness::link::{parse_bits6, parse_viewpoint};
 
 #[derive(Debug, Args)]
 pub struct LinkArgs {
@@ -46,38 +46,6 @@ pub struct LinkArgs {
     /// Print machine-readable JSON instead of the table.
     #[arg(long)]
     json: bool,
-}
-
-/// Parses `AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M` into an aimed placement.
-pub fn parse_viewpoint(s: &str) -> Result<Placement, String> {
-    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-    let [az, el, d] = parts[..] else {
-        return Err(format!(
-            "viewpoint {s:?} is not AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M (e.g. 40,0,1.3)"
-        ));
-    };
-    let num = |v: &str, what: &str| -> Result<f64, String> {
-        v.parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| format!("viewpoint {s:?}: {what} {v:?} is not a finite number"))
-    };
-    let (az, el, d) = (
-        num(az, "azimuth")?,
-        num(el, "elevation")?,
-        num(d, "distance")?,
-    );
-    if !(-85.0..=85.0).contains(&az) || !(-60.0..=60.0).contains(&el) {
-        return Err(format!(
-            "viewpoint {s:?}: azimuth must be within ±85° and elevation within ±60°"
-        ));
-    }
-    if !(0.6..=10.0).contains(&d) {
-        return Err(format!(
-            "viewpoint {s:?}: distance must be 0.6–10 m (the performer gestures ±0.2 m)"
-        ));
-    }
-    Ok(Placement::viewpoint(az, el, d))
 }
 
 pub fn run(args: LinkArgs) -> Result<()> {

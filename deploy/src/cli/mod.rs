@@ -11,7 +11,9 @@ pub mod payload;
 pub mod replay;
 pub mod report;
 pub mod run;
+pub mod study;
 pub mod sweep;
+pub mod trials;
 pub mod viewpoints;
 
 /// `--flights sequential|concurrent`, shared by the commands that fly a whole case.

@@ -70,33 +70,65 @@ pub fn parse_bits6(s: &str) -> Result<u8, String> {
     u8::from_str_radix(s, 2).map_err(|e| e.to_string())
 }
 
-fn bits6(payload: u8) -> String {
+/// Parses `AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M` into an aimed placement.
+pub fn parse_viewpoint(s: &str) -> Result<Placement, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let [az, el, d] = parts[..] else {
+        return Err(format!(
+            "viewpoint {s:?} is not AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M (e.g. 40,0,1.3)"
+        ));
+    };
+    let num = |v: &str, what: &str| -> Result<f64, String> {
+        v.parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("viewpoint {s:?}: {what} {v:?} is not a finite number"))
+    };
+    let (az, el, d) = (
+        num(az, "azimuth")?,
+        num(el, "elevation")?,
+        num(d, "distance")?,
+    );
+    if !(-85.0..=85.0).contains(&az) || !(-60.0..=60.0).contains(&el) {
+        return Err(format!(
+            "viewpoint {s:?}: azimuth must be within ±85° and elevation within ±60°"
+        ));
+    }
+    if !(0.6..=10.0).contains(&d) {
+        return Err(format!(
+            "viewpoint {s:?}: distance must be 0.6–10 m (the performer gestures ±0.2 m)"
+        ));
+    }
+    Ok(Placement::viewpoint(az, el, d))
+}
+
+pub(crate) fn bits6(payload: u8) -> String {
     format!("{payload:06b}")
 }
 
 /// Time after the last scheduled symbol that the harness keeps running, so a late NULL can land.
-const TAIL_NS: u64 = 2_000_000_000;
+pub(crate) const TAIL_NS: u64 = 2_000_000_000;
 /// Hover before the first symbol so physics and receivers settle.
-const LEAD_IN_NS: u64 = 1_000_000_000;
+pub(crate) const LEAD_IN_NS: u64 = 1_000_000_000;
 /// The ideal receiver samples at the RGB rate.
-const IDEAL_PERIOD_NS: u64 = 40_000_000;
+pub(crate) const IDEAL_PERIOD_NS: u64 = 40_000_000;
 
 /// One confirmed token of `waggle link --json`.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct TokenOut {
     pub token: String,
     pub t_s: f64,
 }
 
 /// One released frame of `waggle link --json`.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct FrameOut {
     pub payload: String,
     pub final_null_s: f64,
 }
 
 /// One observer's decodes.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct ObserverOut {
     pub payloads: Vec<String>,
     pub frames: Vec<FrameOut>,
@@ -129,7 +161,7 @@ fn ns_to_s(ns: u64) -> f64 {
     ns as f64 * 1e-9
 }
 
-fn observer_out(tokens: &[SegmentToken], frames: &[ReleasedFrame]) -> ObserverOut {
+pub(crate) fn observer_out(tokens: &[SegmentToken], frames: &[ReleasedFrame]) -> ObserverOut {
     ObserverOut {
         payloads: frames.iter().map(|f| bits6(f.payload)).collect(),
         frames: frames

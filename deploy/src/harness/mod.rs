@@ -1,10 +1,14 @@
 //! In-process harnesses: a whole mission in one process ([`mission`]), the link bench
 //! ([`link`]), the performer's flight as physics references ([`performer_flight`]) and the
 //! offline PNG → events converter ([`convert`]), decode success against viewpoint
-//! ([`viewpoints`]).
+//! ([`viewpoints`]), seeded perturbed trials on a flight rendered once ([`trials`],
+//! [`rendered_flight`]) and studies of them ([`study`]).
 
 pub mod convert;
 pub mod link;
 pub mod mission;
 pub mod performer_flight;
+pub mod rendered_flight;
+pub mod study;
+pub mod trials;
 pub mod viewpoints;

@@ -4,7 +4,9 @@
 //! as "elem/s", pixels per second. Frames: the rendered fixtures in
 //! `tests/fixtures/frames/*.png` when present, and the synthetic moving-blob scene. Frames are
 //! played forwards then backwards so every interval is between neighbouring renders, as in
-//! the camera; the reference converter runs on the same frames for the speed ratio.
+//! the camera; the reference converter runs on the same frames for the speed ratio. The
+//! `noisy_*` groups time [`NoisyConverter`] on the same frames: `noisy` without leak (same scan
+//! as the exact converter), `noisy_leak` with leak (every pixel's `d` evaluated every frame).
 
 use std::hint::black_box;
 use std::path::Path;
@@ -12,7 +14,7 @@ use std::path::Path;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use event_camera::reference::ReferenceConverter;
 use event_camera::synthetic::MovingBlobScene;
-use event_camera::{Converter, DEFAULT_THRESHOLD};
+use event_camera::{Converter, DEFAULT_THRESHOLD, EventNoise, NoisyConverter};
 
 const RENDER_PERIOD_NS: u64 = 10_000_000;
 
@@ -120,13 +122,53 @@ fn bench_set(c: &mut Criterion, name: &str, (w, h, frames): (u16, u16, Vec<Vec<u
     group.finish();
 }
 
+/// Realistic noise: 3 % threshold mismatch, 1 ms refractory, 0.1 Hz shot noise, 10 hot pixels.
+fn bench_noisy(c: &mut Criterion, name: &str, (w, h, frames): &(u16, u16, Vec<Vec<u8>>)) {
+    let order = ping_pong(frames.len());
+    let mut group = c.benchmark_group(format!("noisy_{name}_{w}x{h}"));
+    group.throughput(Throughput::Elements(u64::from(*w) * u64::from(*h)));
+    let base = EventNoise {
+        threshold_sigma: 0.03,
+        refractory_ns: 1_000_000,
+        shot_noise_hz: 0.1,
+        hot_pixels: 10,
+        hot_pixel_hz: 100.0,
+        seed: 1,
+        ..EventNoise::default()
+    };
+    let leaky = EventNoise {
+        leak_hz: 0.1,
+        ..base
+    };
+    for (label, noise) in [("noisy", base), ("noisy_leak", leaky)] {
+        let mut converter = NoisyConverter::new(*w, *h, DEFAULT_THRESHOLD, &noise).unwrap();
+        let mut out = Vec::new();
+        let (mut stamp_ns, mut k) = (0u64, 0usize);
+        converter.push(stamp_ns, &frames[0], &mut out).unwrap();
+        group.bench_function(BenchmarkId::new(label, frames.len()), |b| {
+            b.iter(|| {
+                k = (k + 1) % order.len();
+                stamp_ns += RENDER_PERIOD_NS;
+                out.clear();
+                converter
+                    .push(stamp_ns, black_box(&frames[order[k]]), &mut out)
+                    .unwrap();
+            })
+        });
+    }
+    group.finish();
+}
+
 fn convert(c: &mut Criterion) {
     if let Some(rendered) = rendered_frames() {
+        bench_noisy(c, "rendered", &rendered);
         bench_set(c, "rendered", rendered);
     } else {
         println!("no rendered fixtures; synthetic frames only");
     }
-    bench_set(c, "synthetic", synthetic_frames(50));
+    let synthetic = synthetic_frames(50);
+    bench_noisy(c, "synthetic", &synthetic);
+    bench_set(c, "synthetic", synthetic);
 }
 
 criterion_group!(benches, convert);

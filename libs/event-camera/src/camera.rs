@@ -1,5 +1,8 @@
 //! The event camera: converter + black-input fault + 40 ms packetiser.
 //!
+//! The converter is the exact [`Converter`] for an ideal sensor and the [`NoisyConverter`] when
+//! [`CameraConfig::noise`] has an active term; the packetiser is the same for both.
+//!
 //! Packets tile sim time on a fixed grid: packet k covers `(k·P, (k+1)·P]` (P = packet period),
 //! independent of when the camera started, so every observer's packets line up with the 25 Hz
 //! receivers. The first packet is the one following the first render (k = ⌊t_first / P⌋); packet
@@ -14,11 +17,12 @@
 
 use std::collections::VecDeque;
 
-use proto::{EventPacket, FrameChange};
+use proto::{EventPacket, FrameChange, PixelRect};
 
 use crate::converter::Converter;
-use crate::error::CameraError;
+use crate::error::{CameraError, ConvertError};
 use crate::event::{DEFAULT_THRESHOLD, Event};
+use crate::noise::{EventNoise, NoisyConverter};
 
 /// Sensor and timing configuration of one event camera.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,10 +36,14 @@ pub struct CameraConfig {
     pub render_period_ns: u64,
     /// Fault: every render is replaced by a black frame before conversion.
     pub black_input: bool,
+    /// Sensor non-idealities (v2e-style, seeded); the default is the ideal sensor, converted by
+    /// the exact [`Converter`].
+    pub noise: EventNoise,
 }
 
 impl CameraConfig {
-    /// The paper's sensor: C = 0.18, 40 ms packets (25 Hz) from 100 Hz renders, no fault.
+    /// The paper's sensor: C = 0.18, 40 ms packets (25 Hz) from 100 Hz renders, no fault, no
+    /// noise.
     pub fn paper(width: u16, height: u16) -> Self {
         Self {
             width,
@@ -44,6 +52,66 @@ impl CameraConfig {
             packet_period_ns: 40_000_000,
             render_period_ns: 10_000_000,
             black_input: false,
+            noise: EventNoise::default(),
+        }
+    }
+}
+
+/// The converter of a camera: the exact one for an ideal sensor, else the noisy one.
+#[derive(Clone)]
+enum Sensor {
+    Exact(Box<Converter>),
+    Noisy(Box<NoisyConverter>),
+}
+
+impl Sensor {
+    fn new(config: &CameraConfig) -> Result<Self, ConvertError> {
+        config.noise.validate()?;
+        Ok(if config.noise.is_ideal() {
+            Sensor::Exact(Box::new(Converter::new(
+                config.width,
+                config.height,
+                config.threshold,
+            )?))
+        } else {
+            Sensor::Noisy(Box::new(NoisyConverter::new(
+                config.width,
+                config.height,
+                config.threshold,
+                &config.noise,
+            )?))
+        })
+    }
+
+    fn is_initialised(&self) -> bool {
+        match self {
+            Sensor::Exact(c) => c.is_initialised(),
+            Sensor::Noisy(c) => c.is_initialised(),
+        }
+    }
+
+    fn push(
+        &mut self,
+        stamp_ns: u64,
+        rgb: &[u8],
+        out: &mut Vec<Event>,
+    ) -> Result<(), ConvertError> {
+        match self {
+            Sensor::Exact(c) => c.push(stamp_ns, rgb, out),
+            Sensor::Noisy(c) => c.push(stamp_ns, rgb, out),
+        }
+    }
+
+    fn push_region(
+        &mut self,
+        stamp_ns: u64,
+        rgb: &[u8],
+        region: Option<PixelRect>,
+        out: &mut Vec<Event>,
+    ) -> Result<(), ConvertError> {
+        match self {
+            Sensor::Exact(c) => c.push_region(stamp_ns, rgb, region, out),
+            Sensor::Noisy(c) => c.push_region(stamp_ns, rgb, region, out),
         }
     }
 }
@@ -52,7 +120,7 @@ impl CameraConfig {
 #[derive(Clone)]
 pub struct EventCamera {
     config: CameraConfig,
-    converter: Converter,
+    converter: Sensor,
     /// All-zero frame fed instead of the render under the black-input fault.
     black: Vec<u8>,
     /// Whether the converter's last input was the black frame.
@@ -86,7 +154,7 @@ impl EventCamera {
         if config.render_period_ns == 0 {
             return Err(CameraError::BadRenderPeriod);
         }
-        let converter = Converter::new(config.width, config.height, config.threshold)?;
+        let converter = Sensor::new(&config)?;
         let pixels = usize::from(config.width) * usize::from(config.height);
         Ok(Self {
             config,
@@ -135,7 +203,7 @@ impl EventCamera {
         change: FrameChange,
     ) -> Result<Vec<EventPacket>, CameraError> {
         if rgb.len() != self.black.len() {
-            return Err(crate::ConvertError::FrameSize {
+            return Err(ConvertError::FrameSize {
                 got: rgb.len(),
                 want: self.black.len(),
                 width: self.config.width,

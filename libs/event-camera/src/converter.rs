@@ -315,7 +315,7 @@ impl State {
 /// `(level−1)·C < table[k] − l_init < (level+1)·C` — the reference's firing conditions negated,
 /// evaluated with the same f64 operations. The interval is never empty for a pixel that has just
 /// settled at `level` (its own key is inside).
-fn no_event_bounds(table: &[f64], l_init: f64, level: i32, c: f64) -> (u32, u32) {
+pub(crate) fn no_event_bounds(table: &[f64], l_init: f64, level: i32, c: f64) -> (u32, u32) {
     let fires_down = f64::from(level - 1) * c;
     let fires_up = f64::from(level + 1) * c;
     let lo = first_false(

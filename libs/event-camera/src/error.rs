@@ -1,4 +1,4 @@
-//! Typed errors of the converter, the packetiser and the picture codec.
+//! Typed errors of the converters, the noise model, the packetiser and the picture codec.
 
 /// Smallest accepted contrast threshold. It bounds the events one pixel can emit per interval
 /// (|ΔL| ≤ ln 255 ≈ 5.5, so at most ≈ 5 500 crossings), keeping every level index far from
@@ -31,6 +31,27 @@ pub enum ConvertError {
     },
     #[error("a changed region needs a previous frame: the first frame must be converted whole")]
     RegionBeforeFirstFrame,
+    #[error(transparent)]
+    Noise(#[from] NoiseError),
+}
+
+/// Why an [`crate::EventNoise`] is not usable; names the offending field.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NoiseError {
+    #[error("event noise `{field}` must be finite and non-negative, got {value}")]
+    NotFiniteNonNegative { field: &'static str, value: f64 },
+    #[error("event noise `{field}` = {value} Hz exceeds the maximum of {max} Hz")]
+    RateTooHigh {
+        field: &'static str,
+        value: f64,
+        max: f64,
+    },
+    #[error(
+        "event noise `hot_pixel_hz` must be positive when hot_pixels = {hot_pixels}, got {value}"
+    )]
+    HotPixelRateNotPositive { hot_pixels: u32, value: f64 },
+    #[error("event noise `hot_pixels` = {hot_pixels} exceeds the sensor's {pixels} pixels")]
+    TooManyHotPixels { hot_pixels: u32, pixels: usize },
 }
 
 /// Why an event camera could not be built or could not accept a render.

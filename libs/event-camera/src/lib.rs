@@ -24,6 +24,25 @@
 //! [`reference::ReferenceConverter`] states this literally; [`Converter`] is the fast,
 //! bit-identical implementation used everywhere else. [`EventCamera`] cuts the stream into
 //! [`proto::EventPacket`]s; [`picture`] draws packets the way the paper's figure does.
+//!
+//! # Sensor noise (off by default)
+//!
+//! [`EventNoise`] adds the non-idealities of the v2e model (Hu, Liu, Delbruck 2021), in spirit
+//! and with documented simplifications (see [`noise`]), all seeded by one `seed`:
+//!
+//! * `threshold_sigma` (log intensity): per-pixel threshold mismatch `C_i ~ N(C, σ²)`, clamped
+//!   to ≥ [`MIN_THRESHOLD`];
+//! * `refractory_ns` (ns): crossings within this time after a pixel's last emitted event are
+//!   not emitted (its level still follows the input);
+//! * `leak_hz` (Hz): the reference leaks down by `leak_hz·C_i` per second, so static pixels emit
+//!   ON events at about `leak_hz`;
+//! * `shot_noise_hz` (Hz per pixel): Poisson spurious events, fair polarity, no effect on the
+//!   reference;
+//! * `hot_pixels`, `hot_pixel_hz` (count, Hz): distinct pixels emitting periodic ON events.
+//!
+//! [`NoisyConverter`] implements it with the [`Converter`] API and is bit-identical to it when
+//! the noise is ideal ([`EventNoise::is_ideal`]). [`CameraConfig::noise`] defaults to the ideal
+//! sensor, for which [`EventCamera`] keeps using the exact [`Converter`].
 
 pub mod camera;
 pub mod converter;
@@ -31,11 +50,13 @@ pub mod error;
 pub mod event;
 mod kernel;
 pub mod luminance;
+pub mod noise;
 pub mod picture;
 pub mod reference;
 pub mod synthetic;
 
 pub use camera::{CameraConfig, EventCamera};
 pub use converter::Converter;
-pub use error::{CameraError, ConvertError, MIN_THRESHOLD, PictureError};
+pub use error::{CameraError, ConvertError, MIN_THRESHOLD, NoiseError, PictureError};
 pub use event::{DEFAULT_THRESHOLD, Event, Polarity};
+pub use noise::{EventNoise, MAX_NOISE_RATE_HZ, NoisyConverter};

@@ -50,6 +50,8 @@ pub struct World {
     names: Vec<String>,
     references: Vec<Reference>,
     gains: Gains,
+    /// External disturbance force on each drone, world frame, N (gusts; zero by default).
+    disturbances_n: Vec<[f64; 3]>,
     step_index: u64,
     stats: ContactStats,
 }
@@ -90,12 +92,14 @@ impl World {
         }
         let mut data = MjData::new(model);
         data.forward();
+        let disturbances_n = vec![[0.0; 3]; drones.len()];
         let mut world = Self {
             data,
             drones,
             names,
             references,
             gains: Gains::default(),
+            disturbances_n,
             step_index: 0,
             stats: ContactStats {
                 contact_steps: 0,
@@ -159,6 +163,14 @@ impl World {
         self.stats
     }
 
+    /// Applies `force_n` (world frame, N) to drone `i` from the next step on, on top of its
+    /// controller's wrench: a gust the controller must reject. Zero removes it.
+    pub fn set_disturbance_n(&mut self, i: DroneIndex, force_n: [f64; 3]) {
+        if let Some(d) = self.disturbances_n.get_mut(i) {
+            *d = force_n;
+        }
+    }
+
     /// Advances one 2 ms physics step.
     pub fn step(&mut self) {
         let gravity = -self.data.model().opt().gravity[2];
@@ -172,6 +184,13 @@ impl World {
                 gravity,
                 &self.gains,
             );
+            let mut w = w;
+            // Only a set disturbance touches the wrench: the undisturbed world stays bit-exact.
+            for (k, &f) in self.disturbances_n[i].iter().enumerate() {
+                if f != 0.0 {
+                    w[k] += f;
+                }
+            }
             self.data.xfrc_applied_mut()[ids.body] = w;
         }
         self.data.step();

@@ -1,0 +1,206 @@
+//! A flight rendered once and kept (the render cache of `waggle trials`).
+//!
+//! Sensor perturbations do not change what the cameras see, only what the sensors make of it,
+//! so every such trial of a condition replays the same renders: physics and rendering run once,
+//! and each trial costs only its sensors and receivers. A render is stored as what changed since
+//! the camera's previous render (the damage rectangle's pixels, nothing, or the whole frame), so
+//! a 30 s flight of three observers at 100 Hz keeps a few tens of MB, not gigabytes.
+
+use anyhow::{Context, Result};
+use evaluation::IdealReceiver;
+use proto::scene::{Formation, distance_m};
+use proto::{FrameChange, PixelRect, Rectification, RenderPath, Schedule, SegmenterConfig};
+use rand_distr::{Distribution, Normal};
+use sim::render::CameraRenderer;
+use sim::world::World;
+
+use crate::harness::link::{IDEAL_PERIOD_NS, ObserverOut, observer_out};
+use crate::harness::performer_flight::step_along;
+
+/// The performer is drone 0.
+const PERFORMER: usize = 0;
+
+/// What to fly and render.
+#[derive(Debug, Clone)]
+pub struct FlightSpec {
+    pub formation: Formation,
+    pub schedule: Schedule,
+    pub end_ns: u64,
+    /// Time between renders (a multiple of the 2 ms physics step).
+    pub render_period_ns: u64,
+    pub render: RenderPath,
+    /// Segmenter of the ideal receiver (the events or RGB timing).
+    pub ideal_config: SegmenterConfig,
+    pub rectification: Rectification,
+    /// Gusts on the performer: σ of each horizontal component (N), how long each holds (ns),
+    /// the seed of the draws. `None`: still air.
+    pub gusts: Option<Gusts>,
+}
+
+/// A gust model: a horizontal force on the performer, redrawn at the first render at or after
+/// each period.
+#[derive(Debug, Clone, Copy)]
+pub struct Gusts {
+    pub sigma_n: f64,
+    pub period_ns: u64,
+    pub seed: u64,
+}
+
+/// One camera's stored render: its stamp and what changed since the previous one.
+#[derive(Debug, Clone)]
+struct Update {
+    stamp_ns: u64,
+    change: FrameChange,
+    /// The changed pixels: the rectangle's rows (`Within`), the whole frame (`All`), or none.
+    pixels: Vec<u8>,
+}
+
+/// Every render of one camera.
+#[derive(Debug, Clone, Default)]
+pub struct RenderTrack {
+    frame_len: usize,
+    width: usize,
+    updates: Vec<Update>,
+}
+
+/// A flown and rendered broadcast, with the ideal receiver's decodes of the same flight.
+#[derive(Debug, Clone)]
+pub struct RenderedFlight {
+    pub spec: FlightSpec,
+    pub tracks: Vec<RenderTrack>,
+    /// The ideal receiver's tokens and frames per observer.
+    pub ideal: Vec<ObserverOut>,
+    pub sim_ns: u64,
+    pub performer_max_tracking_error_m: f64,
+    pub contact_steps: u64,
+}
+
+impl RenderTrack {
+    fn push(&mut self, stamp_ns: u64, rgb: &[u8], change: FrameChange, width: usize) {
+        let change = if self.updates.is_empty() {
+            FrameChange::All
+        } else {
+            change
+        };
+        let pixels = match change {
+            FrameChange::Nothing => Vec::new(),
+            FrameChange::All => rgb.to_vec(),
+            FrameChange::Within(r) => {
+                let mut out = Vec::with_capacity(r.area_px() * 3);
+                for (start, end) in rows(r, width) {
+                    out.extend_from_slice(&rgb[start..end]);
+                }
+                out
+            }
+        };
+        self.frame_len = rgb.len();
+        self.width = width;
+        self.updates.push(Update {
+            stamp_ns,
+            change,
+            pixels,
+        });
+    }
+
+    /// Bytes held.
+    pub fn stored_bytes(&self) -> usize {
+        self.updates.iter().map(|u| u.pixels.len()).sum()
+    }
+
+    /// Replays the renders in order: `visit(stamp_ns, whole frame, change since previous)`.
+    pub fn replay(
+        &self,
+        mut visit: impl FnMut(u64, &[u8], FrameChange) -> Result<bool>,
+    ) -> Result<()> {
+        let mut frame = vec![0u8; self.frame_len];
+        for u in &self.updates {
+            match u.change {
+                FrameChange::Nothing => {}
+                FrameChange::All => frame.copy_from_slice(&u.pixels),
+                FrameChange::Within(r) => {
+                    let mut at = 0;
+                    for (start, end) in rows(r, self.width) {
+                        frame[start..end].copy_from_slice(&u.pixels[at..at + end - start]);
+                        at += end - start;
+                    }
+                }
+            }
+            if !visit(u.stamp_ns, &frame, u.change)? {
+                break;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Byte ranges of the rows of `r` in a frame `width` pixels wide.
+fn rows(r: PixelRect, width: usize) -> impl Iterator<Item = (usize, usize)> {
+    let (x, w) = (usize::from(r.x), usize::from(r.width));
+    (usize::from(r.y)..usize::from(r.y) + usize::from(r.height)).map(move |y| {
+        let start = 3 * (y * width + x);
+        (start, start + 3 * w)
+    })
+}
+
+/// Flies `spec` once, rendering every observer's camera at `render_period_ns`.
+pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
+    let mut world = World::with_formation(&spec.formation).context("building the scene")?;
+    let mut renderer =
+        CameraRenderer::new(&world, spec.render).context("creating the offscreen renderer")?;
+    let mut ideal =
+        IdealReceiver::with_formation(&spec.formation, spec.ideal_config, spec.rectification)?;
+    let n = spec.formation.len();
+    let mut tracks = vec![RenderTrack::default(); n];
+    let width = usize::from(proto::scene::IMAGE_WIDTH_PX);
+    let mut gust = spec.gusts.map(|g| {
+        use rand::SeedableRng;
+        (g, rand_chacha::ChaCha8Rng::seed_from_u64(g.seed), 0u64)
+    });
+    let mut max_err_m: f64 = 0.0;
+    while world.time_ns() < spec.end_ns {
+        step_along(&mut world, &spec.schedule);
+        let t = world.time_ns();
+        max_err_m = max_err_m.max(distance_m(
+            spec.schedule.setpoint_at(t),
+            world.position_m(PERFORMER),
+        ));
+        if t.is_multiple_of(IDEAL_PERIOD_NS) {
+            ideal.push(t, world.position_m(PERFORMER))?;
+        }
+        if !t.is_multiple_of(spec.render_period_ns) {
+            continue;
+        }
+        if let Some((g, rng, next_ns)) = gust.as_mut()
+            && t >= *next_ns
+        {
+            let normal = Normal::new(0.0, g.sigma_n).context("gust σ")?;
+            let force = [normal.sample(rng), normal.sample(rng), 0.0];
+            world.set_disturbance_n(PERFORMER, force);
+            *next_ns = t + g.period_ns;
+        }
+        for (i, track) in tracks.iter_mut().enumerate() {
+            let frame = renderer.render_change(&mut world, i)?;
+            track.push(t, frame.rgb, frame.change, width);
+        }
+    }
+    let ideal_outs = ideal
+        .outputs()
+        .iter()
+        .map(|o| observer_out(&o.tokens, &o.frames))
+        .collect();
+    Ok(RenderedFlight {
+        tracks,
+        ideal: ideal_outs,
+        sim_ns: world.time_ns(),
+        performer_max_tracking_error_m: max_err_m,
+        contact_steps: world.contact_stats().contact_steps,
+        spec,
+    })
+}
+
+impl RenderedFlight {
+    /// Bytes held by every track.
+    pub fn stored_bytes(&self) -> usize {
+        self.tracks.iter().map(RenderTrack::stored_bytes).sum()
+    }
+}

@@ -1,0 +1,464 @@
+//! `waggle study`: a TOML file of conditions × levels × modalities, each point run as
+//! `waggle trials` ([`crate::harness::trials`]), then `DIR/report.md` with the success
+//! probability and its 95 % Wilson interval against each level, per modality, and a figure.
+//!
+//! ```toml
+//! name = "event-noise"
+//! modalities = ["events"]
+//! link = ["011010"]
+//! observers = 3              # or: viewpoint = [azimuth_deg, elevation_deg, distance_m]
+//! trials = 100
+//! seed = 1
+//! criterion = "exact-payloads"
+//! fixed = { "link.drop_rate" = 0.0 }      # optional: terms held at one value
+//! [vary]
+//! key = "events.shot_noise_hz"            # a perturbation term, or viewpoint.azimuth_deg /
+//! levels = [0.0, 0.1, 0.2, 0.5, 1.0]      # viewpoint.elevation_deg / viewpoint.distance_m
+//! ```
+//! Unknown keys, unknown terms and out-of-range levels are refused at load, naming them.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use anyhow::{Context, Result, bail};
+use perturb::Perturbation;
+use proto::scene::{Formation, Placement};
+use proto::{Modality, Rectification, RenderPath};
+use serde::{Deserialize, Serialize};
+
+use crate::harness::link::{parse_bits6, parse_viewpoint};
+use crate::harness::trials::{TrialsOptions, TrialsOut, run_trials};
+
+/// The built-in studies (`waggle study NAME`), as TOML.
+pub const BUILT_IN: &[(&str, &str)] = &[
+    (
+        "event-noise",
+        include_str!("../../studies/event-noise.toml"),
+    ),
+    ("rgb-noise", include_str!("../../studies/rgb-noise.toml")),
+    (
+        "viewing-angle",
+        include_str!("../../studies/viewing-angle.toml"),
+    ),
+    ("distance", include_str!("../../studies/distance.toml")),
+];
+
+/// The only criterion of a link study: every observer releases exactly the broadcast.
+const EXACT_PAYLOADS: &str = "exact-payloads";
+
+/// A study file.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudyFile {
+    pub name: String,
+    pub modalities: Vec<Modality>,
+    pub link: Vec<String>,
+    #[serde(default)]
+    pub observers: Option<usize>,
+    #[serde(default)]
+    pub viewpoint: Option<[f64; 3]>,
+    pub trials: u64,
+    #[serde(default)]
+    pub seed: u64,
+    pub criterion: String,
+    #[serde(default)]
+    pub fixed: BTreeMap<String, f64>,
+    pub vary: Vary,
+}
+
+/// The axis of a study.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Vary {
+    pub key: String,
+    pub levels: Vec<f64>,
+}
+
+/// One point: a modality at one level.
+#[derive(Debug, Clone)]
+struct Point {
+    modality: Modality,
+    level: f64,
+    dir: String,
+    options: TrialsOptions,
+}
+
+/// The measured point as the report lists it.
+#[derive(Debug, Clone, Serialize)]
+pub struct PointResult {
+    pub modality: String,
+    pub level: f64,
+    pub trials: u64,
+    pub successes: u64,
+    pub success_rate: Option<f64>,
+    pub ci95: [f64; 2],
+    pub dir: String,
+}
+
+const VIEWPOINT_AXES: [&str; 3] = [
+    "viewpoint.azimuth_deg",
+    "viewpoint.elevation_deg",
+    "viewpoint.distance_m",
+];
+
+impl StudyFile {
+    /// Reads a study from a built-in name or a file path, checking every field.
+    pub fn load(name_or_path: &str) -> Result<Self> {
+        let (text, origin) = match BUILT_IN.iter().find(|(n, _)| *n == name_or_path) {
+            Some((_, t)) => ((*t).to_owned(), format!("built-in study {name_or_path}")),
+            None => (
+                std::fs::read_to_string(name_or_path).with_context(|| {
+                    format!(
+                        "{name_or_path} is neither a built-in study ({}) nor a readable file",
+                        BUILT_IN
+                            .iter()
+                            .map(|(n, _)| *n)
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                })?,
+                name_or_path.to_owned(),
+            ),
+        };
+        let study: Self =
+            toml::from_str(&text).with_context(|| format!("{origin}: not a valid study"))?;
+        study
+            .points(RenderPath::default(), 1)
+            .with_context(|| format!("{origin}: invalid study"))?;
+        Ok(study)
+    }
+
+    fn formation(&self, axis: Option<(&str, f64)>) -> Result<Formation> {
+        match (self.observers, self.viewpoint) {
+            (Some(_), Some(_)) => bail!("give either observers or viewpoint, not both"),
+            (Some(n), None) => {
+                if axis.is_some() {
+                    bail!(
+                        "vary.key {} needs viewpoint = [az, el, dist]",
+                        self.vary.key
+                    );
+                }
+                Formation::standard(n)
+                    .map_err(|_| anyhow::anyhow!("observers = {n} is outside 1..=8"))
+            }
+            (None, Some(mut v)) => {
+                if let Some((key, level)) = axis {
+                    let k = VIEWPOINT_AXES.iter().position(|a| *a == key).unwrap_or(0);
+                    v[k] = level;
+                }
+                let p: Placement = parse_viewpoint(&format!("{},{},{}", v[0], v[1], v[2]))
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", axis.map_or("viewpoint", |a| a.0)))?;
+                Ok(Formation::custom(vec![p])?)
+            }
+            (None, None) => bail!("give observers = N or viewpoint = [az, el, dist]"),
+        }
+    }
+
+    /// Every point of the study, checked.
+    fn points(&self, render: RenderPath, jobs: usize) -> Result<Vec<Point>> {
+        if self.criterion != EXACT_PAYLOADS {
+            bail!(
+                "criterion {:?}: the only link criterion is {EXACT_PAYLOADS:?}",
+                self.criterion
+            );
+        }
+        if self.trials == 0 {
+            bail!("trials must be at least 1");
+        }
+        if self.modalities.is_empty() || self.vary.levels.is_empty() {
+            bail!("modalities and vary.levels must not be empty");
+        }
+        let payloads = self
+            .link
+            .iter()
+            .map(|p| parse_bits6(p).map_err(anyhow::Error::msg))
+            .collect::<Result<Vec<u8>>>()
+            .context("link")?;
+        let mut base = Perturbation::default();
+        for (k, v) in &self.fixed {
+            base.set(k, *v).context("fixed")?;
+        }
+        let viewpoint_axis = VIEWPOINT_AXES.contains(&self.vary.key.as_str());
+        let mut points = Vec::new();
+        for &modality in &self.modalities {
+            for &level in &self.vary.levels {
+                let mut perturbation = base.clone();
+                let formation = if viewpoint_axis {
+                    self.formation(Some((&self.vary.key, level)))?
+                } else {
+                    perturbation.set(&self.vary.key, level).context("vary")?;
+                    self.formation(None)?
+                };
+                points.push(Point {
+                    modality,
+                    level,
+                    dir: format!("{modality}-{}", level_label(level)),
+                    options: TrialsOptions {
+                        payloads: payloads.clone(),
+                        formation,
+                        modality,
+                        trials: self.trials,
+                        seed: self.seed,
+                        perturbation,
+                        jobs,
+                        render,
+                        rectification: Rectification::default(),
+                    },
+                });
+            }
+        }
+        Ok(points)
+    }
+}
+
+/// A level as a directory-name fragment (`0.5` → `0.5`, `-20` → `m20`).
+fn level_label(level: f64) -> String {
+    let s = format!("{level}");
+    s.replace('-', "m")
+}
+
+/// Runs every point into `out/<modality>-<level>/`, then writes `out/report.md`,
+/// `out/study.json` and `out/success.svg`. `progress(point, points, done, trials)` is called
+/// as trials finish. Returns the points measured (fewer when interrupted).
+pub fn run_study(
+    study: &StudyFile,
+    out: &Path,
+    render: RenderPath,
+    jobs: usize,
+    stop: &AtomicBool,
+    progress: impl Fn(usize, usize, u64, u64) + Sync,
+) -> Result<Vec<PointResult>> {
+    let points = study.points(render, jobs)?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mut results = Vec::new();
+    for (k, point) in points.iter().enumerate() {
+        if stop.load(std::sync::atomic::Ordering::SeqCst) {
+            break;
+        }
+        let dir: PathBuf = out.join(&point.dir);
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        let (trials, cost) = run_trials(&point.options, stop, |done, _| {
+            progress(k, points.len(), done, point.options.trials);
+        })?;
+        write_json(&dir.join("trials.json"), &trials)?;
+        write_json(&dir.join("cost.json"), &cost)?;
+        results.push(point_result(point, &trials));
+    }
+    write_json(&out.join("study.json"), &results)?;
+    std::fs::write(out.join("success.svg"), figure(study, &results)?)
+        .with_context(|| format!("writing {}", out.join("success.svg").display()))?;
+    std::fs::write(out.join("report.md"), report(study, &results))
+        .with_context(|| format!("writing {}", out.join("report.md").display()))?;
+    Ok(results)
+}
+
+fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
+    std::fs::write(path, serde_json::to_string_pretty(value)? + "\n")
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+fn point_result(point: &Point, t: &TrialsOut) -> PointResult {
+    PointResult {
+        modality: point.modality.to_string(),
+        level: point.level,
+        trials: t.trials,
+        successes: t.successes,
+        success_rate: t.success_rate,
+        ci95: t.ci95,
+        dir: point.dir.clone(),
+    }
+}
+
+/// `report.md`: the study's definition and one table per modality.
+pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
+    let mut s = format!("# Study: {}\n\n", study.name);
+    s.push_str(&format!(
+        "Broadcast {}; {}; {} trials per point, seed {}; criterion: every observer releases \
+         exactly the broadcast payloads, in order (`{}`). Varied: `{}`.",
+        study.link.join(", "),
+        match (study.observers, study.viewpoint) {
+            (Some(n), _) => format!("{n} observers in the built-in formation"),
+            (_, Some(v)) => format!(
+                "one observer at azimuth {}°, elevation {}°, {} m",
+                v[0], v[1], v[2]
+            ),
+            _ => String::new(),
+        },
+        study.trials,
+        study.seed,
+        study.criterion,
+        study.vary.key,
+    ));
+    if !study.fixed.is_empty() {
+        let fixed: Vec<String> = study
+            .fixed
+            .iter()
+            .map(|(k, v)| format!("`{k}` = {v}"))
+            .collect();
+        s.push_str(&format!(" Held: {}.", fixed.join(", ")));
+    }
+    s.push_str("\n\n![success probability](success.svg)\n");
+    for m in &study.modalities {
+        let m = m.to_string();
+        s.push_str(&format!(
+            "\n## {m}\n\n| {} | successes / trials | P(success) | 95 % CI (Wilson) |\n| ---: | ---: | ---: | :---: |\n",
+            study.vary.key
+        ));
+        for r in results.iter().filter(|r| r.modality == m) {
+            s.push_str(&format!(
+                "| {} | {} / {} | {} | [{:.3}, {:.3}] |\n",
+                r.level,
+                r.successes,
+                r.trials,
+                r.success_rate.map_or("—".into(), |p| format!("{p:.3}")),
+                r.ci95[0],
+                r.ci95[1]
+            ));
+        }
+    }
+    s
+}
+
+/// The success probability with its interval against the level, one series per modality.
+fn figure(study: &StudyFile, results: &[PointResult]) -> Result<String> {
+    use plotters::prelude::*;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (720, 420)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let lo = study
+            .vary
+            .levels
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min);
+        let hi = study
+            .vary
+            .levels
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
+        let pad = ((hi - lo) * 0.05).max(1e-3);
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!("{}: P(success) ± 95 % CI", study.name),
+                ("sans-serif", 18),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(50)
+            .build_cartesian_2d(lo - pad..hi + pad, 0.0..1.05)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        chart
+            .configure_mesh()
+            .x_desc(study.vary.key.as_str())
+            .y_desc("P(success)")
+            .draw()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        for (k, m) in study.modalities.iter().enumerate() {
+            let colour = Palette99::pick(k).to_rgba();
+            let m = m.to_string();
+            let pts: Vec<&PointResult> = results.iter().filter(|r| r.modality == m).collect();
+            chart
+                .draw_series(LineSeries::new(
+                    pts.iter()
+                        .filter_map(|r| r.success_rate.map(|p| (r.level, p))),
+                    colour.stroke_width(2),
+                ))
+                .map_err(|e| anyhow::anyhow!("{e}"))?
+                .label(m.clone())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
+                });
+            chart
+                .draw_series(pts.iter().map(|r| {
+                    PathElement::new(
+                        vec![(r.level, r.ci95[0]), (r.level, r.ci95[1])],
+                        colour.stroke_width(1),
+                    )
+                }))
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
+        }
+        chart
+            .configure_series_labels()
+            .border_style(BLACK)
+            .background_style(WHITE)
+            .draw()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
+    Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<StudyFile> {
+        let s: StudyFile = toml::from_str(text)?;
+        s.points(RenderPath::default(), 1)?;
+        Ok(s)
+    }
+
+    const GOOD: &str = r#"
+name = "t"
+modalities = ["events", "rgb"]
+link = ["011010"]
+observers = 2
+trials = 10
+criterion = "exact-payloads"
+[vary]
+key = "events.shot_noise_hz"
+levels = [0.0, 0.5]
+"#;
+
+    #[test]
+    fn a_good_study_has_a_point_per_modality_and_level() {
+        let s = parse(GOOD).unwrap();
+        let pts = s.points(RenderPath::default(), 1).unwrap();
+        assert_eq!(pts.len(), 4);
+        assert_eq!(pts[1].dir, "events-0.5");
+        assert_eq!(pts[1].options.perturbation.get("events.shot_noise_hz"), 0.5);
+    }
+
+    #[test]
+    fn unknown_keys_and_negative_levels_are_named() {
+        let e = parse(&GOOD.replace("trials = 10", "trials = 10\ntrails = 3")).unwrap_err();
+        assert!(format!("{e:#}").contains("trails"), "{e:#}");
+        let e =
+            parse(&GOOD.replace("events.shot_noise_hz\"", "events.shot_noize_hz\"")).unwrap_err();
+        assert!(format!("{e:#}").contains("events.shot_noize_hz"), "{e:#}");
+        let e = parse(&GOOD.replace("[0.0, 0.5]", "[0.0, -0.5]")).unwrap_err();
+        assert!(
+            format!("{e:#}").contains("-0.5") && format!("{e:#}").contains("events.shot_noise_hz"),
+            "{e:#}"
+        );
+        let e = parse(&GOOD.replace("exact-payloads", "most")).unwrap_err();
+        assert!(format!("{e:#}").contains("most"), "{e:#}");
+    }
+
+    #[test]
+    fn every_built_in_study_loads() {
+        for (name, _) in BUILT_IN {
+            StudyFile::load(name).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+        }
+    }
+
+    #[test]
+    fn viewpoint_axes_move_the_single_observer() {
+        let text = GOOD
+            .replace("observers = 2", "viewpoint = [0.0, 0.0, 1.3]")
+            .replace("events.shot_noise_hz", "viewpoint.azimuth_deg")
+            .replace("[0.0, 0.5]", "[0.0, 40.0]");
+        let s = parse(&text).unwrap();
+        let pts = s.points(RenderPath::default(), 1).unwrap();
+        assert_ne!(
+            pts[0].options.formation.placements()[0],
+            pts[1].options.formation.placements()[0]
+        );
+        assert!(pts[1].options.perturbation.is_none());
+        let bad = text.replace("[0.0, 40.0]", "[0.0, 120.0]");
+        assert!(format!("{:#}", parse(&bad).unwrap_err()).contains("azimuth"));
+    }
+}

@@ -1,0 +1,580 @@
+//! Seeded repeated trials of one condition (`waggle trials`): a broadcast flown and rendered,
+//! decoded by every observer under a perturbation drawn from each trial's seed.
+//!
+//! Sensor and link perturbations share one [`RenderedFlight`] (matched trajectories: trials
+//! differ only by the perturbation); placement jitter and gusts fly each trial anew. The success
+//! criterion is fixed before the first trial: every observer releases exactly the broadcast
+//! payloads, in order. Everything a trial records is a function of the condition and its seed
+//! (no wall-clock value), so the same seed gives identical records whatever `--jobs`.
+
+use std::collections::BTreeMap;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+use anyhow::{Context, Result, bail};
+use event_camera::{CameraConfig, EventCamera};
+use perception::perception::{Perception, SensorInput};
+use perturb::Perturbation;
+use perturb::seed::{Stream, rng, stream_seed, trial_seed};
+use perturb::stats::wilson95;
+use proto::scene::{
+    Formation, IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, MAX_OBSERVERS, Placement, observer_name,
+};
+use proto::{
+    GestureConfig, Modality, Rectification, RenderPath, RgbFrame, SegmenterConfig, broadcast,
+};
+use rand_distr::{Distribution, Normal};
+use serde::Serialize;
+use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
+
+use crate::harness::link::{LEAD_IN_NS, ObserverOut, TAIL_NS, bits6, observer_out};
+use crate::harness::rendered_flight::{FlightSpec, Gusts, RenderedFlight, fly_rendered};
+
+/// One condition and how many times to try it.
+#[derive(Debug, Clone)]
+pub struct TrialsOptions {
+    /// The broadcast payloads (six bits each), flown back to back.
+    pub payloads: Vec<u8>,
+    /// The observers' nominal placements.
+    pub formation: Formation,
+    pub modality: Modality,
+    pub trials: u64,
+    pub seed: u64,
+    pub perturbation: Perturbation,
+    /// Trials run at once (threads).
+    pub jobs: usize,
+    pub render: RenderPath,
+    pub rectification: Rectification,
+}
+
+/// How one observer's token stamps compare with the ideal receiver's on the same flight.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TokenTiming {
+    /// Ideal tokens matched by a token of the same kind within ±1 s.
+    pub matched: usize,
+    /// Ideal tokens without a match.
+    pub missed: usize,
+    /// Tokens that matched no ideal token.
+    pub extra: usize,
+    pub mean_abs_error_ms: Option<f64>,
+    pub max_abs_error_ms: Option<f64>,
+}
+
+/// One observer in one trial.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct ObserverTrial {
+    /// Released payloads, six-bit strings, in release order.
+    pub released: Vec<String>,
+    pub success: bool,
+    /// Per released frame: when its final NULL was confirmed (plus any link delay), sim s.
+    pub release_s: Vec<f64>,
+    pub tokens: usize,
+    pub token_timing: TokenTiming,
+    /// Per released frame: its release (final NULL confirmed, plus any link delay) after the
+    /// start of that offer's final NULL in the schedule, s.
+    pub latency_s: Vec<f64>,
+    /// Per released frame: its release after the ideal receiver's release of the same offer, s
+    /// (`null` when the ideal receiver did not release it).
+    pub vs_ideal_s: Vec<Option<f64>>,
+    /// Sensor messages (frames or packets) the camera produced, and how many the link lost.
+    pub messages: u64,
+    pub messages_lost: u64,
+}
+
+/// One trial.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TrialRecord {
+    pub index: u64,
+    pub seed: u64,
+    pub success: bool,
+    pub observers: BTreeMap<String, ObserverTrial>,
+}
+
+/// Means over the finished trials.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TrialsSummary {
+    pub mean_token_error_ms: Option<f64>,
+    pub mean_latency_s: Option<f64>,
+    pub messages_lost: u64,
+}
+
+/// What `trials.json` holds (no wall-clock value: same seed, same file).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TrialsOut {
+    pub criterion: String,
+    pub link: Vec<String>,
+    pub observers: usize,
+    /// Each observer's nominal placement: home position (m), yaw and camera pitch (deg).
+    pub placements: BTreeMap<String, [f64; 5]>,
+    pub modality: String,
+    pub perturb: BTreeMap<String, f64>,
+    /// `shared` (one rendered flight for every trial) or `per trial` (re-flown).
+    pub flight: String,
+    pub seed: u64,
+    pub requested: u64,
+    pub trials: u64,
+    pub interrupted: bool,
+    pub successes: u64,
+    pub success_rate: Option<f64>,
+    pub ci95: [f64; 2],
+    pub summary: TrialsSummary,
+    /// The ideal receiver's releases on the unperturbed flight (the reference).
+    pub ideal_released: BTreeMap<String, Vec<String>>,
+    pub per_trial: Vec<TrialRecord>,
+}
+
+/// Wall-clock figures of a run, reported beside (never inside) `trials.json`.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct TrialsCost {
+    pub flights: u64,
+    pub fly_and_render_s: f64,
+    pub trials_s: f64,
+    pub render_cache_mb: f64,
+}
+
+impl TrialsOptions {
+    /// Checks the condition before anything runs.
+    pub fn check(&self) -> Result<()> {
+        if self.payloads.is_empty() {
+            bail!("--link needs at least one six-bit payload");
+        }
+        if self.trials == 0 {
+            bail!("--trials must be at least 1");
+        }
+        if self.formation.len() > MAX_OBSERVERS {
+            bail!("at most {MAX_OBSERVERS} observers");
+        }
+        Ok(())
+    }
+
+    fn want(&self) -> Vec<String> {
+        self.payloads.iter().map(|&p| bits6(p)).collect()
+    }
+
+    fn render_period_ns(&self) -> u64 {
+        match self.modality {
+            Modality::Events => EVENT_RENDER_PERIOD_NS,
+            Modality::Rgb if self.perturbation.rgb().blur_renders > 1 => EVENT_RENDER_PERIOD_NS,
+            Modality::Rgb => RGB_PERIOD_NS,
+        }
+    }
+
+    /// The flight of trial `seed` (the nominal one when nothing re-flies).
+    fn flight_spec(&self, seed: Option<u64>) -> Result<FlightSpec> {
+        let acquisition = self.modality == Modality::Events;
+        let schedule = broadcast(
+            LEAD_IN_NS,
+            &self.payloads,
+            acquisition,
+            &GestureConfig::default(),
+        )
+        .context("building the broadcast schedule")?;
+        let end_ns = schedule.end_ns() + TAIL_NS;
+        let mut formation = self.formation.clone();
+        let mut gusts = None;
+        if let Some(seed) = seed {
+            formation = jittered(&self.formation, &self.perturbation, seed)?;
+            let sigma_n = self.perturbation.gust_sigma_n();
+            if sigma_n > 0.0 {
+                gusts = Some(Gusts {
+                    sigma_n,
+                    period_ns: self.perturbation.gust_period_ns(),
+                    seed: stream_seed(seed, Stream::Gust, 0),
+                });
+            }
+        }
+        Ok(FlightSpec {
+            formation,
+            schedule,
+            end_ns,
+            render_period_ns: self.render_period_ns(),
+            render: self.render,
+            ideal_config: match self.modality {
+                Modality::Events => SegmenterConfig::events(),
+                Modality::Rgb => SegmenterConfig::rgb(),
+            },
+            rectification: self.rectification,
+            gusts,
+        })
+    }
+}
+
+/// `formation` with each observer's home and heading jittered by the trial's placement draws.
+fn jittered(formation: &Formation, p: &Perturbation, seed: u64) -> Result<Formation> {
+    let (sigma_m, sigma_yaw_rad) = p.placement_sigma();
+    if sigma_m == 0.0 && sigma_yaw_rad == 0.0 {
+        return Ok(formation.clone());
+    }
+    let placements: Vec<Placement> = formation
+        .placements()
+        .iter()
+        .enumerate()
+        .map(|(i, nominal)| {
+            let mut r = rng(seed, Stream::Placement, i);
+            let mut draw = |sigma: f64| Normal::new(0.0, sigma).map_or(0.0, |n| n.sample(&mut r));
+            let h = nominal.home_m;
+            let home = [
+                h[0] + draw(sigma_m),
+                h[1] + draw(sigma_m),
+                h[2] + draw(sigma_m),
+            ];
+            let mut placed = Placement::aimed_from(home);
+            placed.yaw_rad += draw(sigma_yaw_rad);
+            placed
+        })
+        .collect();
+    Formation::custom(placements)
+        .context("a jittered formation is not flyable (lower geometry.position_sigma_m)")
+}
+
+/// Pairs each ideal token with the nearest unused token of the same kind within ±1 s.
+fn token_timing(ideal: &ObserverOut, got: &ObserverOut) -> TokenTiming {
+    const WINDOW_S: f64 = 1.0;
+    let mut used = vec![false; got.tokens.len()];
+    let mut errors_ms = Vec::new();
+    for t in &ideal.tokens {
+        let best = got
+            .tokens
+            .iter()
+            .enumerate()
+            .filter(|(k, g)| !used[*k] && g.token == t.token && (g.t_s - t.t_s).abs() <= WINDOW_S)
+            .min_by(|a, b| {
+                let (da, db) = ((a.1.t_s - t.t_s).abs(), (b.1.t_s - t.t_s).abs());
+                da.total_cmp(&db).then(a.0.cmp(&b.0))
+            });
+        if let Some((k, g)) = best {
+            used[k] = true;
+            errors_ms.push((g.t_s - t.t_s) * 1e3);
+        }
+    }
+    let matched = errors_ms.len();
+    let abs: Vec<f64> = errors_ms.iter().map(|e| e.abs()).collect();
+    TokenTiming {
+        matched,
+        missed: ideal.tokens.len() - matched,
+        extra: got.tokens.len() - matched,
+        mean_abs_error_ms: (matched > 0).then(|| abs.iter().sum::<f64>() / matched as f64),
+        max_abs_error_ms: abs.iter().copied().reduce(f64::max),
+    }
+}
+
+/// One observer's receiver fed its perturbed sensor from the flight's renders. `None` when
+/// `stop` was raised before it finished.
+fn observe(
+    flight: &RenderedFlight,
+    i: usize,
+    opts: &TrialsOptions,
+    seed: u64,
+    stop: &AtomicBool,
+) -> Result<Option<(ObserverOut, u64, u64)>> {
+    let placement = flight.spec.formation.placements()[i];
+    let mut perception =
+        Perception::for_camera(opts.modality, placement.camera(), opts.rectification)?;
+    let link = opts.perturbation.link();
+    let mut link_rng = rng(seed, Stream::Link, i);
+    let (mut tokens, mut frames) = (Vec::new(), Vec::new());
+    let (mut messages, mut lost) = (0u64, 0u64);
+    let mut deliver = |input: SensorInput<'_>, messages: &mut u64| -> Result<()> {
+        *messages += 1;
+        if !link.keeps(&mut link_rng) {
+            lost += 1;
+            return Ok(());
+        }
+        let step = perception.push(input)?;
+        tokens.extend(step.tokens);
+        frames.extend(step.frames);
+        Ok(())
+    };
+    let mut finished = true;
+    match opts.modality {
+        Modality::Events => {
+            let mut config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX);
+            config.noise = opts
+                .perturbation
+                .event_noise(stream_seed(seed, Stream::EventSensor, i));
+            let mut camera = EventCamera::new(config).context("event camera")?;
+            flight.tracks[i].replay(|t, rgb, change| {
+                if stop.load(Ordering::Relaxed) {
+                    finished = false;
+                    return Ok(false);
+                }
+                for packet in camera.push_frame_change(t, rgb, change)? {
+                    deliver(SensorInput::Events(&packet), &mut messages)?;
+                }
+                Ok(true)
+            })?;
+        }
+        Modality::Rgb => {
+            let noise = opts.perturbation.rgb();
+            let mut sensor = noise.sensor(&mut rng(seed, Stream::RgbSensor, i));
+            let keep = noise.blur_renders.max(1) as usize;
+            let mut recent: Vec<Vec<u8>> = Vec::new();
+            let mut seq = 0u64;
+            flight.tracks[i].replay(|t, rgb, _| {
+                if stop.load(Ordering::Relaxed) {
+                    finished = false;
+                    return Ok(false);
+                }
+                if keep > 1 {
+                    if recent.len() == keep {
+                        recent.remove(0);
+                    }
+                    recent.push(rgb.to_vec());
+                }
+                if !t.is_multiple_of(RGB_PERIOD_NS) {
+                    return Ok(true);
+                }
+                let renders: Vec<&[u8]> = if keep > 1 {
+                    recent.iter().map(Vec::as_slice).collect()
+                } else {
+                    vec![rgb]
+                };
+                let frame = RgbFrame {
+                    seq,
+                    stamp_ns: t,
+                    width: IMAGE_WIDTH_PX,
+                    height: IMAGE_HEIGHT_PX,
+                    valid: true,
+                    continuous: true,
+                    rgb: sensor.apply(&renders),
+                };
+                seq += 1;
+                deliver(SensorInput::Rgb(&frame), &mut messages)?;
+                Ok(true)
+            })?;
+        }
+    }
+    if !finished {
+        return Ok(None);
+    }
+    let mut out = observer_out(&tokens, &frames);
+    let delay_s = link.delay_ns() as f64 * 1e-9;
+    for f in &mut out.frames {
+        f.final_null_s += delay_s;
+    }
+    for t in &mut out.tokens {
+        t.t_s += delay_s;
+    }
+    Ok(Some((out, messages, lost)))
+}
+
+/// Latency and comparison with the ideal receiver of each released frame.
+fn release_times(
+    flight: &RenderedFlight,
+    ideal: &ObserverOut,
+    got: &ObserverOut,
+) -> (Vec<f64>, Vec<Option<f64>>) {
+    let offers = flight.spec.schedule.offers();
+    let mut latency = Vec::new();
+    let mut vs_ideal = Vec::new();
+    for f in &got.frames {
+        let release_ns = (f.final_null_s * 1e9).round() as u64;
+        // The offer this frame closes: the latest of its payload whose final NULL began before.
+        let offer = offers
+            .iter()
+            .enumerate()
+            .rfind(|(_, o)| bits6(o.payload) == f.payload && o.final_null_start_ns <= release_ns);
+        if let Some((k, o)) = offer {
+            latency.push((release_ns - o.final_null_start_ns) as f64 * 1e-9);
+            let ideal_release = ideal.frames.iter().filter(|g| g.payload == f.payload).nth(
+                offers[..k]
+                    .iter()
+                    .filter(|p| p.payload == o.payload)
+                    .count(),
+            );
+            vs_ideal.push(ideal_release.map(|g| f.final_null_s - g.final_null_s));
+        }
+    }
+    (latency, vs_ideal)
+}
+
+/// Runs trial `index` on `flight` (or its own flight when the perturbation re-flies).
+fn run_trial(
+    opts: &TrialsOptions,
+    shared: Option<&RenderedFlight>,
+    index: u64,
+    stop: &AtomicBool,
+) -> Result<Option<TrialRecord>> {
+    let seed = trial_seed(opts.seed, index);
+    let own;
+    let flight = match shared {
+        Some(f) => f,
+        None => {
+            own = fly_rendered(opts.flight_spec(Some(seed))?)?;
+            &own
+        }
+    };
+    let want = opts.want();
+    let mut observers = BTreeMap::new();
+    for i in 0..flight.spec.formation.len() {
+        let Some((out, messages, messages_lost)) = observe(flight, i, opts, seed, stop)? else {
+            return Ok(None);
+        };
+        let ideal = &flight.ideal[i];
+        let (latency_s, vs_ideal_s) = release_times(flight, ideal, &out);
+        observers.insert(
+            observer_name(i),
+            ObserverTrial {
+                success: out.payloads == want,
+                released: out.payloads.clone(),
+                release_s: out.frames.iter().map(|f| f.final_null_s).collect(),
+                tokens: out.tokens.len(),
+                token_timing: token_timing(ideal, &out),
+                latency_s,
+                vs_ideal_s,
+                messages,
+                messages_lost,
+            },
+        );
+    }
+    Ok(Some(TrialRecord {
+        index,
+        seed,
+        success: observers.values().all(|o| o.success),
+        observers,
+    }))
+}
+
+fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let (sum, n) = values.fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    (n > 0).then(|| sum / n as f64)
+}
+
+/// The criterion printed before the first trial and recorded in `trials.json`.
+pub fn criterion(opts: &TrialsOptions) -> String {
+    format!(
+        "success = every observer ({}) releases exactly [{}], in order, and nothing else",
+        opts.formation.len(),
+        opts.want().join(", ")
+    )
+}
+
+/// Runs every trial (up to `opts.jobs` at once), calling `progress(done, successes)` after each.
+/// When `stop` is raised, running trials are abandoned and no more start; the finished ones are
+/// kept and the output is marked interrupted.
+pub fn run_trials(
+    opts: &TrialsOptions,
+    stop: &AtomicBool,
+    progress: impl Fn(u64, u64) + Sync,
+) -> Result<(TrialsOut, TrialsCost)> {
+    opts.check()?;
+    let started = std::time::Instant::now();
+    let shared = if opts.perturbation.reflies() {
+        None
+    } else {
+        Some(fly_rendered(opts.flight_spec(None)?)?)
+    };
+    let fly_s = started.elapsed().as_secs_f64();
+    // The reference: the unperturbed flight's ideal releases (flown here when trials re-fly).
+    let nominal_ideal: Vec<ObserverOut> = match &shared {
+        Some(f) => f.ideal.clone(),
+        None => fly_rendered(opts.flight_spec(None)?)?.ideal,
+    };
+    let next = AtomicUsize::new(0);
+    let done = Mutex::new(Vec::<TrialRecord>::new());
+    let failure = Mutex::new(None::<anyhow::Error>);
+    let trials_started = std::time::Instant::now();
+    std::thread::scope(|scope| {
+        for _ in 0..opts.jobs.max(1) {
+            scope.spawn(|| {
+                loop {
+                    let index = next.fetch_add(1, Ordering::SeqCst) as u64;
+                    if index >= opts.trials || stop.load(Ordering::SeqCst) {
+                        return;
+                    }
+                    match run_trial(opts, shared.as_ref(), index, stop) {
+                        Ok(Some(record)) => {
+                            let mut done = done.lock().unwrap_or_else(|e| e.into_inner());
+                            done.push(record);
+                            let successes = done.iter().filter(|r| r.success).count() as u64;
+                            progress(done.len() as u64, successes);
+                        }
+                        Ok(None) => return,
+                        Err(e) => {
+                            stop.store(true, Ordering::SeqCst);
+                            failure
+                                .lock()
+                                .unwrap_or_else(|e| e.into_inner())
+                                .get_or_insert(e.context(format!("trial {index}")));
+                            return;
+                        }
+                    }
+                }
+            });
+        }
+    });
+    if let Some(e) = failure.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        return Err(e);
+    }
+    let mut per_trial = done.into_inner().unwrap_or_else(|e| e.into_inner());
+    per_trial.sort_by_key(|r| r.index);
+    let trials = per_trial.len() as u64;
+    let successes = per_trial.iter().filter(|r| r.success).count() as u64;
+    let all_observers = || per_trial.iter().flat_map(|r| r.observers.values());
+    let summary = TrialsSummary {
+        mean_token_error_ms: mean(all_observers().filter_map(|o| o.token_timing.mean_abs_error_ms)),
+        mean_latency_s: mean(all_observers().flat_map(|o| o.latency_s.iter().copied())),
+        messages_lost: all_observers().map(|o| o.messages_lost).sum(),
+    };
+    let cost = TrialsCost {
+        flights: if shared.is_some() { 1 } else { trials + 1 },
+        fly_and_render_s: fly_s,
+        trials_s: trials_started.elapsed().as_secs_f64(),
+        render_cache_mb: shared
+            .as_ref()
+            .map_or(0.0, |f| f.stored_bytes() as f64 / 1e6),
+    };
+    let names: Vec<String> = (0..opts.formation.len()).map(observer_name).collect();
+    Ok((
+        TrialsOut {
+            criterion: criterion(opts),
+            link: opts.want(),
+            observers: opts.formation.len(),
+            placements: names
+                .iter()
+                .zip(opts.formation.placements())
+                .map(|(n, p)| {
+                    let h = p.home_m;
+                    (
+                        n.clone(),
+                        [
+                            h[0],
+                            h[1],
+                            h[2],
+                            p.yaw_rad.to_degrees(),
+                            p.pitch_rad.to_degrees(),
+                        ],
+                    )
+                })
+                .collect(),
+            modality: opts.modality.to_string(),
+            perturb: opts
+                .perturbation
+                .non_default()
+                .iter()
+                .map(|(k, v)| ((*k).to_owned(), *v))
+                .collect(),
+            flight: if shared.is_some() {
+                "shared"
+            } else {
+                "per trial"
+            }
+            .into(),
+            seed: opts.seed,
+            requested: opts.trials,
+            trials,
+            interrupted: trials < opts.trials,
+            successes,
+            success_rate: (trials > 0).then(|| successes as f64 / trials as f64),
+            ci95: wilson95(successes, trials),
+            summary,
+            ideal_released: names
+                .iter()
+                .cloned()
+                .zip(nominal_ideal.iter().map(|o| o.payloads.clone()))
+                .collect(),
+            per_trial,
+        },
+        cost,
+    ))
+}

@@ -1,0 +1,19 @@
+//! Perturbation models for seeded trials (`waggle trials`, `waggle study`): what a researcher
+//! may perturb, each term a named parameter with its unit, all off by default.
+//!
+//! * [`spec`] — the parameter set ([`Perturbation`]): `events.*` (the event sensor's v2e terms,
+//!   applied by [`event_camera::NoisyConverter`]), `rgb.*` ([`rgb::RgbNoise`]), `geometry.*` and
+//!   `flight.*` (placement jitter and gusts: a re-flown trial) and `link.*` ([`link::LinkNoise`]).
+//! * [`seed`] — one trial seed → independent, reproducible streams per term and observer.
+//! * [`stats`] — the Wilson score interval for success rates.
+//!
+//! Pure code: no I/O, no clock; the same seed gives the same realisation on every machine
+//! (ChaCha8 streams, integer seeds).
+
+pub mod link;
+pub mod rgb;
+pub mod seed;
+pub mod spec;
+pub mod stats;
+
+pub use spec::{PerturbError, Perturbation};

@@ -1,0 +1,420 @@
+//! The perturbation parameters: one table of named terms with units, defaults and limits, and
+//! the set of values a trial runs with.
+//!
+//! A term is written `group.name=value` (`--perturb events.shot_noise_hz=0.5`, a study file's
+//! level); every default means "off", so an empty [`Perturbation`] is today's noiseless run.
+
+use std::collections::BTreeMap;
+
+use event_camera::EventNoise;
+
+use crate::link::LinkNoise;
+use crate::rgb::RgbNoise;
+
+/// One perturbation term.
+#[derive(Debug, Clone, Copy)]
+pub struct Parameter {
+    /// `group.name`, the unit last (`events.shot_noise_hz`).
+    pub key: &'static str,
+    pub unit: &'static str,
+    /// The value that switches the term off.
+    pub default: f64,
+    pub min: f64,
+    pub max: f64,
+    /// Only whole numbers are meaningful.
+    pub integer: bool,
+    pub doc: &'static str,
+}
+
+const fn p(
+    key: &'static str,
+    unit: &'static str,
+    default: f64,
+    min: f64,
+    max: f64,
+    integer: bool,
+    doc: &'static str,
+) -> Parameter {
+    Parameter {
+        key,
+        unit,
+        default,
+        min,
+        max,
+        integer,
+        doc,
+    }
+}
+
+/// Every term, by group (the order of `waggle trials --help` and of the docs).
+pub const PARAMETERS: &[Parameter] = &[
+    p(
+        "events.threshold_sigma",
+        "log intensity",
+        0.0,
+        0.0,
+        1.0,
+        false,
+        "per-pixel contrast-threshold mismatch: σ of each pixel's threshold around C = 0.18",
+    ),
+    p(
+        "events.refractory_ms",
+        "ms",
+        0.0,
+        0.0,
+        1000.0,
+        false,
+        "refractory period: a pixel emits nothing this long after an event (its level follows)",
+    ),
+    p(
+        "events.leak_hz",
+        "Hz",
+        0.0,
+        0.0,
+        100.0,
+        false,
+        "leak: a static pixel emits ON events at this rate (reference drifts down by rate·C per s)",
+    ),
+    p(
+        "events.shot_noise_hz",
+        "Hz per pixel",
+        0.0,
+        0.0,
+        100.0,
+        false,
+        "shot noise: spurious events per pixel (Poisson, either polarity)",
+    ),
+    p(
+        "events.hot_pixels",
+        "pixels",
+        0.0,
+        0.0,
+        10_000.0,
+        true,
+        "hot pixels: this many pixels fire ON events at events.hot_pixel_hz",
+    ),
+    p(
+        "events.hot_pixel_hz",
+        "Hz",
+        50.0,
+        0.001,
+        1000.0,
+        false,
+        "rate of each hot pixel",
+    ),
+    p(
+        "rgb.read_noise_grey",
+        "grey levels",
+        0.0,
+        0.0,
+        128.0,
+        false,
+        "read noise: σ of a Gaussian added to every pixel and channel (0–255 scale)",
+    ),
+    p(
+        "rgb.exposure_scale",
+        "×",
+        1.0,
+        0.01,
+        100.0,
+        false,
+        "illumination/exposure gain on every value (clamped to 0–255)",
+    ),
+    p(
+        "rgb.blur_renders",
+        "renders",
+        1.0,
+        1.0,
+        4.0,
+        true,
+        "motion blur: each frame is the mean of this many 10 ms renders (1 = none)",
+    ),
+    p(
+        "geometry.position_sigma_m",
+        "m",
+        0.0,
+        0.0,
+        0.5,
+        false,
+        "observer placement jitter: σ of each home coordinate (x, y, z); the camera re-aims",
+    ),
+    p(
+        "geometry.yaw_sigma_deg",
+        "°",
+        0.0,
+        0.0,
+        30.0,
+        false,
+        "observer heading jitter: σ added to each observer's yaw after aiming",
+    ),
+    p(
+        "flight.gust_sigma_n",
+        "N",
+        0.0,
+        0.0,
+        0.5,
+        false,
+        "gusts: σ of a horizontal force on the performer (physics), redrawn every gust period",
+    ),
+    p(
+        "flight.gust_period_ms",
+        "ms",
+        500.0,
+        10.0,
+        10_000.0,
+        false,
+        "how long each gust force holds",
+    ),
+    p(
+        "link.drop_rate",
+        "probability",
+        0.0,
+        0.0,
+        1.0,
+        false,
+        "loss: each sensor message (frame or event packet) is lost with this probability",
+    ),
+    p(
+        "link.delay_ms",
+        "ms",
+        0.0,
+        0.0,
+        10_000.0,
+        false,
+        "constant delay of every sensor message (shifts every release by the same time)",
+    ),
+];
+
+/// Why a perturbation term was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PerturbError {
+    #[error("unknown perturbation {key:?} (known: {known})")]
+    UnknownKey { key: String, known: String },
+    #[error("perturbation {0:?} is not KEY=VALUE (e.g. events.shot_noise_hz=0.5)")]
+    NotAnAssignment(String),
+    #[error("perturbation {key}: {value:?} is not a number")]
+    NotANumber { key: String, value: String },
+    #[error("perturbation {key} = {value}: must be {min}–{max} {unit}{whole}")]
+    OutOfRange {
+        key: String,
+        value: f64,
+        min: f64,
+        max: f64,
+        unit: &'static str,
+        whole: &'static str,
+    },
+}
+
+/// The parameter named `key`.
+pub fn parameter(key: &str) -> Result<&'static Parameter, PerturbError> {
+    PARAMETERS
+        .iter()
+        .find(|p| p.key == key)
+        .ok_or_else(|| PerturbError::UnknownKey {
+            key: key.to_owned(),
+            known: PARAMETERS
+                .iter()
+                .map(|p| p.key)
+                .collect::<Vec<_>>()
+                .join(", "),
+        })
+}
+
+/// The values a trial runs with: every term not set is at its default (off).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Perturbation {
+    set: BTreeMap<&'static str, f64>,
+}
+
+impl Perturbation {
+    /// Sets `key` to `value`, checking the name and the range.
+    pub fn set(&mut self, key: &str, value: f64) -> Result<(), PerturbError> {
+        let p = parameter(key)?;
+        let whole_ok = !p.integer || value.fract() == 0.0;
+        if !(value.is_finite() && value >= p.min && value <= p.max && whole_ok) {
+            return Err(PerturbError::OutOfRange {
+                key: key.to_owned(),
+                value,
+                min: p.min,
+                max: p.max,
+                unit: p.unit,
+                whole: if p.integer { ", a whole number" } else { "" },
+            });
+        }
+        if value == p.default {
+            self.set.remove(p.key);
+        } else {
+            self.set.insert(p.key, value);
+        }
+        Ok(())
+    }
+
+    /// Applies one `KEY=VALUE` assignment.
+    pub fn assign(&mut self, assignment: &str) -> Result<(), PerturbError> {
+        let (key, value) = assignment
+            .split_once('=')
+            .ok_or_else(|| PerturbError::NotAnAssignment(assignment.to_owned()))?;
+        let (key, value) = (key.trim(), value.trim());
+        parameter(key)?;
+        let v: f64 = value.parse().map_err(|_| PerturbError::NotANumber {
+            key: key.to_owned(),
+            value: value.to_owned(),
+        })?;
+        self.set(key, v)
+    }
+
+    /// The perturbation of `assignments` (`KEY=VALUE` each).
+    pub fn parse<S: AsRef<str>>(assignments: &[S]) -> Result<Self, PerturbError> {
+        let mut p = Self::default();
+        for a in assignments {
+            p.assign(a.as_ref())?;
+        }
+        Ok(p)
+    }
+
+    /// The value of `key` (its default when not set; NaN for a key not in the table).
+    pub fn get(&self, key: &str) -> f64 {
+        match self.set.get(key) {
+            Some(&v) => v,
+            None => parameter(key).map_or(f64::NAN, |p| p.default),
+        }
+    }
+
+    /// The terms that differ from their defaults, sorted by key (what `trials.json` records).
+    pub fn non_default(&self) -> &BTreeMap<&'static str, f64> {
+        &self.set
+    }
+
+    /// True when nothing is perturbed.
+    pub fn is_none(&self) -> bool {
+        self.set.is_empty()
+    }
+
+    /// True when a trial must fly its own flight (placement or gusts), not share one.
+    pub fn reflies(&self) -> bool {
+        self.placement_sigma() != (0.0, 0.0) || self.gust_sigma_n() > 0.0
+    }
+
+    /// The event sensor's terms, seeded with `seed`.
+    pub fn event_noise(&self, seed: u64) -> EventNoise {
+        let hot_pixels = self.get("events.hot_pixels") as u32;
+        EventNoise {
+            threshold_sigma: self.get("events.threshold_sigma"),
+            refractory_ns: (self.get("events.refractory_ms") * 1e6).round() as u64,
+            leak_hz: self.get("events.leak_hz"),
+            shot_noise_hz: self.get("events.shot_noise_hz"),
+            hot_pixels,
+            hot_pixel_hz: if hot_pixels > 0 {
+                self.get("events.hot_pixel_hz")
+            } else {
+                0.0
+            },
+            seed,
+        }
+    }
+
+    /// The RGB sensor's terms.
+    pub fn rgb(&self) -> RgbNoise {
+        RgbNoise {
+            read_noise_grey: self.get("rgb.read_noise_grey"),
+            exposure_scale: self.get("rgb.exposure_scale"),
+            blur_renders: self.get("rgb.blur_renders") as u32,
+        }
+    }
+
+    /// The sensor link's terms.
+    pub fn link(&self) -> LinkNoise {
+        LinkNoise {
+            drop_rate: self.get("link.drop_rate"),
+            delay_ms: self.get("link.delay_ms"),
+        }
+    }
+
+    /// Placement jitter: (σ position m, σ yaw rad).
+    pub fn placement_sigma(&self) -> (f64, f64) {
+        (
+            self.get("geometry.position_sigma_m"),
+            self.get("geometry.yaw_sigma_deg").to_radians(),
+        )
+    }
+
+    /// σ of the gust force on the performer, N.
+    pub fn gust_sigma_n(&self) -> f64 {
+        self.get("flight.gust_sigma_n")
+    }
+
+    /// How long each gust holds, ns.
+    pub fn gust_period_ns(&self) -> u64 {
+        (self.get("flight.gust_period_ms") * 1e6).round() as u64
+    }
+}
+
+/// The parameter table as Markdown (README, `--help` text).
+pub fn markdown_table() -> String {
+    let mut s =
+        String::from("| term | unit | off | range | what |\n| --- | --- | ---: | --- | --- |\n");
+    for p in PARAMETERS {
+        s.push_str(&format!(
+            "| `{}` | {} | {} | {}–{} | {} |\n",
+            p.key, p.unit, p.default, p.min, p.max, p.doc
+        ));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_off() {
+        let none = Perturbation::default();
+        assert!(none.is_none());
+        assert!(none.event_noise(3).is_ideal());
+        assert!(none.rgb().is_ideal());
+        assert!(none.link().is_ideal());
+        assert!(!none.reflies());
+    }
+
+    #[test]
+    fn assignments_parse_and_record_only_what_differs() {
+        let p = Perturbation::parse(&[
+            "events.shot_noise_hz=0.5",
+            " rgb.read_noise_grey = 3 ",
+            "rgb.exposure_scale=1",
+        ])
+        .unwrap();
+        assert_eq!(p.get("events.shot_noise_hz"), 0.5);
+        assert_eq!(p.event_noise(1).shot_noise_hz, 0.5);
+        assert_eq!(p.rgb().read_noise_grey, 3.0);
+        let keys: Vec<&str> = p.non_default().keys().copied().collect();
+        assert_eq!(keys, ["events.shot_noise_hz", "rgb.read_noise_grey"]);
+    }
+
+    #[test]
+    fn bad_terms_name_themselves() {
+        let e = Perturbation::parse(&["events.shot_noise=1"]).unwrap_err();
+        assert!(e.to_string().contains("\"events.shot_noise\""), "{e}");
+        let e = Perturbation::parse(&["link.drop_rate=-0.1"]).unwrap_err();
+        assert!(e.to_string().contains("link.drop_rate"), "{e}");
+        let e = Perturbation::parse(&["events.hot_pixels=2.5"]).unwrap_err();
+        assert!(e.to_string().contains("whole number"), "{e}");
+        let e = Perturbation::parse(&["rgb.read_noise_grey=nan"]).unwrap_err();
+        assert!(matches!(e, PerturbError::OutOfRange { .. }), "{e}");
+        let e = Perturbation::parse(&["rgb.read_noise_grey"]).unwrap_err();
+        assert!(matches!(e, PerturbError::NotAnAssignment(_)), "{e}");
+        let e = Perturbation::parse(&["rgb.read_noise_grey=lots"]).unwrap_err();
+        assert!(e.to_string().contains("lots"), "{e}");
+    }
+
+    #[test]
+    fn every_default_is_in_range_and_keys_are_unique() {
+        for (i, p) in PARAMETERS.iter().enumerate() {
+            assert!(p.min <= p.default && p.default <= p.max, "{}", p.key);
+            assert!(PARAMETERS[i + 1..].iter().all(|q| q.key != p.key));
+            let mut x = Perturbation::default();
+            x.set(p.key, p.default).unwrap();
+            assert!(x.is_none(), "{}", p.key);
+        }
+    }
+}

@@ -1,0 +1,221 @@
+//! `waggle trials` end to end on the real MuJoCo scene: the render cache replays exactly what
+//! `waggle link` decodes live, seeds reproduce, bad input is refused, Ctrl-C keeps finished
+//! trials.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use serde_json::Value;
+
+mod common;
+use common::{link, payloads};
+
+fn trials(dir: &Path, args: &[&str]) -> (Value, std::process::Output) {
+    let out = waggle_tests::waggle()
+        .arg("trials")
+        .args(args)
+        .arg("--out")
+        .arg(dir)
+        .output()
+        .expect("run waggle trials");
+    assert!(
+        out.status.success(),
+        "waggle trials {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json = std::fs::read(dir.join("trials.json")).expect("trials.json");
+    (serde_json::from_slice(&json).expect("JSON"), out)
+}
+
+/// A fresh directory for one test (the process id keeps concurrent runs apart).
+fn tmp(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("waggle-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// Zero perturbation: every trial succeeds and each observer's releases and token count equal
+/// the live `waggle link` of the same condition, to the nanosecond.
+fn zero_perturbation_matches_link(modality: &str, observers: &str, payload: &str) {
+    let live = link(&[
+        "--observers",
+        observers,
+        "--modality",
+        modality,
+        "--payload",
+        payload,
+    ]);
+    let dir = tmp("trials-zero");
+    let (v, _) = trials(
+        &dir,
+        &[
+            "--link",
+            payload,
+            "--observers",
+            observers,
+            "--modality",
+            modality,
+            "--trials",
+            "2",
+        ],
+    );
+    assert_eq!(v["trials"], 2);
+    assert_eq!(v["successes"], 2, "{v}");
+    assert_eq!(v["perturb"], serde_json::json!({}));
+    assert_eq!(v["flight"], "shared");
+    for t in v["per_trial"].as_array().unwrap() {
+        for (name, o) in t["observers"].as_object().unwrap() {
+            assert_eq!(
+                o["released"],
+                serde_json::json!(payloads(&live, name)),
+                "{name}"
+            );
+            let live_release: Vec<f64> = live["observers"][name]["frames"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|f| f["final_null_s"].as_f64().unwrap())
+                .collect();
+            assert_eq!(o["release_s"], serde_json::json!(live_release), "{name}");
+            assert_eq!(
+                o["tokens"].as_u64().unwrap() as usize,
+                live["observers"][name]["tokens"].as_array().unwrap().len(),
+                "{name}"
+            );
+            assert_eq!(o["messages_lost"], 0);
+        }
+    }
+}
+
+#[test]
+fn zero_perturbation_events_trials_equal_the_live_link() {
+    zero_perturbation_matches_link("events", "2", "011010");
+}
+
+#[test]
+fn zero_perturbation_rgb_trials_equal_the_live_link() {
+    zero_perturbation_matches_link("rgb", "1", "100111");
+}
+
+#[test]
+fn same_seed_gives_identical_trials_json_whatever_the_jobs_and_seeds_change_the_noise() {
+    let common = [
+        "--link",
+        "011010",
+        "--observers",
+        "1",
+        "--modality",
+        "events",
+        "--trials",
+        "3",
+        "--perturb",
+        "events.shot_noise_hz=0.2",
+        "--perturb",
+        "link.drop_rate=0.05",
+    ];
+    let (a, b, c) = (tmp("trials-a"), tmp("trials-b"), tmp("trials-c"));
+    let (va, _) = trials(&a, &[&common[..], &["--seed", "7", "--jobs", "1"]].concat());
+    let (_, _) = trials(&b, &[&common[..], &["--seed", "7", "--jobs", "2"]].concat());
+    assert_eq!(
+        std::fs::read(a.join("trials.json")).unwrap(),
+        std::fs::read(b.join("trials.json")).unwrap(),
+        "same seed, different --jobs: trials.json differs"
+    );
+    let (vc, _) = trials(&c, &[&common[..], &["--seed", "8"]].concat());
+    let lost = |v: &Value| -> Vec<u64> {
+        v["per_trial"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| t["observers"]["O1"]["messages_lost"].as_u64().unwrap())
+            .collect()
+    };
+    assert!(lost(&va).iter().all(|&n| n > 0), "{:?}", lost(&va));
+    assert_ne!(lost(&va), lost(&vc), "seeds 7 and 8 drew the same losses");
+    assert_eq!(va["perturb"]["link.drop_rate"], 0.05);
+    let ci = va["ci95"].as_array().unwrap();
+    assert!(ci[0].as_f64().unwrap() <= ci[1].as_f64().unwrap());
+}
+
+#[test]
+fn bad_perturbations_and_counts_are_refused_naming_the_input() {
+    let dir = tmp("trials-bad");
+    for (args, needle) in [
+        (
+            vec!["--perturb", "events.shot_noise=1"],
+            "events.shot_noise",
+        ),
+        (vec!["--perturb", "link.drop_rate=-0.5"], "link.drop_rate"),
+        (vec!["--perturb", "rgb.read_noise_grey"], "KEY=VALUE"),
+        (vec!["--trials", "0"], "--trials"),
+    ] {
+        let out = waggle_tests::waggle()
+            .args([
+                "trials",
+                "--link",
+                "011010",
+                "--modality",
+                "events",
+                "--out",
+            ])
+            .arg(&dir)
+            .args(&args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} was accepted");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+    assert!(!dir.join("trials.json").exists());
+}
+
+#[test]
+fn ctrl_c_keeps_the_finished_trials() {
+    let dir = tmp("trials-int");
+    let mut child = waggle_tests::waggle()
+        .args([
+            "trials",
+            "--link",
+            "011010",
+            "--observers",
+            "1",
+            "--modality",
+            "rgb",
+            "--trials",
+            "1000",
+            "--jobs",
+            "1",
+            "--perturb",
+            "rgb.read_noise_grey=2",
+            "--out",
+        ])
+        .arg(&dir)
+        .stderr(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_secs(45));
+    Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    let started = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "no exit after SIGINT"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    assert!(!status.success(), "an interrupted run must not exit 0");
+    let v: Value =
+        serde_json::from_slice(&std::fs::read(dir.join("trials.json")).unwrap()).unwrap();
+    assert_eq!(v["interrupted"], true);
+    let n = v["trials"].as_u64().unwrap();
+    assert!((1..1000).contains(&n), "{n} trials kept");
+    assert_eq!(v["per_trial"].as_array().unwrap().len() as u64, n);
+}
