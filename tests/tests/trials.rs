@@ -219,3 +219,136 @@ fn ctrl_c_keeps_the_finished_trials() {
     assert!((1..1000).contains(&n), "{n} trials kept");
     assert_eq!(v["per_trial"].as_array().unwrap().len() as u64, n);
 }
+
+fn read_json(path: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(path).expect("read")).expect("JSON")
+}
+
+#[test]
+fn mission_trials_are_seeded_gusts_change_them_and_the_criterion_is_the_case() {
+    let (a, b, c) = (tmp("ct-a"), tmp("ct-b"), tmp("ct-c"));
+    let args = [
+        "--case",
+        "nominal-3",
+        "--modality",
+        "ideal",
+        "--trials",
+        "3",
+        "--perturb",
+        "flight.gust_sigma_n=0.02",
+    ];
+    trials(&a, &[&args[..], &["--seed", "3", "--jobs", "1"]].concat());
+    trials(&b, &[&args[..], &["--seed", "3", "--jobs", "2"]].concat());
+    assert_eq!(
+        std::fs::read(a.join("trials.json")).unwrap(),
+        std::fs::read(b.join("trials.json")).unwrap()
+    );
+    trials(&c, &[&args[..], &["--seed", "4"]].concat());
+    let va = read_json(&a.join("trials.json"));
+    let vc = read_json(&c.join("trials.json"));
+    let outcome = |v: &Value| -> Vec<String> {
+        v["per_trial"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| format!("{} {}", t["metrics"]["completion_time_s"], t["observers"]))
+            .collect()
+    };
+    assert_ne!(
+        outcome(&va),
+        outcome(&vc),
+        "seeds 3 and 4 flew the same gusts"
+    );
+    assert!(va["criterion"].as_str().unwrap().contains("nominal-3"));
+    // Unperturbed, the ideal receiver meets the case: the criterion can pass.
+    let d = tmp("ct-d");
+    let (vd, _) = trials(
+        &d,
+        &[
+            "--case",
+            "nominal-3",
+            "--modality",
+            "ideal",
+            "--trials",
+            "1",
+        ],
+    );
+    assert_eq!(vd["successes"], 1, "{vd}");
+    let m = &vd["per_trial"][0]["metrics"];
+    assert_eq!(m["work_units"], 6);
+    assert_eq!(m["unserved_capacity"], 0);
+    assert!(m["broadcast_symbols"].as_u64().unwrap() > 0);
+    // The two observers that served A in round 1 are reassigned to B after its withdrawal.
+    let r = m["reassignments"].as_array().unwrap();
+    assert_eq!(r.len(), 2, "{m}");
+    assert!(
+        r.iter()
+            .all(|x| x["went_to"] == "B" && x["delay_s"].as_f64().unwrap() > 0.0)
+    );
+}
+
+#[test]
+fn the_fixed_allocation_baseline_reads_nothing_and_wastes_trips_on_a_withdrawn_site() {
+    let dir = tmp("ct-fixed");
+    let (v, _) = trials(
+        &dir,
+        &[
+            "--case",
+            "nominal-3",
+            "--modality",
+            "ideal",
+            "--policy",
+            "fixed",
+            "--trials",
+            "1",
+        ],
+    );
+    assert_eq!(
+        v["successes"], 0,
+        "the paper's expected outcome needs communication"
+    );
+    let t = &v["per_trial"][0];
+    let m = &t["metrics"];
+    assert_eq!(m["policy"], "fixed");
+    assert_eq!(m["broadcast_symbols"], 0);
+    // O1 and O3 take A every round: A's two units in round 1, then two trips to a depleted A.
+    assert_eq!(m["work_units"], 4);
+    assert_eq!(m["wasted_trips"], 2);
+    assert_eq!(m["unserved_capacity"], 2);
+    let r = m["reassignments"].as_array().unwrap();
+    assert!(
+        r.iter()
+            .all(|x| x["went_to"] == "A" && x["delay_s"].is_null()),
+        "{m}"
+    );
+    for o in ["O1", "O2", "O3"] {
+        assert_eq!(t["observers"][o]["complete_messages"], 0);
+    }
+}
+
+#[test]
+fn mission_trials_refuse_what_a_mission_does_not_model() {
+    let dir = tmp("ct-refuse");
+    let out = waggle_tests::waggle()
+        .args([
+            "trials",
+            "--case",
+            "nominal-3",
+            "--modality",
+            "ideal",
+            "--out",
+        ])
+        .arg(&dir)
+        .args(["--perturb", "geometry.position_sigma_m=0.05"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("geometry.position_sigma_m"));
+    let out = waggle_tests::waggle()
+        .args(["trials", "--link", "011010", "--modality", "ideal", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "link trials need a sensor");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("sensor"));
+}

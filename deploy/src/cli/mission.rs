@@ -7,7 +7,8 @@ use clap::Args;
 
 use crate::case::{Case, Receiver};
 use crate::eval::summary::print_summary;
-use crate::harness::mission::fly_case;
+use crate::harness::mission::{MissionOptions, fly_case_with};
+use crate::harness::mission_metrics::{MissionMetrics, Policy};
 use crate::run_dir::SUMMARY_FILE;
 
 #[derive(Debug, Args)]
@@ -22,7 +23,17 @@ pub struct MissionArgs {
     render: super::RenderArg,
     #[command(flatten)]
     flights: super::FlightsArg,
-    /// Write DIR/summary.json here.
+    /// Allocation policy: `waggle` (decode the broadcast) or `fixed` (the no-communication
+    /// baseline: observer i always takes offer site i mod sites).
+    #[arg(long, value_enum, default_value_t)]
+    policy: Policy,
+    /// A perturbation term KEY=VALUE (repeatable; `waggle trials --help` lists them).
+    #[arg(long = "perturb", value_name = "KEY=VALUE")]
+    perturb: Vec<String>,
+    /// Seed of the perturbation's draws.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Write DIR/summary.json (and DIR/metrics.json) here.
     #[arg(long)]
     out: Option<PathBuf>,
     /// Print the summary as JSON.
@@ -40,17 +51,29 @@ pub fn run(args: MissionArgs) -> Result<()> {
             case.modalities
         );
     }
-    let summary = fly_case(&case, args.modality, args.render.path)?;
+    let opts = MissionOptions {
+        render: args.render.path,
+        policy: args.policy,
+        perturbation: perturb::Perturbation::parse(&args.perturb)?,
+        seed: args.seed,
+        stop: None,
+    };
+    let (summary, metrics) =
+        fly_case_with(&case, args.modality, &opts)?.context("the mission was interrupted")?;
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let path = dir.join(SUMMARY_FILE);
         std::fs::write(&path, serde_json::to_string_pretty(&summary)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+        let path = dir.join("metrics.json");
+        std::fs::write(&path, serde_json::to_string_pretty(&metrics)? + "\n")
             .with_context(|| format!("writing {}", path.display()))?;
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
         print_summary(&summary);
+        print_metrics(&metrics);
     }
     if !summary.pass {
         bail!(
@@ -60,4 +83,31 @@ pub fn run(args: MissionArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The outcome measures, one line each.
+pub fn print_metrics(m: &MissionMetrics) {
+    println!(
+        "policy {}: {} work units, reward {}, unserved capacity {}, completion {:.2} s, \
+         {} wasted trip(s), communication {} symbols / {:.2} s of broadcast",
+        m.policy,
+        m.work_units,
+        m.reward,
+        m.unserved_capacity,
+        m.completion_time_s,
+        m.wasted_trips,
+        m.broadcast_symbols,
+        m.broadcast_s
+    );
+    for r in &m.reassignments {
+        println!(
+            "  withdrawal of {} in round {}: {} went to {} — reassignment delay {}",
+            r.withdrawn,
+            r.round,
+            r.observer,
+            r.went_to.as_deref().unwrap_or("nowhere (stayed home)"),
+            r.delay_s
+                .map_or("none (not reassigned)".into(), |d| format!("{d:.2} s"))
+        );
+    }
 }

@@ -8,11 +8,13 @@ use anyhow::{Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::harness::study::{BUILT_IN, StudyFile, run_study};
+use crate::harness::baselines::{BaselineStudy, run_baselines};
+use crate::harness::study::{Study, StudyFile, run_study, study_text};
 
 #[derive(Debug, Args)]
 pub struct StudyArgs {
-    /// A study file (TOML) or a built-in study: event-noise, rgb-noise, viewing-angle, distance.
+    /// A study file (TOML) or a built-in study: event-noise, rgb-noise, viewing-angle,
+    /// distance, baselines (`--print` shows one to copy and edit).
     study: String,
     /// Output directory: one subdirectory per point (trials.json, cost.json), study.json,
     /// success.svg and report.md.
@@ -32,16 +34,10 @@ pub struct StudyArgs {
 }
 
 pub fn run(args: StudyArgs) -> Result<()> {
-    let mut study = StudyFile::load(&args.study)?;
+    let study = Study::load(&args.study)?;
     if args.print {
-        match BUILT_IN.iter().find(|(n, _)| *n == args.study) {
-            Some((_, text)) => print!("{text}"),
-            None => print!("{}", std::fs::read_to_string(&args.study)?),
-        }
+        print!("{}", study_text(&args.study)?.0);
         return Ok(());
-    }
-    if let Some(t) = args.trials {
-        study.trials = t;
     }
     if args.out.join("report.md").exists() {
         bail!(
@@ -53,18 +49,75 @@ pub fn run(args: StudyArgs) -> Result<()> {
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get))
         .max(1);
-    let stop = bus::on_stop_signal();
-    let points = study.modalities.len() * study.vary.levels.len();
-    let bar = ProgressBar::new(points as u64 * study.trials);
+    match study {
+        Study::Link(mut study) => {
+            if let Some(t) = args.trials {
+                study.trials = t;
+            }
+            run_link_study(&study, &args, jobs)
+        }
+        Study::Baselines(mut study) => {
+            if let Some(t) = args.trials {
+                study.trials = t;
+            }
+            run_baseline_study(&study, &args, jobs)
+        }
+    }
+}
+
+fn bar_for(trials: u64) -> ProgressBar {
+    let bar = ProgressBar::new(trials);
     bar.set_style(
         ProgressStyle::with_template(
             "{elapsed_precise} [{bar:30}] {pos}/{len} trials, {msg} (eta {eta})",
         )
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    bar
+}
+
+fn run_baseline_study(study: &BaselineStudy, args: &StudyArgs, jobs: usize) -> Result<()> {
+    let stop = bus::on_stop_signal();
+    let points = study.cases.len() * study.arms.len();
+    let bar = bar_for(points as u64 * study.trials);
+    let started = std::time::Instant::now();
+    let results = run_baselines(
+        study,
+        &args.out,
+        args.render.path,
+        jobs,
+        &stop,
+        |k, n, done, per| {
+            bar.set_position(k as u64 * per + done);
+            bar.set_message(format!("case × arm {}/{n}", k + 1));
+        },
+    )?;
+    bar.finish_and_clear();
+    print!("{}", crate::harness::baselines::report(study, &results));
+    println!(
+        "study {}: {} case × arm in {:.0} s wall ({} jobs) -> {}",
+        study.name,
+        results.len(),
+        started.elapsed().as_secs_f64(),
+        jobs,
+        args.out.join("report.md").display()
+    );
+    if stop.load(Ordering::SeqCst) {
+        bail!(
+            "interrupted: {} of {points} case × arm finished (report written)",
+            results.len()
+        );
+    }
+    Ok(())
+}
+
+fn run_link_study(study: &StudyFile, args: &StudyArgs, jobs: usize) -> Result<()> {
+    let stop = bus::on_stop_signal();
+    let points = study.modalities.len() * study.vary.levels.len();
+    let bar = bar_for(points as u64 * study.trials);
     let started = std::time::Instant::now();
     let results = run_study(
-        &study,
+        study,
         &args.out,
         args.render.path,
         jobs,

@@ -9,26 +9,37 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use perturb::Perturbation;
 use proto::scene::{Formation, MAX_OBSERVERS, Placement};
-use proto::{Modality, Rectification};
+use proto::{Receiver, Rectification};
 
 use super::link::{parse_bits6, parse_viewpoint};
+use crate::case::Case;
+use crate::harness::mission_metrics::Policy;
+use crate::harness::mission_trials::{MissionTrialsOptions, mission_criterion, run_mission_trials};
 use crate::harness::trials::{TrialsOptions, criterion, run_trials};
 
 #[derive(Debug, Args)]
 #[command(after_long_help = perturbation_help())]
 pub struct TrialsArgs {
     /// The broadcast: six-bit payloads flown back to back, comma-separated (e.g. 011010,100111).
-    #[arg(long, value_delimiter = ',', value_parser = parse_bits6, required = true)]
+    #[arg(long, value_delimiter = ',', value_parser = parse_bits6,
+          required_unless_present = "case", conflicts_with = "case")]
     link: Vec<u8>,
+    /// Instead of a link: a whole case (built-in name or TOML file), flown in one process per
+    /// trial; success is the case's expected outcome.
+    #[arg(long)]
+    case: Option<String>,
+    /// Whole missions only: `waggle` or the `fixed` no-communication baseline.
+    #[arg(long, value_enum, default_value_t, requires = "case")]
+    policy: Policy,
     /// Number of observers in the built-in formation (1..=8).
     #[arg(long, default_value_t = 3)]
     observers: usize,
     /// Place observers at AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M instead (repeat, up to 8).
     #[arg(long = "viewpoint", value_name = "AZ,EL,DIST", value_parser = parse_viewpoint)]
     viewpoints: Vec<Placement>,
-    /// The observers' sensor.
+    /// The observers' sensor (`ideal`, the ground-truth receiver, for --case only).
     #[arg(long, value_enum)]
-    modality: Modality,
+    modality: Receiver,
     /// Number of trials.
     #[arg(long, default_value_t = 100)]
     trials: u64,
@@ -69,6 +80,12 @@ fn default_jobs() -> usize {
 
 pub fn run(args: TrialsArgs) -> Result<()> {
     let perturbation = Perturbation::parse(&args.perturb)?;
+    if args.case.is_some() {
+        return run_case(args, perturbation);
+    }
+    let Some(modality) = args.modality.sensor() else {
+        bail!("--link trials need a sensor: --modality rgb or events (ideal is for --case)");
+    };
     let formation = if args.viewpoints.is_empty() {
         Formation::standard(args.observers).map_err(|_| {
             anyhow::anyhow!(
@@ -79,18 +96,10 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     } else {
         Formation::custom(args.viewpoints).context("--viewpoint")?
     };
-    if args.out.join("trials.json").exists() {
-        bail!(
-            "{} already holds trials.json: choose another --out or remove it",
-            args.out.display()
-        );
-    }
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
     let opts = TrialsOptions {
         payloads: args.link,
         formation,
-        modality: args.modality,
+        modality,
         trials: args.trials,
         seed: args.seed,
         perturbation,
@@ -99,16 +108,10 @@ pub fn run(args: TrialsArgs) -> Result<()> {
         rectification: args.rectify,
     };
     opts.check()?;
+    fresh_out(&args.out)?;
     eprintln!("trials: {}", criterion(&opts));
     let stop = bus::on_stop_signal();
-    let bar = ProgressBar::new(opts.trials);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{elapsed_precise} [{bar:30}] {pos}/{len} trials, {msg} (eta {eta})",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar.set_message("flying and rendering the broadcast");
+    let bar = progress_bar(opts.trials, "flying and rendering the broadcast");
     let (out, cost) = run_trials(&opts, &stop, |done, successes| {
         bar.set_position(done);
         bar.set_message(format!("{successes} succeeded"));
@@ -151,6 +154,90 @@ pub fn run(args: TrialsArgs) -> Result<()> {
         cost.trials_s / out.trials.max(1) as f64,
         opts.jobs,
         cost.render_cache_mb,
+        path.display()
+    );
+    if stop.load(Ordering::SeqCst) {
+        bail!(
+            "interrupted after {} of {} trials (kept in {})",
+            out.trials,
+            out.requested,
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+/// Creates `out` for a new run, refusing one that already holds results.
+fn fresh_out(out: &std::path::Path) -> Result<()> {
+    if out.join("trials.json").exists() {
+        bail!(
+            "{} already holds trials.json: choose another --out or remove it",
+            out.display()
+        );
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))
+}
+
+fn progress_bar(trials: u64, first: &str) -> ProgressBar {
+    let bar = ProgressBar::new(trials);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:30}] {pos}/{len} trials, {msg} (eta {eta})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_message(first.to_owned());
+    bar
+}
+
+/// `--case`: whole missions.
+fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
+    let name = args.case.as_deref().unwrap_or_default();
+    let case = Case::load(name)?;
+    if !case.modalities.contains(&args.modality) && args.modality != Receiver::Ideal {
+        bail!(
+            "case {} does not apply to the {} modality (it lists {:?})",
+            case.name,
+            args.modality,
+            case.modalities
+        );
+    }
+    fresh_out(&args.out)?;
+    let opts = MissionTrialsOptions {
+        case,
+        modality: args.modality,
+        policy: args.policy,
+        trials: args.trials,
+        seed: args.seed,
+        perturbation,
+        jobs: args.jobs.unwrap_or_else(default_jobs).max(1),
+        render: args.render.path,
+    };
+    eprintln!("trials: {}", mission_criterion(&opts));
+    let stop = bus::on_stop_signal();
+    let bar = progress_bar(opts.trials, "flying the first missions");
+    let started = std::time::Instant::now();
+    let out = run_mission_trials(&opts, &stop, |done, successes| {
+        bar.set_position(done);
+        bar.set_message(format!("{successes} passed"));
+    })?;
+    bar.finish_and_clear();
+    let path = args.out.join("trials.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&out)? + "\n")
+        .with_context(|| format!("writing {}", path.display()))?;
+    println!(
+        "{} {} ({}): {}/{} missions met the expected outcome, rate {}, 95 % CI [{:.3}, {:.3}]; \
+         {:.1} s wall ({} jobs) -> {}",
+        out.case,
+        out.modality,
+        out.policy,
+        out.successes,
+        out.trials,
+        out.success_rate.map_or("—".into(), |r| format!("{r:.3}")),
+        out.ci95[0],
+        out.ci95[1],
+        started.elapsed().as_secs_f64(),
+        opts.jobs,
         path.display()
     );
     if stop.load(Ordering::SeqCst) {

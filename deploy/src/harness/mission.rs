@@ -12,16 +12,24 @@
 //! per-tick assembly (`perception::tick`); `waggle replay` and `observer-node` do.
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use perception::agent::{AgentFrame, FrameOutcome, ObserverAgent};
 use perception::perception::SensorInput;
+use perturb::Perturbation;
+use perturb::link::LinkNoise;
+use perturb::rgb::RgbSensor;
+use perturb::seed::{Stream, rng, stream_seed};
 use proto::Rectification;
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, ObserverCamera, observer_name};
 use proto::{ClockTick, Modality, ObserverId, RenderPath, Roster, Site, TICK_NS};
 use proto::{DecodeStep, Decoder, Sample, SegmentToken, SegmenterConfig};
 use proto::{GestureConfig, Schedule, broadcast};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
 use scheduler::{DecisionNotice, EndReason, EventKind, Scheduler, SchedulerConfig};
 use sim::control::Reference;
 use sim::render::CameraRenderer;
@@ -30,6 +38,7 @@ use sim::world::World;
 
 use crate::case::{Case, Receiver};
 use crate::eval::summary::{check_expected, decision_label, ns_s};
+use crate::harness::mission_metrics::{MissionMetrics, Policy, measure};
 use crate::harness::performer_flight::performer_reference;
 use crate::run_dir::{MissionSummary, ObserverSummary};
 
@@ -67,6 +76,10 @@ struct Slot {
     agent: ObserverAgent,
     perception: Perception,
     sensor: Option<ObserverSensor>,
+    /// RGB read noise / exposure applied to every frame (`None`: the ideal sensor).
+    rgb_noise: Option<RgbSensor>,
+    /// The sensor link's loss, and the stream it draws from.
+    link: (LinkNoise, ChaCha8Rng),
     black: bool,
     dropout_ns: Option<u64>,
     dropped: bool,
@@ -77,8 +90,8 @@ struct Slot {
 }
 
 impl Slot {
-    /// Observer `i` of `case` on `modality`'s receiver.
-    fn new(case: &Case, modality: Receiver, i: usize) -> Result<Self> {
+    /// Observer `i` of `case` on `modality`'s receiver, its sensor perturbed as `opts` says.
+    fn new(case: &Case, modality: Receiver, i: usize, opts: &MissionOptions) -> Result<Self> {
         let n = case.observers;
         let name = observer_name(i);
         let id = ObserverId::new(name.clone())?;
@@ -101,7 +114,13 @@ impl Slot {
                     camera,
                     rectification,
                 )?)),
-                Some(ObserverSensor::new(kind, i, black)?),
+                Some(ObserverSensor::with_event_noise(
+                    kind,
+                    i,
+                    black,
+                    opts.perturbation
+                        .event_noise(stream_seed(opts.seed, Stream::EventSensor, i)),
+                )?),
             ),
         };
         Ok(Self {
@@ -111,6 +130,11 @@ impl Slot {
             id,
             perception,
             sensor,
+            rgb_noise: {
+                let noise = opts.perturbation.rgb();
+                (!noise.is_ideal()).then(|| noise.sensor(&mut rng(opts.seed, Stream::RgbSensor, i)))
+            },
+            link: (opts.perturbation.link(), rng(opts.seed, Stream::Link, i)),
             black,
             dropped: false,
             tokens: Vec::new(),
@@ -160,10 +184,73 @@ impl Slot {
 
 /// Flies `case` with every observer on `modality`'s receiver, in one process.
 pub fn fly_case(case: &Case, modality: Receiver, render: RenderPath) -> Result<MissionSummary> {
+    let opts = MissionOptions {
+        render,
+        ..MissionOptions::default()
+    };
+    Ok(fly_case_with(case, modality, &opts)?
+        .context("the mission was interrupted")?
+        .0)
+}
+
+/// How a mission is flown beyond its case: allocation policy, perturbation and its seed.
+#[derive(Debug, Clone, Default)]
+pub struct MissionOptions {
+    pub render: RenderPath,
+    pub policy: Policy,
+    pub perturbation: Perturbation,
+    pub seed: u64,
+    /// Raised to abandon the mission (Ctrl-C during trials): checked every tick.
+    pub stop: Option<Arc<AtomicBool>>,
+}
+
+impl MissionOptions {
+    /// Refuses perturbation terms a whole mission does not model (yet), naming them.
+    pub fn check(&self) -> Result<()> {
+        for key in [
+            "geometry.position_sigma_m",
+            "geometry.yaw_sigma_deg",
+            "link.delay_ms",
+            "rgb.blur_renders",
+        ] {
+            if self.perturbation.non_default().contains_key(key) {
+                bail!(
+                    "{key} is modelled in link trials (--link) only, not in whole missions: \
+                     placement jitter would move the scheduler's homes, a delay the lockstep, and \
+                     blur needs 100 Hz renders of RGB cameras"
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+/// [`fly_case`] under `opts`; also the mission's outcome measures. `None` when `opts.stop`
+/// was raised before the mission ended.
+pub fn fly_case_with(
+    case: &Case,
+    modality: Receiver,
+    opts: &MissionOptions,
+) -> Result<Option<(MissionSummary, MissionMetrics)>> {
+    opts.check()?;
     let started = Instant::now();
-    let mut mission = Mission::new(case, modality, render)?;
-    let end_reason = mission.fly()?;
-    Ok(mission.summarise(case, modality, end_reason, started))
+    let mut mission = Mission::new(case, modality, opts)?;
+    let Some(end_reason) = mission.fly(opts.stop.as_deref())? else {
+        return Ok(None);
+    };
+    let metrics = measure(&mission.scheduler, opts.policy, mission.world.time_ns());
+    Ok(Some((
+        mission.summarise(case, modality, end_reason, started),
+        metrics,
+    )))
+}
+
+/// The gusts on the performer: σ, hold time, their stream and when the next one is drawn.
+struct GustState {
+    normal: Normal<f64>,
+    period_ns: u64,
+    rng: ChaCha8Rng,
+    next_ns: u64,
 }
 
 /// A mission in flight: physics, cameras, the performer, the observers and the scheduler.
@@ -179,30 +266,58 @@ struct Mission {
     /// Render instants are the multiples of this.
     sample_period_ns: u64,
     tick: u64,
+    policy: Policy,
+    /// Fixed policy: the round whose decisions fall due, and when.
+    fixed_due: Option<(u32, u64)>,
+    /// Fixed policy: each observer's site, roster order (`None`: no site is offered).
+    fixed_sites: Vec<Option<Site>>,
+    gusts: Option<GustState>,
 }
 
 impl Mission {
-    fn new(case: &Case, modality: Receiver, render: RenderPath) -> Result<Self> {
+    fn new(case: &Case, modality: Receiver, opts: &MissionOptions) -> Result<Self> {
+        let render = opts.render;
         let n = case.observers;
         let world = World::new(n).context("building the scene")?;
         // The ideal baseline flies the RGB broadcast (no acquisition preamble).
         let sched_modality = modality.sensor().unwrap_or(Modality::Rgb);
         let scheduler = scheduler_for(case, sched_modality)?;
         let renderer = match modality {
+            // The fixed policy reads no sensor: nothing to render.
+            _ if opts.policy == Policy::Fixed => None,
             Receiver::Ideal => None,
             Receiver::Rgb | Receiver::Events => Some(
                 CameraRenderer::new(&world, render).context("creating the offscreen renderer")?,
             ),
         };
         let slots = (0..n)
-            .map(|i| Slot::new(case, modality, i))
+            .map(|i| Slot::new(case, modality, i, opts))
             .collect::<Result<Vec<_>>>()?;
         let sample_period_ns = slots
             .first()
             .and_then(|s| s.sensor.as_ref())
             .map_or(TICK_NS, ObserverSensor::render_period_ns);
         let alive = slots.iter().map(|s| s.id.clone()).collect();
+        let offer_sites = &scheduler.config().offer_sites;
+        let fixed_sites = (0..n)
+            .map(|i| (!offer_sites.is_empty()).then(|| offer_sites[i % offer_sites.len()]))
+            .collect();
+        let sigma_n = opts.perturbation.gust_sigma_n();
+        let gusts = if sigma_n > 0.0 {
+            Some(GustState {
+                normal: Normal::new(0.0, sigma_n).context("gust σ")?,
+                period_ns: opts.perturbation.gust_period_ns(),
+                rng: rng(opts.seed, Stream::Gust, 0),
+                next_ns: 0,
+            })
+        } else {
+            None
+        };
         Ok(Self {
+            policy: opts.policy,
+            fixed_due: None,
+            fixed_sites,
+            gusts,
             world,
             scheduler,
             renderer,
@@ -215,11 +330,14 @@ impl Mission {
         })
     }
 
-    /// Runs tick after tick until the scheduler ends the mission.
-    fn fly(&mut self) -> Result<EndReason> {
+    /// Runs tick after tick until the scheduler ends the mission (`None`: `stop` was raised).
+    fn fly(&mut self, stop: Option<&AtomicBool>) -> Result<Option<EndReason>> {
         loop {
+            if stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
+                return Ok(None);
+            }
             if let Some(reason) = self.schedule()? {
-                return Ok(reason);
+                return Ok(Some(reason));
             }
             self.physics_and_sensing()?;
             self.tick += 1;
@@ -235,6 +353,7 @@ impl Mission {
             .enumerate()
             .map(|(i, s)| (s.id.clone(), self.world.position_m(i + 1)))
             .collect();
+        self.fixed_decisions();
         let decisions: Vec<DecisionNotice> = self
             .slots
             .iter_mut()
@@ -255,6 +374,10 @@ impl Mission {
             }
         }
         if let Some(plan) = &out.broadcast {
+            if self.policy == Policy::Fixed {
+                // Decided without reading the broadcast, on the first tick after it started.
+                self.fixed_due = Some((plan.round, plan.start_ns + TICK_NS));
+            }
             let payloads: Vec<u8> = plan.offers.iter().map(|o| o.to_payload()).collect();
             self.performer = Some(broadcast(
                 plan.start_ns,
@@ -264,6 +387,40 @@ impl Mission {
             )?);
         }
         Ok(out.mission_end)
+    }
+
+    /// Fixed policy: once a round's decisions fall due, every live observer takes its site.
+    fn fixed_decisions(&mut self) {
+        let Some((round, due_ns)) = self.fixed_due else {
+            return;
+        };
+        if self.world.time_ns() < due_ns {
+            return;
+        }
+        self.fixed_due = None;
+        for (slot, site) in self.slots.iter_mut().zip(&self.fixed_sites) {
+            slot.pending.push(DecisionNotice {
+                observer: slot.id.clone(),
+                round,
+                assignment: *site,
+                decided_ns: due_ns,
+            });
+        }
+    }
+
+    /// A new gust on the performer when the current one has held its time.
+    fn gust(&mut self, t: u64) {
+        if let Some(g) = self.gusts.as_mut()
+            && t >= g.next_ns
+        {
+            let force = [
+                g.normal.sample(&mut g.rng),
+                g.normal.sample(&mut g.rng),
+                0.0,
+            ];
+            self.world.set_disturbance_n(0, force);
+            g.next_ns = t + g.period_ns;
+        }
     }
 
     /// Physics and sensing over (t_k, t_{k+1}].
@@ -280,9 +437,10 @@ impl Mission {
                 self.world
                     .set_reference(i + 1, Reference::new(sp.kinematics(), sp.yaw_rad));
             }
+            self.gust(t);
             self.world.step();
             let t = self.world.time_ns();
-            if t.is_multiple_of(self.sample_period_ns) {
+            if self.policy == Policy::Waggle && t.is_multiple_of(self.sample_period_ns) {
                 sense(&mut self.world, self.renderer.as_mut(), &mut self.slots, t)?;
             }
         }
@@ -416,13 +574,26 @@ fn sense(
                 };
                 vec![decoder.push(sample)?]
             }
-            Perception::Sensor(p) => outputs
-                .iter()
-                .map(|output| match output {
-                    SensorOutput::Rgb(f) => p.push(SensorInput::Rgb(f)),
-                    SensorOutput::Events(e) => p.push(SensorInput::Events(e)),
-                })
-                .collect::<Result<Vec<_>, _>>()?,
+            Perception::Sensor(p) => {
+                let mut steps = Vec::new();
+                for output in outputs {
+                    let output = match (output, slot.rgb_noise.as_mut()) {
+                        (SensorOutput::Rgb(mut f), Some(noise)) => {
+                            f.rgb = noise.apply(&[&f.rgb]);
+                            SensorOutput::Rgb(f)
+                        }
+                        (o, _) => o,
+                    };
+                    if !slot.link.0.keeps(&mut slot.link.1) {
+                        continue;
+                    }
+                    steps.push(match &output {
+                        SensorOutput::Rgb(f) => p.push(SensorInput::Rgb(f))?,
+                        SensorOutput::Events(e) => p.push(SensorInput::Events(e))?,
+                    });
+                }
+                steps
+            }
         };
         for step in steps {
             slot.absorb(step, t);

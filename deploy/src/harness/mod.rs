@@ -4,10 +4,14 @@
 //! ([`viewpoints`]), seeded perturbed trials on a flight rendered once ([`trials`],
 //! [`rendered_flight`]) and studies of them ([`study`]).
 
+pub mod baselines;
 pub mod convert;
 pub mod link;
 pub mod mission;
+pub mod mission_metrics;
+pub mod mission_trials;
 pub mod performer_flight;
+pub mod pool;
 pub mod rendered_flight;
 pub mod study;
 pub mod trials;

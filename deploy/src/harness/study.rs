@@ -27,6 +27,7 @@ use proto::scene::{Formation, Placement};
 use proto::{Modality, Rectification, RenderPath};
 use serde::{Deserialize, Serialize};
 
+use crate::harness::baselines::BaselineStudy;
 use crate::harness::link::{parse_bits6, parse_viewpoint};
 use crate::harness::trials::{TrialsOptions, TrialsOut, run_trials};
 
@@ -42,7 +43,54 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../../studies/viewing-angle.toml"),
     ),
     ("distance", include_str!("../../studies/distance.toml")),
+    ("baselines", include_str!("../../studies/baselines.toml")),
 ];
+
+/// A study of either kind: seeded link trials over levels, or whole-mission baselines.
+#[derive(Debug, Clone)]
+pub enum Study {
+    Link(StudyFile),
+    Baselines(BaselineStudy),
+}
+
+/// A study's TOML text and where it came from (a built-in name or a file path).
+pub fn study_text(name_or_path: &str) -> Result<(String, String)> {
+    match BUILT_IN.iter().find(|(n, _)| *n == name_or_path) {
+        Some((_, t)) => Ok(((*t).to_owned(), format!("built-in study {name_or_path}"))),
+        None => Ok((
+            std::fs::read_to_string(name_or_path).with_context(|| {
+                format!(
+                    "{name_or_path} is neither a built-in study ({}) nor a readable file",
+                    BUILT_IN
+                        .iter()
+                        .map(|(n, _)| *n)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            })?,
+            name_or_path.to_owned(),
+        )),
+    }
+}
+
+impl Study {
+    /// Reads and checks a study: a file with `arms` is a baselines study.
+    pub fn load(name_or_path: &str) -> Result<Self> {
+        let (text, origin) = study_text(name_or_path)?;
+        let value: toml::Table =
+            toml::from_str(&text).with_context(|| format!("{origin}: not valid TOML"))?;
+        if value.contains_key("arms") {
+            let study: BaselineStudy =
+                toml::from_str(&text).with_context(|| format!("{origin}: not a valid study"))?;
+            study
+                .check()
+                .with_context(|| format!("{origin}: invalid study"))?;
+            Ok(Self::Baselines(study))
+        } else {
+            Ok(Self::Link(StudyFile::load(name_or_path)?))
+        }
+    }
+}
 
 /// The only criterion of a link study: every observer releases exactly the broadcast.
 const EXACT_PAYLOADS: &str = "exact-payloads";
@@ -103,24 +151,9 @@ const VIEWPOINT_AXES: [&str; 3] = [
 ];
 
 impl StudyFile {
-    /// Reads a study from a built-in name or a file path, checking every field.
+    /// Reads a link study from a built-in name or a file path, checking every field.
     pub fn load(name_or_path: &str) -> Result<Self> {
-        let (text, origin) = match BUILT_IN.iter().find(|(n, _)| *n == name_or_path) {
-            Some((_, t)) => ((*t).to_owned(), format!("built-in study {name_or_path}")),
-            None => (
-                std::fs::read_to_string(name_or_path).with_context(|| {
-                    format!(
-                        "{name_or_path} is neither a built-in study ({}) nor a readable file",
-                        BUILT_IN
-                            .iter()
-                            .map(|(n, _)| *n)
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    )
-                })?,
-                name_or_path.to_owned(),
-            ),
-        };
+        let (text, origin) = study_text(name_or_path)?;
         let study: Self =
             toml::from_str(&text).with_context(|| format!("{origin}: not a valid study"))?;
         study
@@ -441,7 +474,8 @@ levels = [0.0, 0.5]
     #[test]
     fn every_built_in_study_loads() {
         for (name, _) in BUILT_IN {
-            StudyFile::load(name).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+            let study = Study::load(name).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+            assert_eq!(*name == "baselines", matches!(study, Study::Baselines(_)));
         }
     }
 

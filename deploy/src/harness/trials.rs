@@ -8,8 +8,7 @@
 //! (no wall-clock value), so the same seed gives identical records whatever `--jobs`.
 
 use std::collections::BTreeMap;
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 use event_camera::{CameraConfig, EventCamera};
@@ -28,6 +27,7 @@ use serde::Serialize;
 use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
 use crate::harness::link::{LEAD_IN_NS, ObserverOut, TAIL_NS, bits6, observer_out};
+use crate::harness::pool::{Outcome, run_pool};
 use crate::harness::rendered_flight::{FlightSpec, Gusts, RenderedFlight, fly_rendered};
 
 /// One condition and how many times to try it.
@@ -88,6 +88,15 @@ pub struct TrialRecord {
     pub seed: u64,
     pub success: bool,
     pub observers: BTreeMap<String, ObserverTrial>,
+}
+
+impl Outcome for TrialRecord {
+    fn index(&self) -> u64 {
+        self.index
+    }
+    fn success(&self) -> bool {
+        self.success
+    }
 }
 
 /// Means over the finished trials.
@@ -470,44 +479,14 @@ pub fn run_trials(
         Some(f) => f.ideal.clone(),
         None => fly_rendered(opts.flight_spec(None)?)?.ideal,
     };
-    let next = AtomicUsize::new(0);
-    let done = Mutex::new(Vec::<TrialRecord>::new());
-    let failure = Mutex::new(None::<anyhow::Error>);
     let trials_started = std::time::Instant::now();
-    std::thread::scope(|scope| {
-        for _ in 0..opts.jobs.max(1) {
-            scope.spawn(|| {
-                loop {
-                    let index = next.fetch_add(1, Ordering::SeqCst) as u64;
-                    if index >= opts.trials || stop.load(Ordering::SeqCst) {
-                        return;
-                    }
-                    match run_trial(opts, shared.as_ref(), index, stop) {
-                        Ok(Some(record)) => {
-                            let mut done = done.lock().unwrap_or_else(|e| e.into_inner());
-                            done.push(record);
-                            let successes = done.iter().filter(|r| r.success).count() as u64;
-                            progress(done.len() as u64, successes);
-                        }
-                        Ok(None) => return,
-                        Err(e) => {
-                            stop.store(true, Ordering::SeqCst);
-                            failure
-                                .lock()
-                                .unwrap_or_else(|e| e.into_inner())
-                                .get_or_insert(e.context(format!("trial {index}")));
-                            return;
-                        }
-                    }
-                }
-            });
-        }
-    });
-    if let Some(e) = failure.into_inner().unwrap_or_else(|e| e.into_inner()) {
-        return Err(e);
-    }
-    let mut per_trial = done.into_inner().unwrap_or_else(|e| e.into_inner());
-    per_trial.sort_by_key(|r| r.index);
+    let per_trial = run_pool(
+        opts.trials,
+        opts.jobs,
+        stop,
+        |index| run_trial(opts, shared.as_ref(), index, stop),
+        progress,
+    )?;
     let trials = per_trial.len() as u64;
     let successes = per_trial.iter().filter(|r| r.success).count() as u64;
     let all_observers = || per_trial.iter().flat_map(|r| r.observers.values());

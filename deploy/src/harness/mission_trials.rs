@@ -1,0 +1,154 @@
+//! Seeded repeated trials of a whole mission (`waggle trials --case`): the case flown in one
+//! process N times, each under its own draw of the perturbation; success is the case's expected
+//! outcome (checked as `waggle mission` checks it). Each trial re-flies physics and rendering,
+//! so a trial costs a whole in-process mission.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+
+use anyhow::{Result, bail};
+use perturb::Perturbation;
+use perturb::seed::trial_seed;
+use perturb::stats::wilson95;
+use proto::RenderPath;
+use serde::Serialize;
+
+use crate::case::{Case, Receiver};
+use crate::harness::mission::{MissionOptions, fly_case_with};
+use crate::harness::mission_metrics::{MissionMetrics, Policy};
+use crate::harness::pool::{Outcome, run_pool};
+use crate::run_dir::ObserverSummary;
+
+/// One case and how many times to fly it.
+#[derive(Debug, Clone)]
+pub struct MissionTrialsOptions {
+    pub case: Case,
+    pub modality: Receiver,
+    pub policy: Policy,
+    pub trials: u64,
+    pub seed: u64,
+    pub perturbation: Perturbation,
+    pub jobs: usize,
+    pub render: RenderPath,
+}
+
+/// One flown mission.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct MissionTrial {
+    pub index: u64,
+    pub seed: u64,
+    pub success: bool,
+    /// Why the case's expected outcome was missed (empty on success).
+    pub reasons: Vec<String>,
+    pub end_reason: String,
+    pub metrics: MissionMetrics,
+    pub observers: BTreeMap<String, ObserverSummary>,
+    pub min_separation_m: f64,
+    pub contact_steps: u64,
+}
+
+impl Outcome for MissionTrial {
+    fn index(&self) -> u64 {
+        self.index
+    }
+    fn success(&self) -> bool {
+        self.success
+    }
+}
+
+/// What `trials.json` holds for `--case` (no wall-clock value).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct MissionTrialsOut {
+    pub criterion: String,
+    pub case: String,
+    pub modality: String,
+    pub policy: Policy,
+    pub perturb: BTreeMap<String, f64>,
+    pub seed: u64,
+    pub requested: u64,
+    pub trials: u64,
+    pub interrupted: bool,
+    pub successes: u64,
+    pub success_rate: Option<f64>,
+    pub ci95: [f64; 2],
+    pub per_trial: Vec<MissionTrial>,
+}
+
+/// The criterion printed before the first trial and recorded in `trials.json`.
+pub fn mission_criterion(opts: &MissionTrialsOptions) -> String {
+    format!(
+        "success = case {}'s expected outcome (messages, work units, services per observer, \
+         no contact, provenance)",
+        opts.case.name
+    )
+}
+
+/// Flies every trial (up to `opts.jobs` at once), calling `progress(done, successes)`.
+pub fn run_mission_trials(
+    opts: &MissionTrialsOptions,
+    stop: &Arc<AtomicBool>,
+    progress: impl Fn(u64, u64) + Sync,
+) -> Result<MissionTrialsOut> {
+    if opts.trials == 0 {
+        bail!("--trials must be at least 1");
+    }
+    MissionOptions {
+        perturbation: opts.perturbation.clone(),
+        ..MissionOptions::default()
+    }
+    .check()?;
+    let per_trial = run_pool(
+        opts.trials,
+        opts.jobs,
+        stop,
+        |index| {
+            let seed = trial_seed(opts.seed, index);
+            let mission = MissionOptions {
+                render: opts.render,
+                policy: opts.policy,
+                perturbation: opts.perturbation.clone(),
+                seed,
+                stop: Some(Arc::clone(stop)),
+            };
+            let Some((summary, metrics)) = fly_case_with(&opts.case, opts.modality, &mission)?
+            else {
+                return Ok(None);
+            };
+            Ok(Some(MissionTrial {
+                index,
+                seed,
+                success: summary.pass,
+                reasons: summary.reasons,
+                end_reason: summary.end_reason,
+                metrics,
+                observers: summary.observers,
+                min_separation_m: summary.min_separation_m,
+                contact_steps: summary.contact_steps,
+            }))
+        },
+        progress,
+    )?;
+    let trials = per_trial.len() as u64;
+    let successes = per_trial.iter().filter(|t| t.success).count() as u64;
+    Ok(MissionTrialsOut {
+        criterion: mission_criterion(opts),
+        case: opts.case.name.clone(),
+        modality: opts.modality.to_string(),
+        policy: opts.policy,
+        perturb: opts
+            .perturbation
+            .non_default()
+            .iter()
+            .map(|(k, v)| ((*k).to_owned(), *v))
+            .collect(),
+        seed: opts.seed,
+        requested: opts.trials,
+        trials,
+        interrupted: trials < opts.trials,
+        successes,
+        success_rate: (trials > 0).then(|| successes as f64 / trials as f64),
+        ci95: wilson95(successes, trials),
+        per_trial,
+    })
+}

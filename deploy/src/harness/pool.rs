@@ -1,0 +1,63 @@
+//! Independent seeded trials on a few threads: trial k runs on whichever thread takes it next,
+//! results are returned sorted by index, so nothing a trial records depends on `jobs`.
+
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+use anyhow::Result;
+
+/// What the pool needs to know of a finished trial.
+pub trait Outcome {
+    fn index(&self) -> u64;
+    fn success(&self) -> bool;
+}
+
+/// Runs trials `0..trials` on `jobs` threads, calling `progress(done, successes)` after each.
+/// `run(k)` returns `None` when it saw `stop` and abandoned trial k. When `stop` is raised no
+/// trial starts; the first error raises it and is returned once the running trials end.
+pub fn run_pool<T: Outcome + Send>(
+    trials: u64,
+    jobs: usize,
+    stop: &AtomicBool,
+    run: impl Fn(u64) -> Result<Option<T>> + Sync,
+    progress: impl Fn(u64, u64) + Sync,
+) -> Result<Vec<T>> {
+    let next = AtomicU64::new(0);
+    let done = Mutex::new(Vec::<T>::new());
+    let failure = Mutex::new(None::<anyhow::Error>);
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.max(1) {
+            scope.spawn(|| {
+                loop {
+                    let index = next.fetch_add(1, Ordering::SeqCst);
+                    if index >= trials || stop.load(Ordering::SeqCst) {
+                        return;
+                    }
+                    match run(index) {
+                        Ok(Some(record)) => {
+                            let mut done = done.lock().unwrap_or_else(|e| e.into_inner());
+                            done.push(record);
+                            let successes = done.iter().filter(|r| r.success()).count() as u64;
+                            progress(done.len() as u64, successes);
+                        }
+                        Ok(None) => return,
+                        Err(e) => {
+                            stop.store(true, Ordering::SeqCst);
+                            failure
+                                .lock()
+                                .unwrap_or_else(|e| e.into_inner())
+                                .get_or_insert(e.context(format!("trial {index}")));
+                            return;
+                        }
+                    }
+                }
+            });
+        }
+    });
+    if let Some(e) = failure.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        return Err(e);
+    }
+    let mut records = done.into_inner().unwrap_or_else(|e| e.into_inner());
+    records.sort_by_key(Outcome::index);
+    Ok(records)
+}
