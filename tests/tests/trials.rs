@@ -352,3 +352,80 @@ fn mission_trials_refuse_what_a_mission_does_not_model() {
     assert!(!out.status.success(), "link trials need a sensor");
     assert!(String::from_utf8_lossy(&out.stderr).contains("sensor"));
 }
+
+#[test]
+fn a_study_of_both_modalities_shares_one_flight_per_level_and_writes_its_report() {
+    let dir = tmp("study");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("tiny.toml");
+    std::fs::write(
+        &file,
+        r#"
+name = "tiny"
+modalities = ["rgb", "events"]
+link = ["011010"]
+observers = 1
+trials = 2
+seed = 5
+criterion = "exact-payloads"
+[vary]
+key = "events.shot_noise_hz"
+levels = [0.0, 0.0003]
+"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let run = waggle_tests::waggle()
+        .arg("study")
+        .arg(&file)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let points = read_json(&out.join("study.json"));
+    assert_eq!(points.as_array().unwrap().len(), 4);
+    for p in points.as_array().unwrap() {
+        if p["level"] == 0.0 {
+            assert_eq!(p["successes"], 2, "{p}");
+        }
+        let dir = out.join(p["dir"].as_str().unwrap());
+        // Every point replayed the level's one flight (acquisition sweep for both modalities).
+        assert_eq!(read_json(&dir.join("cost.json"))["flights"], 0, "{p}");
+        assert_eq!(read_json(&dir.join("trials.json"))["flight"], "shared");
+    }
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        report.contains("## rgb") && report.contains("## events"),
+        "{report}"
+    );
+    assert!(
+        std::fs::read_to_string(out.join("success.svg"))
+            .unwrap()
+            .contains("<svg")
+    );
+    // A bad level is refused at load, naming it, before anything runs.
+    let bad = dir.join("bad.toml");
+    let text = std::fs::read_to_string(&file)
+        .unwrap()
+        .replace("0.0003]", "-1.0]");
+    std::fs::write(&bad, text).unwrap();
+    let run = waggle_tests::waggle()
+        .arg("study")
+        .arg(&bad)
+        .arg("--out")
+        .arg(dir.join("bad-out"))
+        .output()
+        .unwrap();
+    assert!(!run.status.success());
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        err.contains("events.shot_noise_hz") && err.contains("-1"),
+        "{err}"
+    );
+    assert!(!dir.join("bad-out").exists());
+}

@@ -2,7 +2,7 @@
 //! its Wilson 95 % interval ([`crate::harness::trials`]).
 
 use std::path::PathBuf;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -53,6 +53,10 @@ pub struct TrialsArgs {
     /// Trials at once (threads; default: the machine's cores).
     #[arg(long)]
     jobs: Option<usize>,
+    /// Fly the acquisition sweep before the first offer: `true` or `false` (default: only for
+    /// event cameras, as in the paper).
+    #[arg(long, value_name = "BOOL")]
+    acquisition: Option<bool>,
     /// Viewpoint rectification of the receivers' trajectories.
     #[arg(long, value_enum, default_value_t = Rectification::default())]
     rectify: Rectification,
@@ -106,13 +110,14 @@ pub fn run(args: TrialsArgs) -> Result<()> {
         jobs: args.jobs.unwrap_or_else(default_jobs).max(1),
         render: args.render.path,
         rectification: args.rectify,
+        acquisition: args.acquisition,
     };
     opts.check()?;
     fresh_out(&args.out)?;
     eprintln!("trials: {}", criterion(&opts));
     let stop = bus::on_stop_signal();
     let bar = progress_bar(opts.trials, "flying and rendering the broadcast");
-    let (out, cost) = run_trials(&opts, &stop, |done, successes| {
+    let (out, cost) = run_trials(&opts, None, &stop, |done, successes| {
         bar.set_position(done);
         bar.set_message(format!("{successes} succeeded"));
     })?;
@@ -156,15 +161,7 @@ pub fn run(args: TrialsArgs) -> Result<()> {
         cost.render_cache_mb,
         path.display()
     );
-    if stop.load(Ordering::SeqCst) {
-        bail!(
-            "interrupted after {} of {} trials (kept in {})",
-            out.trials,
-            out.requested,
-            path.display()
-        );
-    }
-    Ok(())
+    finished(&stop, out.trials, out.requested, &path)
 }
 
 /// Creates `out` for a new run, refusing one that already holds results.
@@ -240,11 +237,14 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
         opts.jobs,
         path.display()
     );
+    finished(&stop, out.trials, out.requested, &path)
+}
+
+/// Ok, or the interruption (exit 1) once the finished trials are written to `path`.
+fn finished(stop: &AtomicBool, done: u64, requested: u64, path: &std::path::Path) -> Result<()> {
     if stop.load(Ordering::SeqCst) {
         bail!(
-            "interrupted after {} of {} trials (kept in {})",
-            out.trials,
-            out.requested,
+            "interrupted after {done} of {requested} trials (kept in {})",
             path.display()
         );
     }

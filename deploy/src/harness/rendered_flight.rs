@@ -6,10 +6,14 @@
 //! the camera's previous render (the damage rectangle's pixels, nothing, or the whole frame), so
 //! a 30 s flight of three observers at 100 Hz keeps a few tens of MB, not gigabytes.
 
+use std::collections::BTreeMap;
+
 use anyhow::{Context, Result};
 use evaluation::IdealReceiver;
 use proto::scene::{Formation, distance_m};
-use proto::{FrameChange, PixelRect, Rectification, RenderPath, Schedule, SegmenterConfig};
+use proto::{
+    FrameChange, Modality, PixelRect, Rectification, RenderPath, Schedule, SegmenterConfig,
+};
 use rand_distr::{Distribution, Normal};
 use sim::render::CameraRenderer;
 use sim::world::World;
@@ -29,8 +33,6 @@ pub struct FlightSpec {
     /// Time between renders (a multiple of the 2 ms physics step).
     pub render_period_ns: u64,
     pub render: RenderPath,
-    /// Segmenter of the ideal receiver (the events or RGB timing).
-    pub ideal_config: SegmenterConfig,
     pub rectification: Rectification,
     /// Gusts on the performer: σ of each horizontal component (N), how long each holds (ns),
     /// the seed of the draws. `None`: still air.
@@ -68,8 +70,9 @@ pub struct RenderTrack {
 pub struct RenderedFlight {
     pub spec: FlightSpec,
     pub tracks: Vec<RenderTrack>,
-    /// The ideal receiver's tokens and frames per observer.
-    pub ideal: Vec<ObserverOut>,
+    /// The ideal receiver's tokens and frames per observer, with each modality's segmenter
+    /// timing (the reference its trials are compared with).
+    pub ideal: BTreeMap<Modality, Vec<ObserverOut>>,
     pub sim_ns: u64,
     pub performer_max_tracking_error_m: f64,
     pub contact_steps: u64,
@@ -147,8 +150,17 @@ pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
     let mut world = World::with_formation(&spec.formation).context("building the scene")?;
     let mut renderer =
         CameraRenderer::new(&world, spec.render).context("creating the offscreen renderer")?;
-    let mut ideal =
-        IdealReceiver::with_formation(&spec.formation, spec.ideal_config, spec.rectification)?;
+    let mut ideal = Modality::ALL
+        .iter()
+        .map(|&m| {
+            let config = match m {
+                Modality::Events => SegmenterConfig::events(),
+                Modality::Rgb => SegmenterConfig::rgb(),
+            };
+            IdealReceiver::with_formation(&spec.formation, config, spec.rectification)
+                .map(|r| (m, r))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let n = spec.formation.len();
     let mut tracks = vec![RenderTrack::default(); n];
     let width = usize::from(proto::scene::IMAGE_WIDTH_PX);
@@ -165,7 +177,9 @@ pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
             world.position_m(PERFORMER),
         ));
         if t.is_multiple_of(IDEAL_PERIOD_NS) {
-            ideal.push(t, world.position_m(PERFORMER))?;
+            for (_, receiver) in &mut ideal {
+                receiver.push(t, world.position_m(PERFORMER))?;
+            }
         }
         if !t.is_multiple_of(spec.render_period_ns) {
             continue;
@@ -184,9 +198,15 @@ pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
         }
     }
     let ideal_outs = ideal
-        .outputs()
         .iter()
-        .map(|o| observer_out(&o.tokens, &o.frames))
+        .map(|(m, receiver)| {
+            let outs = receiver
+                .outputs()
+                .iter()
+                .map(|o| observer_out(&o.tokens, &o.frames))
+                .collect();
+            (*m, outs)
+        })
         .collect();
     Ok(RenderedFlight {
         tracks,

@@ -29,6 +29,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::harness::baselines::BaselineStudy;
 use crate::harness::link::{parse_bits6, parse_viewpoint};
+use sim::sensor::EVENT_RENDER_PERIOD_NS;
+
+use crate::harness::rendered_flight::{RenderedFlight, fly_rendered};
 use crate::harness::trials::{TrialsOptions, TrialsOut, run_trials};
 
 /// The built-in studies (`waggle study NAME`), as TOML.
@@ -214,8 +217,8 @@ impl StudyFile {
         }
         let viewpoint_axis = VIEWPOINT_AXES.contains(&self.vary.key.as_str());
         let mut points = Vec::new();
-        for &modality in &self.modalities {
-            for &level in &self.vary.levels {
+        for &level in &self.vary.levels {
+            for &modality in &self.modalities {
                 let mut perturbation = base.clone();
                 let formation = if viewpoint_axis {
                     self.formation(Some((&self.vary.key, level)))?
@@ -237,6 +240,8 @@ impl StudyFile {
                         jobs,
                         render,
                         rectification: Rectification::default(),
+                        // One flight for every modality of the study (matched trajectories).
+                        acquisition: Some(self.modalities.contains(&Modality::Events)),
                     },
                 });
             }
@@ -265,13 +270,35 @@ pub fn run_study(
     let points = study.points(render, jobs)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut results = Vec::new();
+    // Points of one level share a formation and a broadcast: one flight serves every modality
+    // (kept only while its level runs).
+    let mut flight: Option<(f64, RenderedFlight)> = None;
     for (k, point) in points.iter().enumerate() {
         if stop.load(std::sync::atomic::Ordering::SeqCst) {
             break;
         }
         let dir: PathBuf = out.join(&point.dir);
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-        let (trials, cost) = run_trials(&point.options, stop, |done, _| {
+        let shared = if point.options.perturbation.reflies() {
+            None
+        } else {
+            if flight
+                .as_ref()
+                .is_none_or(|(level, _)| *level != point.level)
+            {
+                drop(flight.take()); // free the last level's renders before flying the next
+                let period_ns = points
+                    .iter()
+                    .filter(|p| p.level == point.level)
+                    .map(|p| p.options.render_period_ns())
+                    .min()
+                    .unwrap_or(EVENT_RENDER_PERIOD_NS);
+                let spec = point.options.shared_flight_spec(period_ns)?;
+                flight = Some((point.level, fly_rendered(spec)?));
+            }
+            flight.as_ref().map(|(_, f)| f)
+        };
+        let (trials, cost) = run_trials(&point.options, shared, stop, |done, _| {
             progress(k, points.len(), done, point.options.trials);
         })?;
         write_json(&dir.join("trials.json"), &trials)?;
@@ -360,19 +387,11 @@ fn figure(study: &StudyFile, results: &[PointResult]) -> Result<String> {
     {
         let root = SVGBackend::with_string(&mut svg, (720, 420)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
-        let lo = study
-            .vary
-            .levels
-            .iter()
-            .copied()
-            .fold(f64::INFINITY, f64::min);
-        let hi = study
-            .vary
-            .levels
-            .iter()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
-        let pad = ((hi - lo) * 0.05).max(1e-3);
+        // Levels are often geometric (0, 0.0003, 0.001, …): one evenly spaced slot per level,
+        // labelled with its value, keeps every point readable.
+        let levels = &study.vary.levels;
+        let slot = |level: f64| levels.iter().position(|&l| l == level).unwrap_or(0) as f64;
+        let n = levels.len() as f64;
         let mut chart = ChartBuilder::on(&root)
             .caption(
                 format!("{}: P(success) ± 95 % CI", study.name),
@@ -381,10 +400,18 @@ fn figure(study: &StudyFile, results: &[PointResult]) -> Result<String> {
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(50)
-            .build_cartesian_2d(lo - pad..hi + pad, 0.0..1.05)
+            .build_cartesian_2d(-0.5..n - 0.5, 0.0..1.05)
             .map_err(|e| anyhow::anyhow!("{e}"))?;
         chart
             .configure_mesh()
+            .x_labels(levels.len())
+            .x_label_formatter(&|x| {
+                let k = x.round();
+                levels
+                    .get(k as usize)
+                    .filter(|_| (x - k).abs() < 1e-6 && k >= 0.0)
+                    .map_or(String::new(), |l| format!("{l}"))
+            })
             .x_desc(study.vary.key.as_str())
             .y_desc("P(success)")
             .draw()
@@ -396,7 +423,7 @@ fn figure(study: &StudyFile, results: &[PointResult]) -> Result<String> {
             chart
                 .draw_series(LineSeries::new(
                     pts.iter()
-                        .filter_map(|r| r.success_rate.map(|p| (r.level, p))),
+                        .filter_map(|r| r.success_rate.map(|p| (slot(r.level), p))),
                     colour.stroke_width(2),
                 ))
                 .map_err(|e| anyhow::anyhow!("{e}"))?
@@ -407,7 +434,7 @@ fn figure(study: &StudyFile, results: &[PointResult]) -> Result<String> {
             chart
                 .draw_series(pts.iter().map(|r| {
                     PathElement::new(
-                        vec![(r.level, r.ci95[0]), (r.level, r.ci95[1])],
+                        vec![(slot(r.level), r.ci95[0]), (slot(r.level), r.ci95[1])],
                         colour.stroke_width(1),
                     )
                 }))
@@ -451,8 +478,9 @@ levels = [0.0, 0.5]
         let s = parse(GOOD).unwrap();
         let pts = s.points(RenderPath::default(), 1).unwrap();
         assert_eq!(pts.len(), 4);
-        assert_eq!(pts[1].dir, "events-0.5");
-        assert_eq!(pts[1].options.perturbation.get("events.shot_noise_hz"), 0.5);
+        assert_eq!(pts[2].dir, "events-0.5");
+        assert_eq!(pts[2].options.perturbation.get("events.shot_noise_hz"), 0.5);
+        assert!(pts.iter().all(|p| p.options.acquisition == Some(true)));
     }
 
     #[test]
@@ -489,9 +517,14 @@ levels = [0.0, 0.5]
         let pts = s.points(RenderPath::default(), 1).unwrap();
         assert_ne!(
             pts[0].options.formation.placements()[0],
+            pts[2].options.formation.placements()[0]
+        );
+        // Both modalities of a level share its formation (and so its flight).
+        assert_eq!(
+            pts[0].options.formation.placements()[0],
             pts[1].options.formation.placements()[0]
         );
-        assert!(pts[1].options.perturbation.is_none());
+        assert!(pts[2].options.perturbation.is_none());
         let bad = text.replace("[0.0, 40.0]", "[0.0, 120.0]");
         assert!(format!("{:#}", parse(&bad).unwrap_err()).contains("azimuth"));
     }

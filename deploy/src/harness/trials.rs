@@ -19,9 +19,7 @@ use perturb::stats::wilson95;
 use proto::scene::{
     Formation, IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, MAX_OBSERVERS, Placement, observer_name,
 };
-use proto::{
-    GestureConfig, Modality, Rectification, RenderPath, RgbFrame, SegmenterConfig, broadcast,
-};
+use proto::{GestureConfig, Modality, Rectification, RenderPath, RgbFrame, broadcast};
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
@@ -45,6 +43,10 @@ pub struct TrialsOptions {
     pub jobs: usize,
     pub render: RenderPath,
     pub rectification: Rectification,
+    /// Fly the acquisition sweep before the first offer (`None`: only for event cameras, as
+    /// the paper and `waggle link` do). A study of both modalities flies it for both, so their
+    /// trials see one flight.
+    pub acquisition: Option<bool>,
 }
 
 /// How one observer's token stamps compare with the ideal receiver's on the same flight.
@@ -160,7 +162,8 @@ impl TrialsOptions {
         self.payloads.iter().map(|&p| bits6(p)).collect()
     }
 
-    fn render_period_ns(&self) -> u64 {
+    /// How often this condition's sensors need a render.
+    pub fn render_period_ns(&self) -> u64 {
         match self.modality {
             Modality::Events => EVENT_RENDER_PERIOD_NS,
             Modality::Rgb if self.perturbation.rgb().blur_renders > 1 => EVENT_RENDER_PERIOD_NS,
@@ -168,9 +171,20 @@ impl TrialsOptions {
         }
     }
 
+    /// One flight for trials of several options on this formation and broadcast (the points
+    /// of one study level), rendered every `render_period_ns` (the shortest any of them needs:
+    /// RGB takes every fourth render of an event-rate flight).
+    pub fn shared_flight_spec(&self, render_period_ns: u64) -> Result<FlightSpec> {
+        let mut spec = self.flight_spec(None)?;
+        spec.render_period_ns = render_period_ns;
+        Ok(spec)
+    }
+
     /// The flight of trial `seed` (the nominal one when nothing re-flies).
     fn flight_spec(&self, seed: Option<u64>) -> Result<FlightSpec> {
-        let acquisition = self.modality == Modality::Events;
+        let acquisition = self
+            .acquisition
+            .unwrap_or(self.modality == Modality::Events);
         let schedule = broadcast(
             LEAD_IN_NS,
             &self.payloads,
@@ -198,10 +212,7 @@ impl TrialsOptions {
             end_ns,
             render_period_ns: self.render_period_ns(),
             render: self.render,
-            ideal_config: match self.modality {
-                Modality::Events => SegmenterConfig::events(),
-                Modality::Rgb => SegmenterConfig::rgb(),
-            },
+
             rectification: self.rectification,
             gusts,
         })
@@ -419,7 +430,11 @@ fn run_trial(
         let Some((out, messages, messages_lost)) = observe(flight, i, opts, seed, stop)? else {
             return Ok(None);
         };
-        let ideal = &flight.ideal[i];
+        let ideal = flight
+            .ideal
+            .get(&opts.modality)
+            .and_then(|o| o.get(i))
+            .context("the flight has no ideal receiver for this observer")?;
         let (latency_s, vs_ideal_s) = release_times(flight, ideal, &out);
         observers.insert(
             observer_name(i),
@@ -463,28 +478,47 @@ pub fn criterion(opts: &TrialsOptions) -> String {
 /// kept and the output is marked interrupted.
 pub fn run_trials(
     opts: &TrialsOptions,
+    flown: Option<&RenderedFlight>,
     stop: &AtomicBool,
     progress: impl Fn(u64, u64) + Sync,
 ) -> Result<(TrialsOut, TrialsCost)> {
     opts.check()?;
     let started = std::time::Instant::now();
-    let shared = if opts.perturbation.reflies() {
-        None
-    } else {
-        Some(fly_rendered(opts.flight_spec(None)?)?)
+    let own;
+    let shared = match flown {
+        _ if opts.perturbation.reflies() => None,
+        Some(f) => {
+            let need_ns = opts.render_period_ns();
+            if !need_ns.is_multiple_of(f.spec.render_period_ns) {
+                bail!(
+                    "the shared flight renders every {} ms; {} trials need every {} ms",
+                    f.spec.render_period_ns / 1_000_000,
+                    opts.modality,
+                    need_ns / 1_000_000
+                );
+            }
+            Some(f)
+        }
+        None => {
+            own = fly_rendered(opts.flight_spec(None)?)?;
+            Some(&own)
+        }
     };
     let fly_s = started.elapsed().as_secs_f64();
     // The reference: the unperturbed flight's ideal releases (flown here when trials re-fly).
-    let nominal_ideal: Vec<ObserverOut> = match &shared {
-        Some(f) => f.ideal.clone(),
-        None => fly_rendered(opts.flight_spec(None)?)?.ideal,
+    let nominal_ideal: Vec<ObserverOut> = match shared {
+        Some(f) => f.ideal.get(&opts.modality).cloned().unwrap_or_default(),
+        None => fly_rendered(opts.flight_spec(None)?)?
+            .ideal
+            .remove(&opts.modality)
+            .unwrap_or_default(),
     };
     let trials_started = std::time::Instant::now();
     let per_trial = run_pool(
         opts.trials,
         opts.jobs,
         stop,
-        |index| run_trial(opts, shared.as_ref(), index, stop),
+        |index| run_trial(opts, shared, index, stop),
         progress,
     )?;
     let trials = per_trial.len() as u64;
@@ -496,7 +530,11 @@ pub fn run_trials(
         messages_lost: all_observers().map(|o| o.messages_lost).sum(),
     };
     let cost = TrialsCost {
-        flights: if shared.is_some() { 1 } else { trials + 1 },
+        flights: if shared.is_some() {
+            u64::from(flown.is_none())
+        } else {
+            trials + 1
+        },
         fly_and_render_s: fly_s,
         trials_s: trials_started.elapsed().as_secs_f64(),
         render_cache_mb: shared

@@ -5,7 +5,7 @@
 //! Gaussian per pixel and channel, σ in grey levels, added in whole grey levels), then clamping
 //! to 0–255. With the defaults the frame is passed through byte for byte.
 
-use rand::Rng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
@@ -38,33 +38,33 @@ impl RgbNoise {
 
     /// The sensor of one observer in one trial, drawing its read noise from `rng`.
     pub fn sensor(&self, rng: &mut ChaCha8Rng) -> RgbSensor {
-        let bank = match Normal::new(0.0, self.read_noise_grey) {
-            Ok(normal) if self.read_noise_grey > 0.0 => (0..NOISE_BANK)
-                .map(|_| normal.sample(rng).round().clamp(-255.0, 255.0) as i16)
-                .collect(),
-            _ => Vec::new(),
-        };
         RgbSensor {
             noise: *self,
-            bank,
-            counter: rng.r#gen(),
+            normal: Normal::new(0.0, self.read_noise_grey)
+                .ok()
+                .filter(|_| self.read_noise_grey > 0.0),
+            pool: Vec::new(),
+            rng: ChaCha8Rng::seed_from_u64(rng.r#gen()),
             luts: Vec::new(),
         }
     }
 }
 
-/// Read-noise draws kept per sensor (2^20): each pixel value takes one at a random index.
-const NOISE_BANK: usize = 1 << 20;
+/// The read-noise pool holds this many frames' worth of draws.
+const POOL_FRAMES: usize = 4;
 
 /// One RGB sensor's perturbation state: the exposure/blur lookup tables and the read-noise
-/// bank. Read noise is added in whole grey levels (a rounded Gaussian), picked per pixel value
-/// from a bank of 2^20 seeded draws by a counter-based index: a frame costs a table lookup and
-/// an add per value, not a Gaussian draw.
+/// pool. Read noise is added in whole grey levels (a rounded Gaussian). The sensor draws a pool
+/// of four frames' worth of independent values once, then each frame adds a window of it that
+/// starts at a fresh random offset: every value of a frame is an independent draw, and a frame
+/// costs one vectorised add, not a Gaussian draw per value (which cost more than the receiver).
+/// Two frames reuse draws only as a copy shifted by a random offset of whole pixels.
 #[derive(Debug, Clone)]
 pub struct RgbSensor {
     noise: RgbNoise,
-    bank: Vec<i16>,
-    counter: u64,
+    normal: Option<Normal<f64>>,
+    pool: Vec<i16>,
+    rng: ChaCha8Rng,
     /// `luts[k-1][sum]`: the exposed value of the sum of `k` renders.
     luts: Vec<Vec<u8>>,
 }
@@ -98,16 +98,17 @@ impl RgbSensor {
                 .map(|i| lut[used.iter().map(|r| usize::from(r[i])).sum::<usize>()])
                 .collect()
         };
-        if !self.bank.is_empty() {
-            let mask = (NOISE_BANK - 1) as u64;
-            for chunk in out.chunks_mut(3) {
-                self.counter = self.counter.wrapping_add(1);
-                let mut bits = crate::seed::mix(self.counter);
-                for v in chunk {
-                    let n = self.bank[(bits & mask) as usize];
-                    bits >>= 21;
-                    *v = (i16::from(*v) + n).clamp(0, 255) as u8;
-                }
+        if let Some(normal) = self.normal {
+            let len = out.len();
+            if self.pool.len() != POOL_FRAMES * len {
+                let rng = &mut self.rng;
+                self.pool = (0..POOL_FRAMES * len)
+                    .map(|_| normal.sample(rng).round().clamp(-255.0, 255.0) as i16)
+                    .collect();
+            }
+            let start = self.rng.gen_range(0..=(POOL_FRAMES - 1) * len);
+            for (v, &n) in out.iter_mut().zip(&self.pool[start..start + len]) {
+                *v = (i16::from(*v) + n).clamp(0, 255) as u8;
             }
         }
         out
@@ -153,6 +154,30 @@ mod tests {
         assert!((var / want - 1.0).abs() < 0.02, "variance {var} vs {want}");
         assert_ne!(out, noise.sensor(&mut rng(8)).apply(&[&flat]));
         assert_eq!(out, noise.sensor(&mut rng(7)).apply(&[&flat]));
+    }
+
+    #[test]
+    fn successive_frames_draw_fresh_noise() {
+        let flat = vec![128u8; 300_000];
+        let mut sensor = RgbNoise {
+            read_noise_grey: 4.0,
+            ..RgbNoise::default()
+        }
+        .sensor(&mut rng(9));
+        let (a, b) = (sensor.apply(&[&flat]), sensor.apply(&[&flat]));
+        // Independent frames: the difference has twice the variance of one frame's noise.
+        let n = a.len() as f64;
+        let var = a
+            .iter()
+            .zip(&b)
+            .map(|(&x, &y)| (f64::from(x) - f64::from(y)).powi(2))
+            .sum::<f64>()
+            / n;
+        let want = 2.0 * (16.0 + 1.0 / 12.0);
+        assert!(
+            (var / want - 1.0).abs() < 0.03,
+            "variance of the difference {var} vs {want}"
+        );
     }
 
     #[test]

@@ -349,19 +349,6 @@ impl Perturbation {
     }
 }
 
-/// The parameter table as Markdown (README, `--help` text).
-pub fn markdown_table() -> String {
-    let mut s =
-        String::from("| term | unit | off | range | what |\n| --- | --- | ---: | --- | --- |\n");
-    for p in PARAMETERS {
-        s.push_str(&format!(
-            "| `{}` | {} | {} | {}–{} | {} |\n",
-            p.key, p.unit, p.default, p.min, p.max, p.doc
-        ));
-    }
-    s
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
