@@ -368,7 +368,7 @@ observers = 1
 trials = 2
 seed = 5
 criterion = "exact-payloads"
-[vary]
+[[vary]]
 key = "events.shot_noise_hz"
 levels = [0.0, 0.0003]
 "#,
@@ -400,11 +400,11 @@ levels = [0.0, 0.0003]
     }
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(
-        report.contains("## rgb") && report.contains("## events"),
+        report.contains("### rgb") && report.contains("### events"),
         "{report}"
     );
     assert!(
-        std::fs::read_to_string(out.join("success.svg"))
+        std::fs::read_to_string(out.join("success-events.shot_noise_hz.svg"))
             .unwrap()
             .contains("<svg")
     );

@@ -17,7 +17,7 @@ pub struct StudyArgs {
     /// distance, baselines (`--print` shows one to copy and edit).
     study: String,
     /// Output directory: one subdirectory per point (trials.json, cost.json), study.json,
-    /// success.svg and report.md.
+    /// success-<condition>.svg and report.md.
     #[arg(long)]
     out: PathBuf,
     /// Trials at once (threads; default: the machine's cores).
@@ -113,7 +113,7 @@ fn run_baseline_study(study: &BaselineStudy, args: &StudyArgs, jobs: usize) -> R
 
 fn run_link_study(study: &StudyFile, args: &StudyArgs, jobs: usize) -> Result<()> {
     let stop = bus::on_stop_signal();
-    let points = study.modalities.len() * study.vary.levels.len();
+    let points = study.modalities.len() * study.vary.iter().map(|v| v.levels.len()).sum::<usize>();
     let bar = bar_for(points as u64 * study.trials);
     let started = std::time::Instant::now();
     let results = run_study(
@@ -132,7 +132,7 @@ fn run_link_study(study: &StudyFile, args: &StudyArgs, jobs: usize) -> Result<()
         println!(
             "{:<7} {} = {:<8} {:>4}/{:<4} P = {:<6} CI [{:.3}, {:.3}]",
             r.modality,
-            study.vary.key,
+            r.key,
             r.level,
             r.successes,
             r.trials,

@@ -11,11 +11,12 @@
 //! seed = 1
 //! criterion = "exact-payloads"
 //! fixed = { "link.drop_rate" = 0.0 }      # optional: terms held at one value
-//! [vary]
+//! [[vary]]                                # one table per condition; several allowed
 //! key = "events.shot_noise_hz"            # a perturbation term, or viewpoint.azimuth_deg /
 //! levels = [0.0, 0.1, 0.2, 0.5, 1.0]      # viewpoint.elevation_deg / viewpoint.distance_m
 //! ```
-//! Unknown keys, unknown terms and out-of-range levels are refused at load, naming them.
+//! Each condition is varied alone, the others held at their `fixed` value (or off); each gets a
+//! section of the report and its figure `success-<key>.svg`. Unknown keys, unknown terms and out-of-range levels are refused at load, naming them.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -115,7 +116,8 @@ pub struct StudyFile {
     pub criterion: String,
     #[serde(default)]
     pub fixed: BTreeMap<String, f64>,
-    pub vary: Vary,
+    /// The conditions: each a term (or viewpoint axis) and its levels.
+    pub vary: Vec<Vary>,
 }
 
 /// The axis of a study.
@@ -126,9 +128,10 @@ pub struct Vary {
     pub levels: Vec<f64>,
 }
 
-/// One point: a modality at one level.
+/// One point: a modality at one level of one condition.
 #[derive(Debug, Clone)]
 struct Point {
+    key: String,
     modality: Modality,
     level: f64,
     dir: String,
@@ -138,6 +141,7 @@ struct Point {
 /// The measured point as the report lists it.
 #[derive(Debug, Clone, Serialize)]
 pub struct PointResult {
+    pub key: String,
     pub modality: String,
     pub level: f64,
     pub trials: u64,
@@ -165,15 +169,12 @@ impl StudyFile {
         Ok(study)
     }
 
-    fn formation(&self, axis: Option<(&str, f64)>) -> Result<Formation> {
+    fn formation(&self, axis: Option<(&str, f64)>, key: &str) -> Result<Formation> {
         match (self.observers, self.viewpoint) {
             (Some(_), Some(_)) => bail!("give either observers or viewpoint, not both"),
             (Some(n), None) => {
                 if axis.is_some() {
-                    bail!(
-                        "vary.key {} needs viewpoint = [az, el, dist]",
-                        self.vary.key
-                    );
+                    bail!("vary.key {key} needs viewpoint = [az, el, dist]");
                 }
                 Formation::standard(n)
                     .map_err(|_| anyhow::anyhow!("observers = {n} is outside 1..=8"))
@@ -202,8 +203,11 @@ impl StudyFile {
         if self.trials == 0 {
             bail!("trials must be at least 1");
         }
-        if self.modalities.is_empty() || self.vary.levels.is_empty() {
-            bail!("modalities and vary.levels must not be empty");
+        if self.modalities.is_empty()
+            || self.vary.is_empty()
+            || self.vary.iter().any(|v| v.levels.is_empty())
+        {
+            bail!("modalities, vary and every vary.levels must not be empty");
         }
         let payloads = self
             .link
@@ -215,35 +219,44 @@ impl StudyFile {
         for (k, v) in &self.fixed {
             base.set(k, *v).context("fixed")?;
         }
-        let viewpoint_axis = VIEWPOINT_AXES.contains(&self.vary.key.as_str());
         let mut points = Vec::new();
-        for &level in &self.vary.levels {
-            for &modality in &self.modalities {
-                let mut perturbation = base.clone();
-                let formation = if viewpoint_axis {
-                    self.formation(Some((&self.vary.key, level)))?
-                } else {
-                    perturbation.set(&self.vary.key, level).context("vary")?;
-                    self.formation(None)?
-                };
-                points.push(Point {
-                    modality,
-                    level,
-                    dir: format!("{modality}-{}", level_label(level)),
-                    options: TrialsOptions {
-                        payloads: payloads.clone(),
-                        formation,
+        for vary in &self.vary {
+            let key = vary.key.as_str();
+            let viewpoint_axis = VIEWPOINT_AXES.contains(&key);
+            for &level in &vary.levels {
+                for &modality in &self.modalities {
+                    let mut perturbation = base.clone();
+                    let formation = if viewpoint_axis {
+                        self.formation(Some((key, level)), key)?
+                    } else {
+                        perturbation.set(key, level).context("vary")?;
+                        self.formation(None, key)?
+                    };
+                    let dir = if self.vary.len() == 1 {
+                        format!("{modality}-{}", level_label(level))
+                    } else {
+                        format!("{modality}-{key}-{}", level_label(level))
+                    };
+                    points.push(Point {
+                        key: key.to_owned(),
                         modality,
-                        trials: self.trials,
-                        seed: self.seed,
-                        perturbation,
-                        jobs,
-                        render,
-                        rectification: Rectification::default(),
-                        // One flight for every modality of the study (matched trajectories).
-                        acquisition: Some(self.modalities.contains(&Modality::Events)),
-                    },
-                });
+                        level,
+                        dir,
+                        options: TrialsOptions {
+                            payloads: payloads.clone(),
+                            formation,
+                            modality,
+                            trials: self.trials,
+                            seed: self.seed,
+                            perturbation,
+                            jobs,
+                            render,
+                            rectification: Rectification::default(),
+                            // One flight for every modality of the study (matched trajectories).
+                            acquisition: Some(self.modalities.contains(&Modality::Events)),
+                        },
+                    });
+                }
             }
         }
         Ok(points)
@@ -257,7 +270,7 @@ fn level_label(level: f64) -> String {
 }
 
 /// Runs every point into `out/<modality>-<level>/`, then writes `out/report.md`,
-/// `out/study.json` and `out/success.svg`. `progress(point, points, done, trials)` is called
+/// `out/study.json` and one `out/success-<key>.svg` per condition. `progress(point, points, done, trials)` is called
 /// as trials finish. Returns the points measured (fewer when interrupted).
 pub fn run_study(
     study: &StudyFile,
@@ -272,7 +285,7 @@ pub fn run_study(
     let mut results = Vec::new();
     // Points of one level share a formation and a broadcast: one flight serves every modality
     // (kept only while its level runs).
-    let mut flight: Option<(f64, RenderedFlight)> = None;
+    let mut flight: Option<((String, f64), RenderedFlight)> = None;
     for (k, point) in points.iter().enumerate() {
         if stop.load(std::sync::atomic::Ordering::SeqCst) {
             break;
@@ -284,17 +297,17 @@ pub fn run_study(
         } else {
             if flight
                 .as_ref()
-                .is_none_or(|(level, _)| *level != point.level)
+                .is_none_or(|((key, level), _)| *key != point.key || *level != point.level)
             {
                 drop(flight.take()); // free the last level's renders before flying the next
                 let period_ns = points
                     .iter()
-                    .filter(|p| p.level == point.level)
+                    .filter(|p| p.key == point.key && p.level == point.level)
                     .map(|p| p.options.render_period_ns())
                     .min()
                     .unwrap_or(EVENT_RENDER_PERIOD_NS);
                 let spec = point.options.shared_flight_spec(period_ns)?;
-                flight = Some((point.level, fly_rendered(spec)?));
+                flight = Some(((point.key.clone(), point.level), fly_rendered(spec)?));
             }
             flight.as_ref().map(|(_, f)| f)
         };
@@ -306,8 +319,11 @@ pub fn run_study(
         results.push(point_result(point, &trials));
     }
     write_json(&out.join("study.json"), &results)?;
-    std::fs::write(out.join("success.svg"), figure(study, &results)?)
-        .with_context(|| format!("writing {}", out.join("success.svg").display()))?;
+    for vary in &study.vary {
+        let path = out.join(figure_name(&vary.key));
+        std::fs::write(&path, figure(study, vary, &results)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
     std::fs::write(out.join("report.md"), report(study, &results))
         .with_context(|| format!("writing {}", out.join("report.md").display()))?;
     Ok(results)
@@ -320,6 +336,7 @@ fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
 
 fn point_result(point: &Point, t: &TrialsOut) -> PointResult {
     PointResult {
+        key: point.key.clone(),
         modality: point.modality.to_string(),
         level: point.level,
         trials: t.trials,
@@ -335,7 +352,7 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
     let mut s = format!("# Study: {}\n\n", study.name);
     s.push_str(&format!(
         "Broadcast {}; {}; {} trials per point, seed {}; criterion: every observer releases \
-         exactly the broadcast payloads, in order (`{}`). Varied: `{}`.",
+         exactly the broadcast payloads, in order (`{}`). Varied, one at a time: {}.",
         study.link.join(", "),
         match (study.observers, study.viewpoint) {
             (Some(n), _) => format!("{n} observers in the built-in formation"),
@@ -348,7 +365,12 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
         study.trials,
         study.seed,
         study.criterion,
-        study.vary.key,
+        study
+            .vary
+            .iter()
+            .map(|v| format!("`{}`", v.key))
+            .collect::<Vec<_>>()
+            .join(", "),
     ));
     if !study.fixed.is_empty() {
         let fixed: Vec<String> = study
@@ -358,30 +380,42 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
             .collect();
         s.push_str(&format!(" Held: {}.", fixed.join(", ")));
     }
-    s.push_str("\n\n![success probability](success.svg)\n");
-    for m in &study.modalities {
-        let m = m.to_string();
+    s.push('\n');
+    for vary in &study.vary {
+        let key = &vary.key;
         s.push_str(&format!(
-            "\n## {m}\n\n| {} | successes / trials | P(success) | 95 % CI (Wilson) |\n| ---: | ---: | ---: | :---: |\n",
-            study.vary.key
+            "\n## {key}\n\n![success probability against {key}]({})\n",
+            figure_name(key)
         ));
-        for r in results.iter().filter(|r| r.modality == m) {
+        for m in &study.modalities {
+            let m = m.to_string();
             s.push_str(&format!(
-                "| {} | {} / {} | {} | [{:.3}, {:.3}] |\n",
-                r.level,
-                r.successes,
-                r.trials,
-                r.success_rate.map_or("—".into(), |p| format!("{p:.3}")),
-                r.ci95[0],
-                r.ci95[1]
+                "\n### {m}\n\n| {key} | successes / trials | P(success) | 95 % CI (Wilson) |\n| ---: | ---: | ---: | :---: |\n"
             ));
+            for r in results.iter().filter(|r| r.modality == m && &r.key == key) {
+                s.push_str(&format!(
+                    "| {} | {} / {} | {} | [{:.3}, {:.3}] |\n",
+                    r.level,
+                    r.successes,
+                    r.trials,
+                    r.success_rate.map_or("—".into(), |p| format!("{p:.3}")),
+                    r.ci95[0],
+                    r.ci95[1]
+                ));
+            }
         }
     }
     s
 }
 
-/// The success probability with its interval against the level, one series per modality.
-fn figure(study: &StudyFile, results: &[PointResult]) -> Result<String> {
+/// The figure of condition `key`: `success-<key>.svg`.
+pub fn figure_name(key: &str) -> String {
+    format!("success-{key}.svg")
+}
+
+/// The success probability with its interval against the levels of `vary`, one series per
+/// modality.
+fn figure(study: &StudyFile, vary: &Vary, results: &[PointResult]) -> Result<String> {
     use plotters::prelude::*;
     let mut svg = String::new();
     {
@@ -389,12 +423,12 @@ fn figure(study: &StudyFile, results: &[PointResult]) -> Result<String> {
         root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
         // Levels are often geometric (0, 0.0003, 0.001, …): one evenly spaced slot per level,
         // labelled with its value, keeps every point readable.
-        let levels = &study.vary.levels;
+        let levels = &vary.levels;
         let slot = |level: f64| levels.iter().position(|&l| l == level).unwrap_or(0) as f64;
         let n = levels.len() as f64;
         let mut chart = ChartBuilder::on(&root)
             .caption(
-                format!("{}: P(success) ± 95 % CI", study.name),
+                format!("{}: P(success) ± 95 % CI against {}", study.name, vary.key),
                 ("sans-serif", 18),
             )
             .margin(12)
@@ -412,14 +446,17 @@ fn figure(study: &StudyFile, results: &[PointResult]) -> Result<String> {
                     .filter(|_| (x - k).abs() < 1e-6 && k >= 0.0)
                     .map_or(String::new(), |l| format!("{l}"))
             })
-            .x_desc(study.vary.key.as_str())
+            .x_desc(vary.key.as_str())
             .y_desc("P(success)")
             .draw()
             .map_err(|e| anyhow::anyhow!("{e}"))?;
         for (k, m) in study.modalities.iter().enumerate() {
             let colour = Palette99::pick(k).to_rgba();
             let m = m.to_string();
-            let pts: Vec<&PointResult> = results.iter().filter(|r| r.modality == m).collect();
+            let pts: Vec<&PointResult> = results
+                .iter()
+                .filter(|r| r.modality == m && r.key == vary.key)
+                .collect();
             chart
                 .draw_series(LineSeries::new(
                     pts.iter()
@@ -468,7 +505,7 @@ link = ["011010"]
 observers = 2
 trials = 10
 criterion = "exact-payloads"
-[vary]
+[[vary]]
 key = "events.shot_noise_hz"
 levels = [0.0, 0.5]
 "#;
@@ -481,6 +518,29 @@ levels = [0.0, 0.5]
         assert_eq!(pts[2].dir, "events-0.5");
         assert_eq!(pts[2].options.perturbation.get("events.shot_noise_hz"), 0.5);
         assert!(pts.iter().all(|p| p.options.acquisition == Some(true)));
+    }
+
+    #[test]
+    fn several_conditions_are_varied_one_at_a_time() {
+        let text =
+            format!("{GOOD}\n[[vary]]\nkey = \"link.drop_rate\"\nlevels = [0.1, 0.2, 0.3]\n");
+        let pts = parse(&text)
+            .unwrap()
+            .points(RenderPath::default(), 1)
+            .unwrap();
+        assert_eq!(pts.len(), 2 * (2 + 3));
+        let drop = pts
+            .iter()
+            .filter(|p| p.key == "link.drop_rate")
+            .collect::<Vec<_>>();
+        assert_eq!(drop.len(), 6);
+        assert!(
+            drop.iter()
+                .all(|p| p.options.perturbation.get("events.shot_noise_hz") == 0.0)
+        );
+        assert_eq!(drop[0].dir, "events-link.drop_rate-0.1");
+        let dirs: std::collections::BTreeSet<&str> = pts.iter().map(|p| p.dir.as_str()).collect();
+        assert_eq!(dirs.len(), pts.len(), "directory names collide");
     }
 
     #[test]
