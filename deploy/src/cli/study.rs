@@ -10,6 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::harness::baselines::{BaselineStudy, run_baselines};
 use crate::harness::study::{Study, StudyFile, run_study, study_text};
+use crate::run_dir::lock::RunLock;
 
 #[derive(Debug, Args)]
 pub struct StudyArgs {
@@ -45,6 +46,7 @@ pub fn run(args: StudyArgs) -> Result<()> {
             args.out.display()
         );
     }
+    let _lock = RunLock::acquire(&args.out)?;
     let jobs = args
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get))

@@ -16,6 +16,7 @@ use crate::case::Case;
 use crate::harness::mission_metrics::Policy;
 use crate::harness::mission_trials::{MissionTrialsOptions, mission_criterion, run_mission_trials};
 use crate::harness::trials::{TrialsOptions, criterion, run_trials};
+use crate::run_dir::lock::RunLock;
 
 #[derive(Debug, Args)]
 #[command(after_long_help = perturbation_help())]
@@ -113,7 +114,7 @@ pub fn run(args: TrialsArgs) -> Result<()> {
         acquisition: args.acquisition,
     };
     opts.check()?;
-    fresh_out(&args.out)?;
+    let _lock = fresh_out(&args.out)?;
     eprintln!("trials: {}", criterion(&opts));
     let stop = bus::on_stop_signal();
     let bar = progress_bar(opts.trials, "flying and rendering the broadcast");
@@ -164,15 +165,16 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     finished(&stop, out.trials, out.requested, &path)
 }
 
-/// Creates `out` for a new run, refusing one that already holds results.
-fn fresh_out(out: &std::path::Path) -> Result<()> {
+/// Creates and locks `out` for a new run, refusing one that already holds results or that
+/// another waggle process is writing.
+fn fresh_out(out: &std::path::Path) -> Result<RunLock> {
     if out.join("trials.json").exists() {
         bail!(
             "{} already holds trials.json: choose another --out or remove it",
             out.display()
         );
     }
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))
+    RunLock::acquire(out)
 }
 
 fn progress_bar(trials: u64, first: &str) -> ProgressBar {
@@ -199,7 +201,7 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
             case.modalities
         );
     }
-    fresh_out(&args.out)?;
+    let _lock = fresh_out(&args.out)?;
     let opts = MissionTrialsOptions {
         case,
         modality: args.modality,
