@@ -115,8 +115,8 @@ pub struct TrialsOut {
     pub criterion: String,
     pub link: Vec<String>,
     pub observers: usize,
-    /// Each observer's nominal placement: home position (m), yaw and camera pitch (deg).
-    pub placements: BTreeMap<String, [f64; 5]>,
+    /// Each observer's nominal placement.
+    pub placements: BTreeMap<String, PlacementOut>,
     pub modality: String,
     pub perturb: BTreeMap<String, f64>,
     /// `shared` (one rendered flight for every trial) or `per trial` (re-flown).
@@ -132,6 +132,14 @@ pub struct TrialsOut {
     /// The ideal receiver's releases on the unperturbed flight (the reference).
     pub ideal_released: BTreeMap<String, Vec<String>>,
     pub per_trial: Vec<TrialRecord>,
+}
+
+/// An observer's placement as `trials.json` records it.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct PlacementOut {
+    pub home_m: [f64; 3],
+    pub yaw_deg: f64,
+    pub camera_pitch_deg: f64,
 }
 
 /// Wall-clock figures of a run, reported beside (never inside) `trials.json`.
@@ -551,17 +559,12 @@ pub fn run_trials(
                 .iter()
                 .zip(opts.formation.placements())
                 .map(|(n, p)| {
-                    let h = p.home_m;
-                    (
-                        n.clone(),
-                        [
-                            h[0],
-                            h[1],
-                            h[2],
-                            p.yaw_rad.to_degrees(),
-                            p.pitch_rad.to_degrees(),
-                        ],
-                    )
+                    let placement = PlacementOut {
+                        home_m: p.home_m,
+                        yaw_deg: p.yaw_rad.to_degrees(),
+                        camera_pitch_deg: p.pitch_rad.to_degrees(),
+                    };
+                    (n.clone(), placement)
                 })
                 .collect(),
             modality: opts.modality.to_string(),
