@@ -429,3 +429,34 @@ levels = [0.0, 0.0003]
     );
     assert!(!dir.join("bad-out").exists());
 }
+
+#[test]
+fn re_flown_trials_render_on_parallel_threads_and_stay_identical_across_jobs() {
+    let args = [
+        "--link",
+        "011010",
+        "--observers",
+        "1",
+        "--modality",
+        "rgb",
+        "--trials",
+        "2",
+        "--perturb",
+        "geometry.yaw_sigma_deg=1",
+        "--perturb",
+        "geometry.position_sigma_m=0.02",
+    ];
+    let (a, b) = (tmp("refly-a"), tmp("refly-b"));
+    let (va, _) = trials(&a, &[&args[..], &["--jobs", "2"]].concat());
+    trials(&b, &[&args[..], &["--jobs", "1"]].concat());
+    assert_eq!(va["flight"], "per trial");
+    assert_eq!(
+        read_json(&a.join("cost.json"))["flights"],
+        3,
+        "one per trial + the nominal one"
+    );
+    assert_eq!(
+        std::fs::read(a.join("trials.json")).unwrap(),
+        std::fs::read(b.join("trials.json")).unwrap()
+    );
+}
