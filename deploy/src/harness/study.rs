@@ -11,6 +11,7 @@
 //! seed = 1
 //! criterion = "exact-payloads"
 //! fixed = { "link.drop_rate" = 0.0 }      # optional: terms held at one value
+//! rectify = "frontal"                     # optional: off | pitched (default) | frontal
 //! [[vary]]                                # one table per condition; several allowed
 //! key = "events.shot_noise_hz"            # a perturbation term, or viewpoint.azimuth_deg /
 //! levels = [0.0, 0.1, 0.2, 0.5, 1.0]      # viewpoint.elevation_deg / viewpoint.distance_m
@@ -116,6 +117,9 @@ pub struct StudyFile {
     pub criterion: String,
     #[serde(default)]
     pub fixed: BTreeMap<String, f64>,
+    /// The receivers' viewpoint rectification: `off`, `pitched` (default) or `frontal`.
+    #[serde(default)]
+    pub rectify: Option<String>,
     /// The conditions: each a term (or viewpoint axis) and its levels.
     pub vary: Vec<Vary>,
 }
@@ -219,6 +223,11 @@ impl StudyFile {
         for (k, v) in &self.fixed {
             base.set(k, *v).context("fixed")?;
         }
+        let rectification = match &self.rectify {
+            Some(r) => <Rectification as clap::ValueEnum>::from_str(r, true)
+                .map_err(|e| anyhow::anyhow!("rectify {r:?}: {e}"))?,
+            None => Rectification::default(),
+        };
         let mut points = Vec::new();
         for vary in &self.vary {
             let key = vary.key.as_str();
@@ -251,7 +260,7 @@ impl StudyFile {
                             perturbation,
                             jobs,
                             render,
-                            rectification: Rectification::default(),
+                            rectification,
                             // One flight for every modality of the study (matched trajectories).
                             acquisition: Some(self.modalities.contains(&Modality::Events)),
                         },
@@ -352,7 +361,8 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
     let mut s = format!("# Study: {}\n\n", study.name);
     s.push_str(&format!(
         "Broadcast {}; {}; {} trials per point, seed {}; criterion: every observer releases \
-         exactly the broadcast payloads, in order (`{}`). Varied, one at a time: {}.",
+         exactly the broadcast payloads, in order (`{}`); rectification `{}`. Varied, one at a \
+         time: {}.",
         study.link.join(", "),
         match (study.observers, study.viewpoint) {
             (Some(n), _) => format!("{n} observers in the built-in formation"),
@@ -365,6 +375,7 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
         study.trials,
         study.seed,
         study.criterion,
+        study.rectify.as_deref().unwrap_or("pitched"),
         study
             .vary
             .iter()
@@ -554,6 +565,15 @@ levels = [0.0, 0.5]
         assert!(
             format!("{e:#}").contains("-0.5") && format!("{e:#}").contains("events.shot_noise_hz"),
             "{e:#}"
+        );
+        let e =
+            parse(&GOOD.replace("trials = 10", "trials = 10\nrectify = \"sideways\"")).unwrap_err();
+        assert!(format!("{e:#}").contains("sideways"), "{e:#}");
+        let ok = parse(&GOOD.replace("trials = 10", "trials = 10\nrectify = \"frontal\"")).unwrap();
+        let pts = ok.points(RenderPath::default(), 1).unwrap();
+        assert!(
+            pts.iter()
+                .all(|p| p.options.rectification == Rectification::Frontal)
         );
         let e = parse(&GOOD.replace("exact-payloads", "most")).unwrap_err();
         assert!(format!("{e:#}").contains("most"), "{e:#}");
