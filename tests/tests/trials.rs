@@ -28,6 +28,23 @@ fn trials(dir: &Path, args: &[&str]) -> (Value, std::process::Output) {
     (serde_json::from_slice(&json).expect("JSON"), out)
 }
 
+/// Runs `waggle ARGS`, which must fail with a message containing every one of `needles`.
+fn assert_refused<S: AsRef<std::ffi::OsStr>>(args: &[S], needles: &[&str]) {
+    let out = waggle_tests::waggle()
+        .args(args)
+        .output()
+        .expect("run waggle");
+    let err = String::from_utf8_lossy(&out.stderr);
+    let shown: Vec<_> = args.iter().map(|a| a.as_ref().to_string_lossy()).collect();
+    assert!(!out.status.success(), "waggle {shown:?} was accepted");
+    for needle in needles {
+        assert!(
+            err.contains(needle),
+            "waggle {shown:?}: no {needle:?} in {err}"
+        );
+    }
+}
+
 /// A fresh directory for one test (the process id keeps concurrent runs apart).
 fn tmp(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("waggle-{name}-{}", std::process::id()));
@@ -150,22 +167,17 @@ fn bad_perturbations_and_counts_are_refused_naming_the_input() {
         (vec!["--perturb", "rgb.read_noise_grey"], "KEY=VALUE"),
         (vec!["--trials", "0"], "--trials"),
     ] {
-        let out = waggle_tests::waggle()
-            .args([
-                "trials",
-                "--link",
-                "011010",
-                "--modality",
-                "events",
-                "--out",
-            ])
-            .arg(&dir)
-            .args(&args)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{args:?} was accepted");
-        assert!(err.contains(needle), "{args:?}: {err}");
+        let out = dir.to_string_lossy();
+        let base = [
+            "trials",
+            "--link",
+            "011010",
+            "--modality",
+            "events",
+            "--out",
+            &out,
+        ];
+        assert_refused(&[&base[..], &args[..]].concat(), &[needle]);
     }
     assert!(!dir.join("trials.json").exists());
 }
@@ -329,28 +341,34 @@ fn the_fixed_allocation_baseline_reads_nothing_and_wastes_trips_on_a_withdrawn_s
 #[test]
 fn mission_trials_refuse_what_a_mission_does_not_model() {
     let dir = tmp("ct-refuse");
-    let out = waggle_tests::waggle()
-        .args([
+    let out = dir.to_string_lossy();
+    assert_refused(
+        &[
             "trials",
             "--case",
             "nominal-3",
             "--modality",
             "ideal",
             "--out",
-        ])
-        .arg(&dir)
-        .args(["--perturb", "geometry.position_sigma_m=0.05"])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("geometry.position_sigma_m"));
-    let out = waggle_tests::waggle()
-        .args(["trials", "--link", "011010", "--modality", "ideal", "--out"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(!out.status.success(), "link trials need a sensor");
-    assert!(String::from_utf8_lossy(&out.stderr).contains("sensor"));
+            &out,
+            "--perturb",
+            "geometry.position_sigma_m=0.05",
+        ],
+        &["geometry.position_sigma_m"],
+    );
+    // Link trials need a sensor.
+    assert_refused(
+        &[
+            "trials",
+            "--link",
+            "011010",
+            "--modality",
+            "ideal",
+            "--out",
+            &out,
+        ],
+        &["sensor"],
+    );
 }
 
 #[test]
@@ -414,18 +432,14 @@ levels = [0.0, 0.0003]
         .unwrap()
         .replace("0.0003]", "-1.0]");
     std::fs::write(&bad, text).unwrap();
-    let run = waggle_tests::waggle()
-        .arg("study")
-        .arg(&bad)
-        .arg("--out")
-        .arg(dir.join("bad-out"))
-        .output()
-        .unwrap();
-    assert!(!run.status.success());
-    let err = String::from_utf8_lossy(&run.stderr);
-    assert!(
-        err.contains("events.shot_noise_hz") && err.contains("-1"),
-        "{err}"
+    assert_refused(
+        &[
+            std::ffi::OsStr::new("study"),
+            bad.as_os_str(),
+            std::ffi::OsStr::new("--out"),
+            dir.join("bad-out").as_os_str(),
+        ],
+        &["events.shot_noise_hz", "-1"],
     );
     assert!(!dir.join("bad-out").exists());
 }

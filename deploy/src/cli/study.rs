@@ -2,7 +2,8 @@
 //! `DIR/report.md` ([`crate::harness::study`]).
 
 use std::path::PathBuf;
-use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Result, bail};
 use clap::Args;
@@ -78,84 +79,95 @@ fn bar_for(trials: u64) -> ProgressBar {
     bar
 }
 
-fn run_baseline_study(study: &BaselineStudy, args: &StudyArgs, jobs: usize) -> Result<()> {
+/// What a study is about to run, for its progress bar and closing line.
+#[derive(Clone, Copy)]
+struct Plan<'a> {
+    name: &'a str,
+    /// What one point is called (`points`, `case × arm`).
+    unit: &'a str,
+    points: usize,
+    trials: u64,
+}
+
+/// Runs a study under a progress bar over `points` × `trials` trials (`run` gets the stop flag
+/// and the progress callback), prints what `print` makes of the results and the closing line;
+/// exit 1 when Ctrl-C interrupted it (the report is written either way).
+fn with_progress<R>(
+    plan: &Plan<'_>,
+    args: &StudyArgs,
+    jobs: usize,
+    run: impl FnOnce(&Arc<AtomicBool>, &(dyn Fn(usize, usize, u64, u64) + Sync)) -> Result<Vec<R>>,
+    print: impl FnOnce(&[R]),
+) -> Result<()> {
+    let Plan {
+        name,
+        unit,
+        points,
+        trials,
+    } = *plan;
     let stop = bus::on_stop_signal();
-    let points = study.cases.len() * study.arms.len();
-    let bar = bar_for(points as u64 * study.trials);
+    let bar = bar_for(points as u64 * trials);
     let started = std::time::Instant::now();
-    let results = run_baselines(
-        study,
-        &args.out,
-        args.render.path,
-        jobs,
-        &stop,
-        |k, n, done, per| {
-            bar.set_position(k as u64 * per + done);
-            bar.set_message(format!("case × arm {}/{n}", k + 1));
-        },
-    )?;
+    let progress = |k: usize, n: usize, done: u64, per: u64| {
+        bar.set_position(k as u64 * per + done);
+        bar.set_message(format!("{unit} {}/{n}", k + 1));
+    };
+    let results = run(&stop, &progress)?;
     bar.finish_and_clear();
-    print!("{}", crate::harness::baselines::report(study, &results));
+    print(&results);
     println!(
-        "study {}: {} case × arm in {:.0} s wall ({} jobs) -> {}",
-        study.name,
+        "study {name}: {} {unit} in {:.0} s wall ({jobs} jobs) -> {}",
         results.len(),
         started.elapsed().as_secs_f64(),
-        jobs,
         args.out.join("report.md").display()
     );
     if stop.load(Ordering::SeqCst) {
         bail!(
-            "interrupted: {} of {points} case × arm finished (report written)",
+            "interrupted: {} of {points} {unit} finished (report written)",
             results.len()
         );
     }
     Ok(())
 }
 
+fn run_baseline_study(study: &BaselineStudy, args: &StudyArgs, jobs: usize) -> Result<()> {
+    let points = study.cases.len() * study.arms.len();
+    let plan = Plan {
+        name: &study.name,
+        unit: "case × arm",
+        points,
+        trials: study.trials,
+    };
+    with_progress(
+        &plan,
+        args,
+        jobs,
+        |stop, progress| run_baselines(study, &args.out, args.render.path, jobs, stop, progress),
+        |results| print!("{}", crate::harness::baselines::report(study, results)),
+    )
+}
+
 fn run_link_study(study: &StudyFile, args: &StudyArgs, jobs: usize) -> Result<()> {
-    let stop = bus::on_stop_signal();
     let points = study.modalities.len() * study.vary.iter().map(|v| v.levels.len()).sum::<usize>();
-    let bar = bar_for(points as u64 * study.trials);
-    let started = std::time::Instant::now();
-    let results = run_study(
-        study,
-        &args.out,
-        args.render.path,
+    let plan = Plan {
+        name: &study.name,
+        unit: "points",
+        points,
+        trials: study.trials,
+    };
+    with_progress(
+        &plan,
+        args,
         jobs,
-        &stop,
-        |k, n, done, per_point| {
-            bar.set_position(k as u64 * per_point + done);
-            bar.set_message(format!("point {}/{n}", k + 1));
+        |stop, progress| run_study(study, &args.out, args.render.path, jobs, stop, progress),
+        |results| {
+            for r in results {
+                let (p, ci) = r.rate_cells();
+                println!(
+                    "{:<7} {} = {:<8} {:>4}/{:<4} P = {p:<6} CI {ci}",
+                    r.modality, r.key, r.level, r.successes, r.trials
+                );
+            }
         },
-    )?;
-    bar.finish_and_clear();
-    for r in &results {
-        println!(
-            "{:<7} {} = {:<8} {:>4}/{:<4} P = {:<6} CI [{:.3}, {:.3}]",
-            r.modality,
-            r.key,
-            r.level,
-            r.successes,
-            r.trials,
-            r.success_rate.map_or("—".into(), |p| format!("{p:.3}")),
-            r.ci95[0],
-            r.ci95[1]
-        );
-    }
-    println!(
-        "study {}: {} points in {:.0} s wall ({} jobs) -> {}",
-        study.name,
-        results.len(),
-        started.elapsed().as_secs_f64(),
-        jobs,
-        args.out.join("report.md").display()
-    );
-    if stop.load(Ordering::SeqCst) {
-        bail!(
-            "interrupted: {} of {points} points finished (report written)",
-            results.len()
-        );
-    }
-    Ok(())
+    )
 }

@@ -15,6 +15,7 @@ use super::link::{parse_bits6, parse_viewpoint};
 use crate::case::Case;
 use crate::harness::mission_metrics::Policy;
 use crate::harness::mission_trials::{MissionTrialsOptions, mission_criterion, run_mission_trials};
+use crate::harness::pool::Tally;
 use crate::harness::trials::{TrialsOptions, criterion, run_trials};
 use crate::run_dir::lock::RunLock;
 
@@ -129,9 +130,8 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     let cost_path = args.out.join("cost.json");
     std::fs::write(&cost_path, serde_json::to_string_pretty(&cost)? + "\n")
         .with_context(|| format!("writing {}", cost_path.display()))?;
-    let rate = out.success_rate.map_or("—".into(), |r| format!("{:.3}", r));
     println!(
-        "{} ({}): {}/{} trials succeeded, rate {rate}, 95 % CI [{:.3}, {:.3}]{}",
+        "{} ({}): {}",
         out.modality,
         if out.perturb.is_empty() {
             "no perturbation".to_owned()
@@ -142,27 +142,19 @@ pub fn run(args: TrialsArgs) -> Result<()> {
                 .collect::<Vec<_>>()
                 .join(" ")
         },
-        out.successes,
-        out.trials,
-        out.ci95[0],
-        out.ci95[1],
-        if out.interrupted {
-            " — interrupted, finished trials kept"
-        } else {
-            ""
-        }
+        outcome_line(&out.tally, "trials succeeded")
     );
     println!(
         "cost: {} flight(s) {:.1} s, trials {:.1} s ({:.2} s per trial at {} jobs), render cache {:.1} MB -> {}",
         cost.flights,
         cost.fly_and_render_s,
         cost.trials_s,
-        cost.trials_s / out.trials.max(1) as f64,
+        cost.trials_s / out.tally.trials.max(1) as f64,
         opts.jobs,
         cost.render_cache_mb,
         path.display()
     );
-    finished(&stop, out.trials, out.requested, &path)
+    finished(&stop, &out.tally, &path)
 }
 
 /// Creates and locks `out` for a new run, refusing one that already holds results or that
@@ -225,28 +217,42 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
     std::fs::write(&path, serde_json::to_string_pretty(&out)? + "\n")
         .with_context(|| format!("writing {}", path.display()))?;
     println!(
-        "{} {} ({}): {}/{} missions met the expected outcome, rate {}, 95 % CI [{:.3}, {:.3}]; \
-         {:.1} s wall ({} jobs) -> {}",
+        "{} {} ({}): {}; {:.1} s wall ({} jobs) -> {}",
         out.case,
         out.modality,
         out.policy,
-        out.successes,
-        out.trials,
-        out.success_rate.map_or("—".into(), |r| format!("{r:.3}")),
-        out.ci95[0],
-        out.ci95[1],
+        outcome_line(&out.tally, "missions met the expected outcome"),
         started.elapsed().as_secs_f64(),
         opts.jobs,
         path.display()
     );
-    finished(&stop, out.trials, out.requested, &path)
+    finished(&stop, &out.tally, &path)
+}
+
+/// `12/100 <what>, rate 0.120, 95 % CI [0.070, 0.198]` (and a word when interrupted).
+fn outcome_line(t: &Tally, what: &str) -> String {
+    format!(
+        "{}/{} {what}, rate {}, 95 % CI [{:.3}, {:.3}]{}",
+        t.successes,
+        t.trials,
+        t.success_rate.map_or("—".into(), |r| format!("{r:.3}")),
+        t.ci95[0],
+        t.ci95[1],
+        if t.interrupted {
+            " — interrupted, finished trials kept"
+        } else {
+            ""
+        }
+    )
 }
 
 /// Ok, or the interruption (exit 1) once the finished trials are written to `path`.
-fn finished(stop: &AtomicBool, done: u64, requested: u64, path: &std::path::Path) -> Result<()> {
+fn finished(stop: &AtomicBool, tally: &Tally, path: &std::path::Path) -> Result<()> {
     if stop.load(Ordering::SeqCst) {
         bail!(
-            "interrupted after {done} of {requested} trials (kept in {})",
+            "interrupted after {} of {} trials (kept in {})",
+            tally.trials,
+            tally.requested,
             path.display()
         );
     }

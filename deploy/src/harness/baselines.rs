@@ -145,9 +145,9 @@ fn arm_result(case: &str, arm: Arm, out: &MissionTrialsOut) -> ArmResult {
     ArmResult {
         case: case.to_owned(),
         arm: arm.label().to_owned(),
-        trials: out.trials,
-        successes: out.successes,
-        ci95: out.ci95,
+        trials: out.tally.trials,
+        successes: out.tally.successes,
+        ci95: out.tally.ci95,
         work_units: avg(&|x| f64::from(x.work_units)),
         reward: avg(&|x| x.reward as f64),
         unserved_capacity: avg(&|x| f64::from(x.unserved_capacity)),
@@ -204,7 +204,7 @@ pub fn run_baselines(
             serde_json::to_string_pretty(&trials)? + "\n",
         )
         .with_context(|| format!("writing {}", dir.display()))?;
-        if trials.trials > 0 {
+        if trials.tally.trials > 0 {
             results.push(arm_result(&opts.case.name, *arm, &trials));
         }
     }

@@ -10,14 +10,13 @@ use std::sync::atomic::AtomicBool;
 use anyhow::{Result, bail};
 use perturb::Perturbation;
 use perturb::seed::trial_seed;
-use perturb::stats::wilson95;
 use proto::RenderPath;
 use serde::Serialize;
 
 use crate::case::{Case, Receiver};
 use crate::harness::mission::{MissionOptions, fly_case_with};
 use crate::harness::mission_metrics::{MissionMetrics, Policy};
-use crate::harness::pool::{Outcome, run_pool};
+use crate::harness::pool::{Outcome, Tally, run_pool};
 use crate::run_dir::ObserverSummary;
 
 /// One case and how many times to fly it.
@@ -66,12 +65,8 @@ pub struct MissionTrialsOut {
     pub policy: Policy,
     pub perturb: BTreeMap<String, f64>,
     pub seed: u64,
-    pub requested: u64,
-    pub trials: u64,
-    pub interrupted: bool,
-    pub successes: u64,
-    pub success_rate: Option<f64>,
-    pub ci95: [f64; 2],
+    #[serde(flatten)]
+    pub tally: Tally,
     pub per_trial: Vec<MissionTrial>,
 }
 
@@ -129,26 +124,15 @@ pub fn run_mission_trials(
         },
         progress,
     )?;
-    let trials = per_trial.len() as u64;
-    let successes = per_trial.iter().filter(|t| t.success).count() as u64;
+    let tally = Tally::of(&per_trial, opts.trials);
     Ok(MissionTrialsOut {
         criterion: mission_criterion(opts),
         case: opts.case.name.clone(),
         modality: opts.modality.to_string(),
         policy: opts.policy,
-        perturb: opts
-            .perturbation
-            .non_default()
-            .iter()
-            .map(|(k, v)| ((*k).to_owned(), *v))
-            .collect(),
+        perturb: opts.perturbation.recorded(),
         seed: opts.seed,
-        requested: opts.trials,
-        trials,
-        interrupted: trials < opts.trials,
-        successes,
-        success_rate: (trials > 0).then(|| successes as f64 / trials as f64),
-        ci95: wilson95(successes, trials),
+        tally,
         per_trial,
     })
 }

@@ -5,6 +5,36 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use anyhow::Result;
+use perturb::stats::wilson95;
+use serde::Serialize;
+
+/// How a run's trials ended, as every `trials.json` records it.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct Tally {
+    pub requested: u64,
+    pub trials: u64,
+    pub interrupted: bool,
+    pub successes: u64,
+    pub success_rate: Option<f64>,
+    /// Wilson score interval of the success rate.
+    pub ci95: [f64; 2],
+}
+
+impl Tally {
+    /// The tally of the finished `records` of `requested` trials.
+    pub fn of<T: Outcome>(records: &[T], requested: u64) -> Self {
+        let trials = records.len() as u64;
+        let successes = records.iter().filter(|r| r.success()).count() as u64;
+        Self {
+            requested,
+            trials,
+            interrupted: trials < requested,
+            successes,
+            success_rate: (trials > 0).then(|| successes as f64 / trials as f64),
+            ci95: wilson95(successes, trials),
+        }
+    }
+}
 
 /// What the pool needs to know of a finished trial.
 pub trait Outcome {

@@ -155,6 +155,16 @@ pub struct PointResult {
     pub dir: String,
 }
 
+impl PointResult {
+    /// The success probability and its interval as printed (`0.610`, `[0.512, 0.700]`).
+    pub fn rate_cells(&self) -> (String, String) {
+        (
+            self.success_rate.map_or("—".into(), |p| format!("{p:.3}")),
+            format!("[{:.3}, {:.3}]", self.ci95[0], self.ci95[1]),
+        )
+    }
+}
+
 const VIEWPOINT_AXES: [&str; 3] = [
     "viewpoint.azimuth_deg",
     "viewpoint.elevation_deg",
@@ -348,10 +358,10 @@ fn point_result(point: &Point, t: &TrialsOut) -> PointResult {
         key: point.key.clone(),
         modality: point.modality.to_string(),
         level: point.level,
-        trials: t.trials,
-        successes: t.successes,
-        success_rate: t.success_rate,
-        ci95: t.ci95,
+        trials: t.tally.trials,
+        successes: t.tally.successes,
+        success_rate: t.tally.success_rate,
+        ci95: t.tally.ci95,
         dir: point.dir.clone(),
     }
 }
@@ -404,14 +414,10 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
                 "\n### {m}\n\n| {key} | successes / trials | P(success) | 95 % CI (Wilson) |\n| ---: | ---: | ---: | :---: |\n"
             ));
             for r in results.iter().filter(|r| r.modality == m && &r.key == key) {
+                let (p, ci) = r.rate_cells();
                 s.push_str(&format!(
-                    "| {} | {} / {} | {} | [{:.3}, {:.3}] |\n",
-                    r.level,
-                    r.successes,
-                    r.trials,
-                    r.success_rate.map_or("—".into(), |p| format!("{p:.3}")),
-                    r.ci95[0],
-                    r.ci95[1]
+                    "| {} | {} / {} | {p} | {ci} |\n",
+                    r.level, r.successes, r.trials
                 ));
             }
         }

@@ -15,7 +15,6 @@ use event_camera::{CameraConfig, EventCamera};
 use perception::perception::{Perception, SensorInput};
 use perturb::Perturbation;
 use perturb::seed::{Stream, rng, stream_seed, trial_seed};
-use perturb::stats::wilson95;
 use proto::scene::{
     Formation, IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, MAX_OBSERVERS, Placement, observer_name,
 };
@@ -25,7 +24,7 @@ use serde::Serialize;
 use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
 use crate::harness::link::{LEAD_IN_NS, ObserverOut, TAIL_NS, bits6, observer_out};
-use crate::harness::pool::{Outcome, run_pool};
+use crate::harness::pool::{Outcome, Tally, run_pool};
 use crate::harness::rendered_flight::{FlightSpec, Gusts, RenderedFlight, fly_rendered};
 
 /// One condition and how many times to try it.
@@ -122,12 +121,8 @@ pub struct TrialsOut {
     /// `shared` (one rendered flight for every trial) or `per trial` (re-flown).
     pub flight: String,
     pub seed: u64,
-    pub requested: u64,
-    pub trials: u64,
-    pub interrupted: bool,
-    pub successes: u64,
-    pub success_rate: Option<f64>,
-    pub ci95: [f64; 2],
+    #[serde(flatten)]
+    pub tally: Tally,
     pub summary: TrialsSummary,
     /// The ideal receiver's releases on the unperturbed flight (the reference).
     pub ideal_released: BTreeMap<String, Vec<String>>,
@@ -529,8 +524,7 @@ pub fn run_trials(
         |index| run_trial(opts, shared, index, stop),
         progress,
     )?;
-    let trials = per_trial.len() as u64;
-    let successes = per_trial.iter().filter(|r| r.success).count() as u64;
+    let tally = Tally::of(&per_trial, opts.trials);
     let all_observers = || per_trial.iter().flat_map(|r| r.observers.values());
     let summary = TrialsSummary {
         mean_token_error_ms: mean(all_observers().filter_map(|o| o.token_timing.mean_abs_error_ms)),
@@ -541,7 +535,7 @@ pub fn run_trials(
         flights: if shared.is_some() {
             u64::from(flown.is_none())
         } else {
-            trials + 1
+            tally.trials + 1
         },
         fly_and_render_s: fly_s,
         trials_s: trials_started.elapsed().as_secs_f64(),
@@ -568,12 +562,7 @@ pub fn run_trials(
                 })
                 .collect(),
             modality: opts.modality.to_string(),
-            perturb: opts
-                .perturbation
-                .non_default()
-                .iter()
-                .map(|(k, v)| ((*k).to_owned(), *v))
-                .collect(),
+            perturb: opts.perturbation.recorded(),
             flight: if shared.is_some() {
                 "shared"
             } else {
@@ -581,12 +570,7 @@ pub fn run_trials(
             }
             .into(),
             seed: opts.seed,
-            requested: opts.trials,
-            trials,
-            interrupted: trials < opts.trials,
-            successes,
-            success_rate: (trials > 0).then(|| successes as f64 / trials as f64),
-            ci95: wilson95(successes, trials),
+            tally,
             summary,
             ideal_released: names
                 .iter()

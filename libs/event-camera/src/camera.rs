@@ -202,15 +202,7 @@ impl EventCamera {
         rgb: &[u8],
         change: FrameChange,
     ) -> Result<Vec<EventPacket>, CameraError> {
-        if rgb.len() != self.black.len() {
-            return Err(ConvertError::FrameSize {
-                got: rgb.len(),
-                want: self.black.len(),
-                width: self.config.width,
-                height: self.config.height,
-            }
-            .into());
-        }
+        ConvertError::check_frame(rgb, self.config.width, self.config.height)?;
         // The change is relative to the previous *render*; the converter saw a black frame
         // instead while the fault was on, so the first frame after it is converted whole.
         let region = match change {

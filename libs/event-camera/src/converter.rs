@@ -10,7 +10,7 @@
 
 use proto::PixelRect;
 
-use crate::error::{ConvertError, MIN_THRESHOLD};
+use crate::error::ConvertError;
 use crate::event::{Event, Polarity};
 use crate::kernel::{CHUNK, Isa, scan};
 use crate::luminance::{log_table, luminance_key};
@@ -62,12 +62,7 @@ impl std::fmt::Debug for Converter {
 impl Converter {
     /// A converter for `width`×`height` RGB frames with contrast threshold `threshold` (C).
     pub fn new(width: u16, height: u16, threshold: f64) -> Result<Self, ConvertError> {
-        if !(threshold.is_finite() && threshold >= MIN_THRESHOLD) {
-            return Err(ConvertError::BadThreshold(threshold));
-        }
-        if width == 0 || height == 0 {
-            return Err(ConvertError::EmptySensor { width, height });
-        }
+        ConvertError::check_sensor(width, height, threshold)?;
         Ok(Self {
             width,
             height,
@@ -114,25 +109,13 @@ impl Converter {
         rgb: &[u8],
         out: &mut Vec<Event>,
     ) -> Result<(), ConvertError> {
+        ConvertError::check_frame(rgb, self.width, self.height)?;
         let n = usize::from(self.width) * usize::from(self.height);
-        if rgb.len() != 3 * n {
-            return Err(ConvertError::FrameSize {
-                got: rgb.len(),
-                want: 3 * n,
-                width: self.width,
-                height: self.height,
-            });
-        }
         let Some(state) = self.state.as_mut() else {
             self.state = Some(self.initial_state(stamp_ns, rgb));
             return Ok(());
         };
-        if stamp_ns <= state.last_stamp_ns {
-            return Err(ConvertError::StampNotIncreasing {
-                stamp_ns,
-                previous_ns: state.last_stamp_ns,
-            });
-        }
+        ConvertError::check_stamp(stamp_ns, state.last_stamp_ns)?;
         scan(
             self.isa,
             rgb,
@@ -166,33 +149,13 @@ impl Converter {
         region: Option<PixelRect>,
         out: &mut Vec<Event>,
     ) -> Result<(), ConvertError> {
-        let (width, height) = (usize::from(self.width), usize::from(self.height));
-        if rgb.len() != 3 * width * height {
-            return Err(ConvertError::FrameSize {
-                got: rgb.len(),
-                want: 3 * width * height,
-                width: self.width,
-                height: self.height,
-            });
-        }
-        if let Some(r) = region
-            && !r.fits(self.width, self.height)
-        {
-            return Err(ConvertError::RegionOutside {
-                region: [r.x, r.y, r.width, r.height],
-                width: self.width,
-                height: self.height,
-            });
-        }
+        let width = usize::from(self.width);
+        ConvertError::check_frame(rgb, self.width, self.height)?;
+        ConvertError::check_region(region, self.width, self.height)?;
         let Some(state) = self.state.as_mut() else {
             return Err(ConvertError::RegionBeforeFirstFrame);
         };
-        if stamp_ns <= state.last_stamp_ns {
-            return Err(ConvertError::StampNotIncreasing {
-                stamp_ns,
-                previous_ns: state.last_stamp_ns,
-            });
-        }
+        ConvertError::check_stamp(stamp_ns, state.last_stamp_ns)?;
         let interval = Interval::new(state.last_stamp_ns, stamp_ns, self.threshold, self.table);
         state.crossings.clear();
         if let Some(r) = region {

@@ -35,6 +35,62 @@ pub enum ConvertError {
     Noise(#[from] NoiseError),
 }
 
+/// The checks every converter makes, in one place so they name the same errors.
+impl ConvertError {
+    /// A `width`×`height` sensor with contrast threshold `threshold` can be built.
+    pub(crate) fn check_sensor(width: u16, height: u16, threshold: f64) -> Result<(), Self> {
+        if !(threshold.is_finite() && threshold >= MIN_THRESHOLD) {
+            return Err(Self::BadThreshold(threshold));
+        }
+        if width == 0 || height == 0 {
+            return Err(Self::EmptySensor { width, height });
+        }
+        Ok(())
+    }
+
+    /// `rgb` is a whole `width`×`height` RGB frame.
+    pub(crate) fn check_frame(rgb: &[u8], width: u16, height: u16) -> Result<(), Self> {
+        let want = 3 * usize::from(width) * usize::from(height);
+        if rgb.len() == want {
+            Ok(())
+        } else {
+            Err(Self::FrameSize {
+                got: rgb.len(),
+                want,
+                width,
+                height,
+            })
+        }
+    }
+
+    /// `stamp_ns` comes after the previous frame's `previous_ns`.
+    pub(crate) fn check_stamp(stamp_ns: u64, previous_ns: u64) -> Result<(), Self> {
+        if stamp_ns <= previous_ns {
+            return Err(Self::StampNotIncreasing {
+                stamp_ns,
+                previous_ns,
+            });
+        }
+        Ok(())
+    }
+
+    /// A changed `region` lies inside the `width`×`height` sensor.
+    pub(crate) fn check_region(
+        region: Option<proto::PixelRect>,
+        width: u16,
+        height: u16,
+    ) -> Result<(), Self> {
+        match region {
+            Some(r) if !r.fits(width, height) => Err(Self::RegionOutside {
+                region: [r.x, r.y, r.width, r.height],
+                width,
+                height,
+            }),
+            _ => Ok(()),
+        }
+    }
+}
+
 /// Why an [`crate::EventNoise`] is not usable; names the offending field.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum NoiseError {

@@ -290,12 +290,7 @@ impl NoisyConverter {
         threshold: f64,
         noise: &EventNoise,
     ) -> Result<Self, ConvertError> {
-        if !(threshold.is_finite() && threshold >= MIN_THRESHOLD) {
-            return Err(ConvertError::BadThreshold(threshold));
-        }
-        if width == 0 || height == 0 {
-            return Err(ConvertError::EmptySensor { width, height });
-        }
+        ConvertError::check_sensor(width, height, threshold)?;
         noise.validate()?;
         let n = usize::from(width) * usize::from(height);
         if noise.hot_pixels as usize > n {
@@ -412,20 +407,6 @@ impl NoisyConverter {
             .collect()
     }
 
-    fn check_frame(&self, rgb: &[u8]) -> Result<(), ConvertError> {
-        let n = usize::from(self.width) * usize::from(self.height);
-        if rgb.len() == 3 * n {
-            Ok(())
-        } else {
-            Err(ConvertError::FrameSize {
-                got: rgb.len(),
-                want: 3 * n,
-                width: self.width,
-                height: self.height,
-            })
-        }
-    }
-
     /// Converts the frame rendered at `stamp_ns` (row-major RGB, 3 bytes per pixel) and
     /// **appends** the events of the interval since the previous frame to `out`, sorted by
     /// (time, pixel index, order). The first frame only initialises. On error nothing changes.
@@ -435,7 +416,7 @@ impl NoisyConverter {
         rgb: &[u8],
         out: &mut Vec<Event>,
     ) -> Result<(), ConvertError> {
-        self.check_frame(rgb)?;
+        ConvertError::check_frame(rgb, self.width, self.height)?;
         if self.state.is_none() {
             self.state = Some(self.initial_state(stamp_ns, rgb));
             return Ok(());
@@ -461,16 +442,8 @@ impl NoisyConverter {
         region: Option<PixelRect>,
         out: &mut Vec<Event>,
     ) -> Result<(), ConvertError> {
-        self.check_frame(rgb)?;
-        if let Some(r) = region
-            && !r.fits(self.width, self.height)
-        {
-            return Err(ConvertError::RegionOutside {
-                region: [r.x, r.y, r.width, r.height],
-                width: self.width,
-                height: self.height,
-            });
-        }
+        ConvertError::check_frame(rgb, self.width, self.height)?;
+        ConvertError::check_region(region, self.width, self.height)?;
         if self.state.is_none() {
             return Err(ConvertError::RegionBeforeFirstFrame);
         }
@@ -489,12 +462,7 @@ impl NoisyConverter {
     /// The interval ending at `stamp_ns`; the state must exist.
     fn interval(&self, stamp_ns: u64) -> Result<Interval, ConvertError> {
         let last = self.state.as_ref().map_or(0, |s| s.last_stamp_ns);
-        if stamp_ns <= last {
-            return Err(ConvertError::StampNotIncreasing {
-                stamp_ns,
-                previous_ns: last,
-            });
-        }
+        ConvertError::check_stamp(stamp_ns, last)?;
         Ok(Interval {
             t0: last,
             dt: stamp_ns - last,

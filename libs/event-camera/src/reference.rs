@@ -5,7 +5,7 @@
 //! bit-identical event lists; the test suite checks that on random, structured and rendered
 //! frames. It is public so integration tests and benchmarks can compare against it.
 
-use crate::error::{ConvertError, MIN_THRESHOLD};
+use crate::error::ConvertError;
 use crate::event::{Event, Polarity};
 use crate::luminance::log_luminance;
 
@@ -42,12 +42,7 @@ impl std::fmt::Debug for ReferenceConverter {
 
 impl ReferenceConverter {
     pub fn new(width: u16, height: u16, threshold: f64) -> Result<Self, ConvertError> {
-        if !(threshold.is_finite() && threshold >= MIN_THRESHOLD) {
-            return Err(ConvertError::BadThreshold(threshold));
-        }
-        if width == 0 || height == 0 {
-            return Err(ConvertError::EmptySensor { width, height });
-        }
+        ConvertError::check_sensor(width, height, threshold)?;
         Ok(Self {
             width,
             height,
@@ -61,14 +56,7 @@ impl ReferenceConverter {
     /// (time, pixel index, crossing order). The first frame only initialises.
     pub fn push(&mut self, stamp_ns: u64, rgb: &[u8]) -> Result<Vec<Event>, ConvertError> {
         let (w, h) = (usize::from(self.width), usize::from(self.height));
-        if rgb.len() != w * h * 3 {
-            return Err(ConvertError::FrameSize {
-                got: rgb.len(),
-                want: w * h * 3,
-                width: self.width,
-                height: self.height,
-            });
-        }
+        ConvertError::check_frame(rgb, self.width, self.height)?;
         let lum = |i: usize| log_luminance(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
         if self.pixels.is_empty() {
             self.pixels = (0..w * h)
@@ -84,12 +72,7 @@ impl ReferenceConverter {
             self.last_stamp_ns = stamp_ns;
             return Ok(Vec::new());
         }
-        if stamp_ns <= self.last_stamp_ns {
-            return Err(ConvertError::StampNotIncreasing {
-                stamp_ns,
-                previous_ns: self.last_stamp_ns,
-            });
-        }
+        ConvertError::check_stamp(stamp_ns, self.last_stamp_ns)?;
         let (t0, dt) = (self.last_stamp_ns, stamp_ns - self.last_stamp_ns);
         let c = self.threshold;
         // (t, pixel index, crossing order, polarity)

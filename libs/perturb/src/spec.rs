@@ -285,6 +285,14 @@ impl Perturbation {
         &self.set
     }
 
+    /// The terms that differ from their defaults, as owned keys (what a results file records).
+    pub fn recorded(&self) -> BTreeMap<String, f64> {
+        self.set
+            .iter()
+            .map(|(k, v)| ((*k).to_owned(), *v))
+            .collect()
+    }
+
     /// True when nothing is perturbed.
     pub fn is_none(&self) -> bool {
         self.set.is_empty()
