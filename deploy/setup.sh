@@ -22,7 +22,8 @@ say() { printf 'setup: %s\n' "$*" >&2; }
 die() { printf 'setup: error: %s\n' "$*" >&2; exit 1; }
 
 # --- Debian packages ------------------------------------------------------------------------
-apt_packages=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgbm1 unzip)
+# iproute2: `ip netns` and `tc` for the multi-host tests (network namespaces as hosts).
+apt_packages=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgbm1 unzip iproute2)
 missing=()
 for p in "${apt_packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

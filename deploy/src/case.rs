@@ -169,7 +169,12 @@ impl Case {
                 )
             }
         };
-        let case: Case = toml::from_str(&text).with_context(|| format!("parsing {origin}"))?;
+        Self::from_text(&text, &origin)
+    }
+
+    /// A case from its TOML text; `origin` names it in errors.
+    pub fn from_text(text: &str, origin: &str) -> Result<Self> {
+        let case: Case = toml::from_str(text).with_context(|| format!("parsing {origin}"))?;
         case.check().with_context(|| format!("checking {origin}"))?;
         Ok(case)
     }

@@ -15,6 +15,7 @@
 
 pub mod case;
 pub mod cli;
+pub mod compose;
 pub mod eval;
 pub mod harness;
 pub mod launch;

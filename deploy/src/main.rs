@@ -22,6 +22,14 @@ enum Cli {
     /// Run a whole case as separate processes over Zenoh (simulator, cameras, performer,
     /// observers, scheduler), supervised, with a progress bar and a summary.
     Run(cli::run::RunArgs),
+    /// Write a session's compose file: every node with its arguments, placed on hosts
+    /// (`--place camera-*=b`), the router's endpoint and the session's credentials.
+    Compose(cli::compose::ComposeArgs),
+    /// Start and supervise the nodes a compose file places on this host (`--host NAME`; every
+    /// node without it). The simulator's host writes the summary.
+    Up(cli::up::UpArgs),
+    /// Serve a session's Zenoh router on its own (authenticated from its compose file).
+    Router(cli::router::RouterArgs),
     /// Run a case once per camera render path (full, damage) in one invocation and print
     /// wall/sim, camera CPU per simulated second and their ratio side by side.
     Bench(cli::bench::BenchArgs),
@@ -55,6 +63,9 @@ fn main() -> anyhow::Result<()> {
         Cli::Link(args) => cli::link::run(args),
         Cli::Mission(args) => cli::mission::run(args),
         Cli::Run(args) => cli::run::run(args),
+        Cli::Compose(args) => cli::compose::run(args),
+        Cli::Up(args) => cli::up::run(args),
+        Cli::Router(args) => cli::router::run(args),
         Cli::Events(args) => cli::events::run(args),
         Cli::Bench(args) => cli::bench::run(args),
         Cli::Replay(args) => cli::replay::run(args),

@@ -4,16 +4,19 @@
 pub mod allocate;
 pub mod audit;
 pub mod bench;
+pub mod compose;
 pub mod events;
 pub mod link;
 pub mod mission;
 pub mod payload;
 pub mod replay;
 pub mod report;
+pub mod router;
 pub mod run;
 pub mod study;
 pub mod sweep;
 pub mod trials;
+pub mod up;
 pub mod viewpoints;
 
 /// `--flights sequential|concurrent`, shared by the commands that fly a whole case.

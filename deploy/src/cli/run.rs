@@ -13,103 +13,129 @@ use crate::launch::fault::{BlackSpec, ExtraFaults, KillSpec, ThrottleSpec};
 use crate::launch::{RunOptions, run_case, run_modality};
 use crate::run_dir::RunSummary;
 
+/// What defines a session: the case, its modality, faults, bus and recording (shared by
+/// `waggle run` and `waggle compose`).
 #[derive(Debug, Args)]
-pub struct RunArgs {
+pub struct SessionArgs {
     /// Built-in case name (one-observer, two-observers, nominal-3, black-o2, no-broadcast,
-    /// only-a, dropout-o2) or a path to a case TOML file.
-    case: String,
+    /// only-a, dropout-o2, four-observers, six-observers, eight-observers) or a path to a case
+    /// TOML file.
+    pub case: String,
     /// Observer sensor modality (default: events when the case applies to it).
     #[arg(long, value_enum)]
-    modality: Option<Modality>,
+    pub modality: Option<Modality>,
     #[command(flatten)]
-    render: super::RenderArg,
+    pub render: super::RenderArg,
     #[command(flatten)]
-    flights: super::FlightsArg,
+    pub flights: super::FlightsArg,
+    /// Session id (default: `run-<pid>-<unix ms>`); every key lives under `waggle/<session>/`.
+    #[arg(long)]
+    pub session: Option<String>,
+    /// Wall-clock time after which an observer judges a late packet missing, ms.
+    #[arg(long, default_value_t = 10_000)]
+    pub grace_ms: u64,
+    /// Extra fault: black input of this observer from start-up (e.g. `O2`); repeatable.
+    #[arg(long)]
+    pub black: Vec<BlackSpec>,
+    /// Extra fault: SIGKILL this observer's camera at a sim time, `O2@35`; repeatable.
+    #[arg(long)]
+    pub kill: Vec<KillSpec>,
+    /// Extra fault: throttle a camera, `O1@0:250:0` = observer@from_s:drop per mille:delay ms.
+    #[arg(long)]
+    pub throttle: Vec<ThrottleSpec>,
+    /// Run every observer behind a Zenoh access-control list that denies it ground truth
+    /// (`sim/**`, `truth/**`), the performer's and scheduler's commands, faults and every other
+    /// observer's keys (DESIGN.md §2: the run must still pass).
+    #[arg(long)]
+    pub observer_acl: bool,
+    /// Open bus for debugging with Zenoh tools: no authentication, no per-role access control
+    /// (prints a warning; refused with a non-loopback router). By default every process
+    /// authenticates to the session's router with its own per-session credentials and may
+    /// publish only its own keys and read only what it needs.
+    #[arg(long)]
+    pub no_auth: bool,
+    /// Do not record the session (by default `recorder-node` writes DIR/session.mcap, with the
+    /// case in its metadata; see `waggle audit` and `waggle replay`).
+    #[arg(long)]
+    pub no_record: bool,
+    /// A view image of every RGB frame in the recording (by default one in 25, i.e. 1 Hz; the
+    /// raw channel holds every frame losslessly either way).
+    #[arg(long)]
+    pub record_all_rgb: bool,
+}
+
+impl SessionArgs {
+    /// The case (with any `--flights` override), its modality and the run options.
+    pub fn options(self) -> Result<(Case, Modality, RunOptions)> {
+        let case = self.flights.apply(Case::load(&self.case)?);
+        let modality = run_modality(&case, self.modality)?;
+        let opts = RunOptions {
+            case_arg: self.case,
+            out: None,
+            session: self.session,
+            bin_dir: None,
+            grace_ms: self.grace_ms,
+            extra_faults: ExtraFaults {
+                black: self.black,
+                kill: self.kill,
+                throttle: self.throttle,
+            },
+            observer_acl: self.observer_acl,
+            no_auth: self.no_auth,
+            quiet: false,
+            no_record: self.no_record,
+            record_all_rgb: self.record_all_rgb,
+            endpoints: Endpoints::default(),
+            render: self.render.path,
+        };
+        Ok((case, modality, opts))
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    #[command(flatten)]
+    session: SessionArgs,
     /// Write DIR/summary.json, DIR/observers.json and the process logs (DIR/logs) here.
     #[arg(long)]
     out: Option<PathBuf>,
     /// Print the summary as JSON.
     #[arg(long)]
     json: bool,
-    /// Session id (default: `run-<pid>-<unix ms>`); every key lives under `waggle/<session>/`.
-    #[arg(long)]
-    session: Option<String>,
     /// Directory holding the node binaries (default: the one `waggle` is in).
     #[arg(long)]
     bin_dir: Option<PathBuf>,
-    /// Wall-clock time after which an observer judges a late packet missing, ms.
-    #[arg(long, default_value_t = 10_000)]
-    grace_ms: u64,
-    /// Extra fault: black input of this observer from start-up (e.g. `O2`); repeatable.
-    #[arg(long)]
-    black: Vec<BlackSpec>,
-    /// Extra fault: SIGKILL this observer's camera at a sim time, `O2@35`; repeatable.
-    #[arg(long)]
-    kill: Vec<KillSpec>,
-    /// Extra fault: throttle a camera, `O1@0:250:0` = observer@from_s:drop per mille:delay ms.
-    #[arg(long)]
-    throttle: Vec<ThrottleSpec>,
-    /// Run every observer behind a Zenoh access-control list that denies it ground truth
-    /// (`sim/**`, `truth/**`), the performer's and scheduler's commands, faults and every other
-    /// observer's keys (DESIGN.md §2: the run must still pass).
-    #[arg(long)]
-    observer_acl: bool,
-    /// Open bus for debugging with Zenoh tools: no authentication, no per-role access control
-    /// (prints a warning; refused with a non-loopback --listen). By default every process
-    /// authenticates to the launcher's router with its own per-session credentials and may
-    /// publish only its own keys and read only what it needs.
-    #[arg(long)]
-    no_auth: bool,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
-    /// Do not record the session (by default `recorder-node` writes DIR/session.mcap, with the
-    /// case in its metadata; see `waggle audit` and `waggle replay`).
-    #[arg(long)]
-    no_record: bool,
-    /// A view image of every RGB frame in the recording (by default one in 25, i.e. 1 Hz; the
-    /// raw channel holds every frame losslessly either way).
-    #[arg(long)]
-    record_all_rgb: bool,
-    /// The launcher's own endpoints (default: listen on a free loopback port). Children
+    /// The session router's endpoints (default: listen on a free loopback port). Children
     /// connect to every listen endpoint given here, plus every connect endpoint.
     #[command(flatten)]
     endpoints: Endpoints,
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let case = args.flights.apply(Case::load(&args.case)?);
-    let modality = run_modality(&case, args.modality)?;
+    let (case, modality, mut opts) = args.session.options()?;
+    opts.out = args.out;
+    opts.bin_dir = args.bin_dir;
+    opts.quiet = args.quiet;
+    opts.endpoints = args.endpoints;
     let json = args.json;
-    let opts = RunOptions {
-        case_arg: args.case,
-        out: args.out,
-        session: args.session,
-        bin_dir: args.bin_dir,
-        grace_ms: args.grace_ms,
-        extra_faults: ExtraFaults {
-            black: args.black,
-            kill: args.kill,
-            throttle: args.throttle,
-        },
-        observer_acl: args.observer_acl,
-        no_auth: args.no_auth,
-        quiet: args.quiet,
-        no_record: args.no_record,
-        record_all_rgb: args.record_all_rgb,
-        endpoints: args.endpoints,
-        render: args.render.path,
-    };
     let done = run_case(&case, modality, &opts)?;
     if opts.out.is_none() && !json {
         println!("summary and logs in {}", done.out_dir.display());
     }
-    let summary = done.summary;
+    report(&done.summary, json)
+}
+
+/// Prints a supervised session's summary (JSON or the table) and fails when it was interrupted
+/// or missed its expected outcome.
+pub fn report(summary: &RunSummary, json: bool) -> Result<()> {
     if json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
         print_summary(&summary.mission);
-        print_run_figures(&summary);
+        print_run_figures(summary);
     }
     if summary.interrupted {
         bail!("interrupted");

@@ -144,6 +144,28 @@ impl FromStr for ThrottleSpec {
     }
 }
 
+impl std::fmt::Display for BlackSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.observer)
+    }
+}
+
+impl std::fmt::Display for KillSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}@{}", self.observer, self.at_s)
+    }
+}
+
+impl std::fmt::Display for ThrottleSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}@{}:{}:{}",
+            self.observer, self.from_s, self.drop_per_mille, self.delay_ms
+        )
+    }
+}
+
 /// The command line's extra faults.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ExtraFaults {

@@ -20,24 +20,25 @@ pub mod bench;
 pub mod fault;
 pub mod gather;
 pub mod process;
+pub mod router;
 pub mod summarise;
 pub mod supervise;
 pub mod sweep;
+pub mod up;
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Endpoints, NodeArgs, SessionSecrets, handshake};
-use proto::{Modality, ObserverId, Receiver, RenderPath, Role};
+use bus::{Endpoints, SessionSecrets};
+use proto::{Modality, Receiver, RenderPath};
 
 use crate::case::{Case, case_source};
+use crate::compose::{self, build::ComposeOptions};
 use crate::run_dir::lock::RunLock;
-use crate::run_dir::{CASE_FILE, LOG_DIR, RECORDING_FILE, RunFiles, RunSummary};
-use fault::{ExtraFaults, Injected, injected_faults};
-use process::{Proc, Spawner};
-use summarise::{RunInfo, summarise};
-use supervise::Supervisor;
+use crate::run_dir::{LOG_DIR, RunSummary};
+use fault::ExtraFaults;
+use process::Proc;
+use up::{UpDone, UpOptions};
 
 /// How to run a case as processes (the options of `waggle run`).
 #[derive(Debug, Clone)]
@@ -90,50 +91,49 @@ pub fn run_modality(case: &Case, asked: Option<Modality>) -> Result<Modality> {
 }
 
 /// Where one run lives.
-struct RunPlace {
-    session: String,
+pub(crate) struct RunPlace {
     /// Held until the run directory is written.
     _lock: RunLock,
-    out_dir: PathBuf,
-    log_dir: PathBuf,
-    bin_dir: PathBuf,
+    pub(crate) out_dir: PathBuf,
+    pub(crate) log_dir: PathBuf,
+    pub(crate) bin_dir: PathBuf,
 }
 
 impl RunPlace {
-    fn new(opts: &RunOptions) -> Result<Self> {
-        let session = match &opts.session {
-            Some(s) => s.clone(),
-            None => format!(
-                "run-{}-{}",
-                std::process::id(),
-                std::time::SystemTime::now()
-                    .duration_since(std::time::UNIX_EPOCH)
-                    .map_or(0, |d| d.as_millis())
-            ),
-        };
-        let out_dir = match &opts.out {
-            Some(d) => d.clone(),
+    pub(crate) fn new(session: &str, out: Option<&Path>, bin_dir: Option<&Path>) -> Result<Self> {
+        let out_dir = match out {
+            Some(d) => d.to_path_buf(),
             None => std::env::temp_dir().join(format!("waggle-{session}")),
         };
         let lock = RunLock::acquire(&out_dir)?;
         let log_dir = out_dir.join(LOG_DIR);
         std::fs::create_dir_all(&log_dir)
             .with_context(|| format!("creating {}", log_dir.display()))?;
-        let bin_dir = match &opts.bin_dir {
-            Some(d) => d.clone(),
+        let bin_dir = match bin_dir {
+            Some(d) => d.to_path_buf(),
             None => std::env::current_exe()?
                 .parent()
                 .context("locating the directory of waggle")?
                 .to_path_buf(),
         };
         Ok(Self {
-            session,
             _lock: lock,
             out_dir,
             log_dir,
             bin_dir,
         })
     }
+}
+
+/// A new session id: `run-<pid>-<unix ms>`.
+pub fn new_session_id() -> String {
+    format!(
+        "run-{}-{}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_millis())
+    )
 }
 
 /// A finished run.
@@ -144,93 +144,75 @@ pub struct RunDone {
     pub out_dir: PathBuf,
 }
 
-/// Runs `case` in `modality` as processes; writes the run directory and returns the summary.
+impl RunOptions {
+    /// The compose options of this run of `case` (every node on one host).
+    pub fn compose_options(&self, case: &Case, modality: Modality) -> Result<ComposeOptions> {
+        Ok(ComposeOptions {
+            case_name: self.case_arg.clone(),
+            case_text: case_text_as_flown(&self.case_arg, case)?,
+            session: self.session.clone().unwrap_or_else(new_session_id),
+            modality,
+            grace_ms: self.grace_ms,
+            extra_faults: self.extra_faults.clone(),
+            observer_acl: self.observer_acl,
+            auth: !self.no_auth,
+            record: !self.no_record,
+            record_all_rgb: self.record_all_rgb,
+            render: self.render,
+            router_listen: self.endpoints.listen.clone(),
+            router_connect: self.endpoints.connect.clone(),
+            placements: Vec::new(),
+        })
+    }
+}
+
+/// Runs `case` in `modality` as processes on this machine — the compose file of the case
+/// brought up on its one host, with credentials that live as long as the run — and returns
+/// the summary.
 pub fn run_case(case: &Case, modality: Modality, opts: &RunOptions) -> Result<RunDone> {
-    let started = Instant::now();
-    let injected = injected_faults(case, &opts.extra_faults)?;
-    let observers: Vec<ObserverId> = (0..case.observers).map(ObserverId::from_index).collect();
-    let place = RunPlace::new(opts)?;
-
-    // The launcher's own session is the session's router: every child is a client of it.
-    let mut mine = opts.endpoints.clone();
-    if mine.listen.is_empty() {
-        mine.listen
-            .push(format!("tcp/127.0.0.1:{}", free_loopback_port()?));
-    }
-    let (mut bus, secrets) = open_router(&place.session, &mine, case.observers, opts)?;
-    let keys = bus.keys().clone();
-    for key in gather::subscriptions(&observers) {
-        bus.subscribe(&keys.of(&key))?;
-    }
-    bus.subscribe(&keys.rejects_any())?;
-    let me = handshake::Process::singleton(Role::Launcher);
-    handshake::announce(&mut bus, &me)?;
-
-    let spawner = Spawner {
-        bin_dir: &place.bin_dir,
-        log_dir: &place.log_dir,
-        node: NodeArgs {
-            session: place.session.clone(),
-            observers: case.observers,
-            standalone: false,
-            recorder: !opts.no_record,
-            startup_timeout_s: 120.0,
-            deny: Vec::new(),
-            client: true,
-            credentials: None,
-            endpoints: Endpoints {
-                connect: children_connect(&mine),
-                listen: Vec::new(),
-            },
-        },
-        secrets: secrets.as_ref(),
-    };
-    let children = Children {
-        case,
-        modality,
-        opts,
-        observers: &observers,
-        injected: &injected,
-        keys: &keys,
-    };
-    let mut procs: Vec<Proc> = Vec::new();
-    let spawned = children.spawn_all(&spawner, &place.out_dir, &mut procs);
-    let stop = bus::on_stop_signal();
-    let result = spawned.and_then(|()| {
-        Supervisor {
-            bus: &mut bus,
-            procs: &mut procs,
-            me: &me,
-            case,
-            observers: &observers,
-            injected: &injected,
-            stop: &stop,
-            quiet: opts.quiet,
+    let compose = compose::build::compose(case, &opts.compose_options(case, modality)?)?;
+    if opts.no_auth {
+        // Refused before anything is created.
+        let exposed: Vec<&String> = compose
+            .router
+            .listen
+            .iter()
+            .filter(|l| !bus::is_loopback_endpoint(l))
+            .collect();
+        if !exposed.is_empty() {
+            bail!(
+                "--no-auth with a non-loopback --listen ({}) would open the session to the \
+                 network: drop --no-auth, or listen on 127.0.0.1",
+                exposed
+                    .iter()
+                    .map(|s| s.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
         }
-        .run()
-    });
-    stop_all(&mut procs);
-    let supervised = result.map_err(|e| with_logs(e, &place.log_dir, &procs))?;
-    let _ = bus.close();
-
-    let info = RunInfo {
-        case,
-        modality,
-        render: opts.render,
-        session: &place.session,
-        started,
-        injected: &injected,
+    }
+    let secrets = if compose.auth {
+        Some(
+            SessionSecrets::create(&std::env::temp_dir(), &compose.session, &compose.users())
+                .context("creating the session's credentials")?,
+        )
+    } else {
+        None
     };
-    let out = summarise(&info, supervised, &procs);
-    RunFiles::write(&place.out_dir, &out.summary, &out.observers, &out.session)?;
-    Ok(RunDone {
-        summary: out.summary,
-        out_dir: place.out_dir,
-    })
+    let up_opts = UpOptions {
+        host: None,
+        out: opts.out.clone(),
+        bin_dir: opts.bin_dir.clone(),
+        quiet: opts.quiet,
+    };
+    match up::up(&compose, secrets.as_ref(), &up_opts)? {
+        UpDone::Supervised(done) => Ok(*done),
+        UpDone::Host { .. } => bail!("the one-host run did not supervise its session"),
+    }
 }
 
 /// Stops every child and reaps it (reading its final CPU time).
-fn stop_all(procs: &mut [Proc]) {
+pub(crate) fn stop_all(procs: &mut [Proc]) {
     for p in procs.iter_mut() {
         p.kill();
     }
@@ -241,7 +223,7 @@ fn stop_all(procs: &mut [Proc]) {
 }
 
 /// The error with the log directory and the stderr tail of every child that failed by itself.
-fn with_logs(e: anyhow::Error, log_dir: &Path, procs: &[Proc]) -> anyhow::Error {
+pub(crate) fn with_logs(e: anyhow::Error, log_dir: &Path, procs: &[Proc]) -> anyhow::Error {
     let logs: Vec<String> = procs
         .iter()
         .filter(|p| p.failed_on_its_own())
@@ -261,178 +243,9 @@ fn with_logs(e: anyhow::Error, log_dir: &Path, procs: &[Proc]) -> anyhow::Error 
     ))
 }
 
-/// Opens the launcher's session as the session's router: with per-process credentials and the
-/// per-role access-control list, or open (`--no-auth`, loopback only, with a warning).
-fn open_router(
-    session: &str,
-    mine: &Endpoints,
-    observers: usize,
-    opts: &RunOptions,
-) -> Result<(Bus, Option<SessionSecrets>)> {
-    if opts.no_auth {
-        let exposed = mine.non_loopback_listeners();
-        if !exposed.is_empty() {
-            bail!(
-                "--no-auth with a non-loopback --listen ({}) would open the session to the \
-                 network: drop --no-auth, or listen on 127.0.0.1",
-                exposed.join(", ")
-            );
-        }
-        eprintln!(
-            "warning: --no-auth: the bus is open — any local process can join session {session}, \
-             read every key (ground truth included) and publish on any"
-        );
-        let config = bus::open_router_config(mine)?;
-        let bus = Bus::open_config(session, config).context("opening the launcher's router")?;
-        return Ok((bus, None));
-    }
-    let keys = proto::Keys::new(session)?;
-    let access = bus::access::role_access(&keys, observers, !opts.no_record);
-    let users: Vec<String> = access.iter().map(|a| a.user.clone()).collect();
-    let secrets = SessionSecrets::create(&std::env::temp_dir(), session, &users)
-        .context("creating the session's credentials")?;
-    let config = bus::router_config(
-        mine,
-        secrets.dictionary(),
-        &bus::access::router_acl(&keys, &access),
-    )?;
-    let bus = Bus::open_config(session, config).context("opening the launcher's router")?;
-    Ok((bus, Some(secrets)))
-}
-
-fn free_loopback_port() -> Result<u16> {
-    let l = std::net::TcpListener::bind("127.0.0.1:0").context("finding a free port")?;
-    Ok(l.local_addr()?.port())
-}
-
-/// What children connect to: every listen endpoint of the launcher (on loopback), plus every
-/// connect endpoint.
-fn children_connect(mine: &Endpoints) -> Vec<String> {
-    mine.listen
-        .iter()
-        .map(|l| {
-            l.replace("0.0.0.0", "127.0.0.1")
-                .replace("[::]", "127.0.0.1")
-        })
-        .chain(mine.connect.iter().cloned())
-        .collect()
-}
-
-/// The children of one run and their arguments.
-struct Children<'a> {
-    case: &'a Case,
-    modality: Modality,
-    opts: &'a RunOptions,
-    observers: &'a [ObserverId],
-    injected: &'a [Injected],
-    keys: &'a proto::Keys,
-}
-
-impl Children<'_> {
-    /// Starts the simulator, scheduler, performer, each observer's camera and observer, and
-    /// the recorder; `procs` holds every child started, even when one fails to start.
-    fn spawn_all(
-        &self,
-        spawner: &Spawner<'_>,
-        out_dir: &Path,
-        procs: &mut Vec<Proc>,
-    ) -> Result<()> {
-        let m = self.modality.as_str().to_string();
-        procs.push(spawner.spawn("sim", "sim-node", &["run".into()])?);
-        procs.push(spawner.spawn("scheduler", "scheduler-node", &self.scheduler_args(&m))?);
-        procs.push(spawner.spawn("performer", "performer-node", &[])?);
-        for o in self.observers {
-            let mut camera_args = vec![
-                "camera".into(),
-                "--observer".into(),
-                o.to_string(),
-                "--modality".into(),
-                m.clone(),
-                "--render".into(),
-                self.opts.render.to_string(),
-            ];
-            if self.injected.iter().any(|f| f.black_from_start(o)) {
-                camera_args.push("--black".into());
-            }
-            if let Some(at_ns) = self.injected.iter().find_map(|f| f.dropout_from(o)) {
-                camera_args.push("--dropout-ns".into());
-                camera_args.push(at_ns.to_string());
-            }
-            procs.push(spawner.spawn(&format!("camera-{o}"), "sim-node", &camera_args)?);
-            let observer_args = self.observer_args(o, &m);
-            procs.push(spawner.spawn(&format!("observer-{o}"), "observer-node", &observer_args)?);
-        }
-        if !self.opts.no_record {
-            let mut recorder_args = recorder_args(&self.opts.case_arg, self.case, &m, out_dir)?;
-            if self.opts.record_all_rgb {
-                recorder_args.push("--all-rgb".into());
-            }
-            let mut recorder = spawner.spawn("recorder", "recorder-node", &recorder_args)?;
-            recorder.graceful = true;
-            procs.push(recorder);
-        }
-        Ok(())
-    }
-
-    fn scheduler_args(&self, modality: &str) -> Vec<String> {
-        let mut a = vec![
-            "--modality".into(),
-            modality.to_string(),
-            "--offers".into(),
-            self.case.offer_sites.join(","),
-            "--rounds".into(),
-            self.case.rounds.to_string(),
-        ];
-        if let Some(limit) = self.case.time_limit_s {
-            a.push("--time-limit-s".into());
-            a.push(limit.to_string());
-        }
-        a.push("--flights".into());
-        a.push(self.case.flights.to_string());
-        a
-    }
-
-    fn observer_args(&self, o: &ObserverId, modality: &str) -> Vec<String> {
-        let mut a = vec![
-            "--id".into(),
-            o.to_string(),
-            "--modality".into(),
-            modality.to_string(),
-            "--grace-ms".into(),
-            self.opts.grace_ms.to_string(),
-        ];
-        if self.opts.observer_acl {
-            for key in observer_denied_keys(self.keys, o, self.observers) {
-                a.push("--deny".into());
-                a.push(key);
-            }
-        }
-        a
-    }
-}
-
-/// What an observer's access-control list denies: everything but its own sensor, the clock,
-/// the session controls and its own outputs.
-fn observer_denied_keys(keys: &proto::Keys, me: &ObserverId, all: &[ObserverId]) -> Vec<String> {
-    let mut out = vec![
-        keys.sim_all(),
-        keys.truth_all(),
-        keys.performer_all(),
-        keys.sched_cmd(),
-        keys.sched_broadcast(),
-        keys.sched_report(),
-        keys.fault_any(),
-    ];
-    for o in all.iter().filter(|o| *o != me) {
-        out.push(keys.observer_all(o));
-        out.push(keys.sensor_any(o));
-    }
-    out
-}
-
 /// The case's text with any command-line override of `flights` written into it, so the
 /// recorded case is the one that flew.
-fn case_text_as_flown(case_arg: &str, case: &Case) -> Result<String> {
+pub fn case_text_as_flown(case_arg: &str, case: &Case) -> Result<String> {
     let text = case_source(case_arg)?;
     let written: Case = toml::from_str(&text).context("re-reading the case text")?;
     if written.flights == case.flights {
@@ -447,27 +260,4 @@ fn case_text_as_flown(case_arg: &str, case: &Case) -> Result<String> {
         case.flights,
         kept.join("\n")
     ))
-}
-
-/// `recorder-node` arguments for a run writing `out_dir/session.mcap`; writes the case text
-/// to `out_dir/case.toml` so the recording holds the case and its expected outcome.
-pub fn recorder_args(
-    case_arg: &str,
-    case: &Case,
-    modality: &str,
-    out_dir: &Path,
-) -> Result<Vec<String>> {
-    let case_file = out_dir.join(CASE_FILE);
-    std::fs::write(&case_file, case_text_as_flown(case_arg, case)?)
-        .with_context(|| format!("writing {}", case_file.display()))?;
-    Ok(vec![
-        "--out".into(),
-        out_dir.join(RECORDING_FILE).display().to_string(),
-        "--case-name".into(),
-        case.name.clone(),
-        "--case-file".into(),
-        case_file.display().to_string(),
-        "--modality".into(),
-        modality.to_string(),
-    ])
 }

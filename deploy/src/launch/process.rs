@@ -113,9 +113,20 @@ impl Proc {
         !self.success && !self.killed_by_fault && !self.stopped
     }
 
+    /// Its figures for `summary.json` / `host.json`.
+    pub fn figures(&self) -> crate::run_dir::ProcessFigures {
+        crate::run_dir::ProcessFigures {
+            cpu_s: self.cpu_s,
+            exit: self.exit.clone().unwrap_or_else(|| "running".into()),
+            killed_by_fault: self.killed_by_fault,
+        }
+    }
+
     /// The last lines of its stderr log.
     pub fn tail(&self) -> String {
         let text = std::fs::read_to_string(&self.stderr_path).unwrap_or_default();
+        // The error, not the frames of a backtrace (RUST_BACKTRACE set by the user).
+        let text = text.split("\nStack backtrace:").next().unwrap_or_default();
         let lines: Vec<&str> = text.lines().collect();
         lines[lines.len().saturating_sub(5)..].join("\n")
     }

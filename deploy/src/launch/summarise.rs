@@ -231,14 +231,7 @@ fn process_figures(
                 p.exit.as_deref().unwrap_or("?")
             ));
         }
-        processes.insert(
-            p.name.clone(),
-            ProcessFigures {
-                cpu_s: p.cpu_s,
-                exit: p.exit.clone().unwrap_or_else(|| "running".into()),
-                killed_by_fault: p.killed_by_fault,
-            },
-        );
+        processes.insert(p.name.clone(), p.figures());
         sensor_digests.extend(p.sensor_digests());
     }
     (processes, sensor_digests)

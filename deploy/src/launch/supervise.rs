@@ -24,6 +24,16 @@ const STARTUP_TIMEOUT: Duration = Duration::from_secs(180);
 /// How long the children get to exit once the mission report is in.
 const EXIT_AFTER_REPORT: Duration = Duration::from_secs(20);
 
+/// What this launcher does for the session.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Duty {
+    /// The simulator's host: waits for every process, injects the faults, gathers everything.
+    Supervise,
+    /// Another host: watches its own nodes, stops its cameras at their dropout time and ends
+    /// with the mission (a host running only the router leaves once every process has gone).
+    Host,
+}
+
 /// Everything the supervisor works with.
 pub struct Supervisor<'a> {
     pub bus: &'a mut Bus,
@@ -37,6 +47,9 @@ pub struct Supervisor<'a> {
     pub stop: &'a AtomicBool,
     /// No progress bar.
     pub quiet: bool,
+    /// A recorder takes part (on whichever host).
+    pub recorder: bool,
+    pub duty: Duty,
 }
 
 /// What a supervised run gathered.
@@ -66,8 +79,11 @@ impl Supervisor<'_> {
                 ..Supervised::default()
             });
         }
-        let mut fault_log = self.publish_faults()?;
-        handshake::declare_ready(self.bus, self.me)?;
+        let mut fault_log = Vec::new();
+        if self.duty == Duty::Supervise {
+            fault_log = self.publish_faults()?;
+            handshake::declare_ready(self.bus, self.me)?;
+        }
         let bar = progress_bar(self.quiet);
         let homes_m: BTreeMap<String, [f64; 3]> = (0..self.case.observers)
             .map(|i| (observer_name(i), observer_home_m(i, self.case.observers)))
@@ -90,7 +106,7 @@ impl Supervisor<'_> {
     /// Waits for every process, checking the children meanwhile; false on Ctrl-C.
     fn start_up(&mut self) -> Result<bool> {
         let mut everyone = handshake::mission_processes(self.case.observers, true);
-        if self.procs.iter().any(|p| p.name == "recorder") {
+        if self.recorder {
             everyone.push(handshake::Process::singleton(Role::Recorder));
         }
         let deadline = Instant::now() + STARTUP_TIMEOUT;
@@ -174,6 +190,9 @@ impl Supervisor<'_> {
             self.receive(&keys, g)?;
             self.kill_cameras(g, &mut kills, fault_log);
             self.check_children(g)?;
+            if self.duty == Duty::Host && self.host_done(g, report_at) {
+                return Ok(false);
+            }
             if g.report.is_some() {
                 let at = *report_at.get_or_insert_with(Instant::now);
                 if self.procs.iter().all(|p| !p.running()) {
@@ -186,7 +205,7 @@ impl Supervisor<'_> {
                         p.kill();
                     }
                 }
-            } else if self.procs.iter().all(|p| !p.running()) {
+            } else if !self.procs.is_empty() && self.procs.iter().all(|p| !p.running()) {
                 bail!("every process exited without a mission report");
             }
             if last_draw.elapsed() > Duration::from_millis(100) {
@@ -195,6 +214,21 @@ impl Supervisor<'_> {
                 last_draw = Instant::now();
             }
         }
+    }
+
+    /// A host's launcher is done when its nodes have all exited, or — running none, only the
+    /// router — once the report is in and every other process has left (bounded).
+    fn host_done(&self, g: &Gathered, report_at: Option<Instant>) -> bool {
+        if !self.procs.is_empty() {
+            return self.procs.iter().all(|p| !p.running());
+        }
+        let Some(at) = report_at else {
+            return false;
+        };
+        let keys = self.bus.keys();
+        let mine = self.me.alive_key(keys).unwrap_or_default();
+        let others = self.bus.alive_keys().iter().filter(|k| **k != mine).count();
+        g.report.is_some() && (others == 0 || at.elapsed() > EXIT_AFTER_REPORT)
     }
 
     /// Drains what arrived (up to 256 samples; waits up to 20 ms for the first).

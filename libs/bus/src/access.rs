@@ -23,13 +23,20 @@ pub struct RoleAccess {
     pub subscribe: Vec<String>,
 }
 
-/// The access of every process of a mission with `observers` observers (the launcher excluded:
-/// it hosts the router), plus the recorder when `recorder`.
-pub fn role_access(keys: &Keys, observers: usize, recorder: bool) -> Vec<RoleAccess> {
-    let mut everyone = mission_processes(observers, false);
+/// The access of every process of a mission with `observers` observers, plus the recorder when
+/// `recorder`, the supervising launcher (which needs it only when it is not the router itself)
+/// and the launcher of each host in `hosts` (multi-host sessions).
+pub fn role_access(
+    keys: &Keys,
+    observers: usize,
+    recorder: bool,
+    hosts: &[String],
+) -> Vec<RoleAccess> {
+    let mut everyone = mission_processes(observers, true);
     if recorder {
         everyone.push(Process::singleton(Role::Recorder));
     }
+    everyone.extend(hosts.iter().map(|h| Process::host_launcher(h)));
     everyone.iter().map(|p| access_of(keys, p)).collect()
 }
 
@@ -71,8 +78,13 @@ pub fn access_of(keys: &Keys, p: &Process) -> RoleAccess {
             vec![keys.sim_state(), keys.observer_status_any()],
         ),
         Role::Recorder => (Vec::new(), vec![keys.all()]),
-        // The launcher hosts the router: nothing of it crosses an access-controlled link.
-        Role::Launcher => (Vec::new(), Vec::new()),
+        // The supervising launcher (a client when the router runs on another host) injects
+        // the faults and gathers everything; a host's own launcher only follows the clock (to
+        // stop a camera at its dropout time) and the end of the mission.
+        Role::Launcher if p.id == Role::Launcher.as_str() => {
+            (vec![keys.fault_any()], vec![keys.all()])
+        }
+        Role::Launcher => (Vec::new(), vec![keys.clock(), keys.sched_report()]),
     };
     publish.push(report);
     RoleAccess {
@@ -166,7 +178,7 @@ mod tests {
     #[test]
     fn every_role_publishes_only_its_own_keys_and_reads_only_what_it_needs() {
         let keys = Keys::new("s").unwrap();
-        let all = role_access(&keys, 3, true);
+        let all = role_access(&keys, 3, true, &["b".to_string()]);
         let get = |u: &str| all.iter().find(|a| a.user == u).unwrap().clone();
         let o1 = get("observer-O1");
         assert!(may(&o1.publish, &keys.observer_status(&observer("O1"))));
@@ -185,10 +197,15 @@ mod tests {
         }
         assert!(may(&o1.subscribe, &keys.sensor_events(&observer("O1"))));
         assert!(!may(&o1.subscribe, &keys.sensor_events(&observer("O2"))));
-        // Nobody but the launcher (the router itself) publishes faults.
-        for a in &all {
+        // Nobody but the supervising launcher publishes faults.
+        for a in all.iter().filter(|a| a.user != "launcher") {
             assert!(!may(&a.publish, &keys.fault(&observer("O1"))), "{}", a.user);
         }
+        assert!(may(&get("launcher").publish, &keys.fault(&observer("O1"))));
+        let host = get("launcher-b");
+        assert!(host.publish.iter().all(|k| k.contains("rejects")));
+        assert!(may(&host.subscribe, &keys.clock()));
+        assert!(!may(&host.subscribe, &keys.sim_state()));
         assert!(may(&get("recorder").subscribe, &keys.sim_state()));
         assert!(may(
             &get("camera-O2").publish,
@@ -199,13 +216,13 @@ mod tests {
             &keys.sensor_rgb(&observer("O1"))
         ));
         let users: Vec<String> = all.iter().map(|a| a.user.clone()).collect();
-        assert_eq!(users.len(), 3 + 6 + 1);
+        assert_eq!(users.len(), 3 + 6 + 1 + 2);
     }
 
     #[test]
     fn the_acl_is_a_valid_zenoh_configuration() {
         let keys = Keys::new("s").unwrap();
-        let acl = router_acl(&keys, &role_access(&keys, 2, true));
+        let acl = router_acl(&keys, &role_access(&keys, 2, true, &[]));
         let mut c = zenoh::Config::default();
         c.insert_json5("access_control", &acl).unwrap();
         assert_eq!(

@@ -30,8 +30,9 @@ impl std::fmt::Debug for Credentials {
 impl Credentials {
     /// Reads a credentials file (`user:password` on one line).
     pub fn read(path: &Path) -> Result<Self, BusError> {
-        let bad =
-            |why: &str| BusError::Config(format!("credentials file {}: {why}", path.display()));
+        let bad = |why: &str| {
+            BusError::Credentials(format!("credentials file {}: {why}", path.display()))
+        };
         let text = std::fs::read_to_string(path).map_err(|e| bad(&e.to_string()))?;
         let line = text.trim();
         let (user, password) = line
@@ -56,16 +57,24 @@ fn random_password() -> Result<String, BusError> {
     let mut bytes = [0u8; 16];
     std::fs::File::open("/dev/urandom")
         .and_then(|mut f| f.read_exact(&mut bytes))
-        .map_err(|e| BusError::Config(format!("reading /dev/urandom: {e}")))?;
+        .map_err(|e| BusError::Credentials(format!("reading /dev/urandom: {e}")))?;
     Ok(bytes.iter().map(|b| format!("{b:02x}")).collect())
 }
 
-/// The secrets of one session, removed from disk when dropped.
+/// The secrets of one session: a launcher's own are removed from disk when dropped; those
+/// written beside a compose file ([`SessionSecrets::create_kept`]) stay, to be copied to every
+/// host of the session.
 #[derive(Debug)]
 pub struct SessionSecrets {
     dir: PathBuf,
     dictionary: PathBuf,
     files: BTreeMap<String, PathBuf>,
+    remove_on_drop: bool,
+}
+
+/// The name of a process's credentials file.
+fn credentials_file_name(user: &str) -> String {
+    format!("{user}.credentials")
 }
 
 fn write_private(path: &Path, text: &str) -> Result<(), BusError> {
@@ -74,17 +83,26 @@ fn write_private(path: &Path, text: &str) -> Result<(), BusError> {
         .create_new(true)
         .mode(0o600)
         .open(path)
-        .map_err(|e| BusError::Config(format!("creating {}: {e}", path.display())))?;
+        .map_err(|e| BusError::Credentials(format!("creating {}: {e}", path.display())))?;
     f.write_all(text.as_bytes())
-        .map_err(|e| BusError::Config(format!("writing {}: {e}", path.display())))
+        .map_err(|e| BusError::Credentials(format!("writing {}: {e}", path.display())))
 }
 
 impl SessionSecrets {
-    /// Creates a password for each of `users` under `parent/waggle-secrets-<session>`.
+    /// Creates a password for each of `users` under `parent/waggle-secrets-<session>`, removed
+    /// when dropped.
     pub fn create(parent: &Path, session: &str, users: &[String]) -> Result<Self, BusError> {
-        let dir = parent.join(format!("waggle-secrets-{session}"));
+        let mut out = Self::create_kept(&parent.join(format!("waggle-secrets-{session}")), users)?;
+        out.remove_on_drop = true;
+        Ok(out)
+    }
+
+    /// Creates a password for each of `users` in directory `dir` (replaced if it exists), kept
+    /// when dropped.
+    pub fn create_kept(dir: &Path, users: &[String]) -> Result<Self, BusError> {
+        let dir = dir.to_path_buf();
         let io = |what: &str, e: std::io::Error| {
-            BusError::Config(format!("{what} {}: {e}", dir.display()))
+            BusError::Credentials(format!("{what} {}: {e}", dir.display()))
         };
         if dir.exists() {
             std::fs::remove_dir_all(&dir).map_err(|e| io("removing the stale", e))?;
@@ -96,20 +114,78 @@ impl SessionSecrets {
             dictionary: dir.join("dictionary"),
             dir,
             files: BTreeMap::new(),
+            remove_on_drop: false,
         };
         let mut dictionary = String::new();
         for user in users {
             if user.is_empty() || user.contains([':', '/', '\n']) {
-                return Err(BusError::Config(format!("user name {user:?}")));
+                return Err(BusError::Credentials(format!("user name {user:?}")));
             }
             let password = random_password()?;
-            let file = out.dir.join(format!("{user}.credentials"));
+            let file = out.dir.join(credentials_file_name(user));
             write_private(&file, &format!("{user}:{password}\n"))?;
             dictionary.push_str(&format!("{user}:{password}\n"));
             out.files.insert(user.clone(), file);
         }
         write_private(&out.dictionary, &dictionary)?;
         Ok(out)
+    }
+
+    /// Opens the secrets kept in `dir` for `users` (those a host needs; the router's host also
+    /// needs the dictionary). Refuses a directory or file other users may read, like ssh.
+    pub fn open(dir: &Path, users: &[String]) -> Result<Self, BusError> {
+        let bad = |why: String| {
+            BusError::Credentials(format!("session secrets {}: {why}", dir.display()))
+        };
+        let private = |path: &Path| -> Result<(), BusError> {
+            let mode = std::fs::metadata(path)
+                .map_err(|e| bad(format!("{}: {e}", path.display())))?
+                .permissions()
+                .mode();
+            if mode & 0o077 != 0 {
+                return Err(bad(format!(
+                    "{} is readable by other users (mode {:o}): chmod go-rwx it",
+                    path.display(),
+                    mode & 0o777
+                )));
+            }
+            Ok(())
+        };
+        private(dir)?;
+        let mut files = BTreeMap::new();
+        for user in users {
+            let file = dir.join(credentials_file_name(user));
+            private(&file)?;
+            Credentials::read(&file)?;
+            files.insert(user.clone(), file);
+        }
+        Ok(Self {
+            dictionary: dir.join("dictionary"),
+            dir: dir.to_path_buf(),
+            files,
+            remove_on_drop: false,
+        })
+    }
+
+    /// Checks the router's dictionary is there and private.
+    pub fn check_dictionary(&self) -> Result<(), BusError> {
+        let mode = std::fs::metadata(&self.dictionary)
+            .map_err(|e| {
+                BusError::Credentials(format!(
+                    "the router's dictionary {}: {e}",
+                    self.dictionary.display()
+                ))
+            })?
+            .permissions()
+            .mode();
+        if mode & 0o077 != 0 {
+            return Err(BusError::Credentials(format!(
+                "{} is readable by other users (mode {:o})",
+                self.dictionary.display(),
+                mode & 0o777
+            )));
+        }
+        Ok(())
     }
 
     /// The credentials file of `user`.
@@ -130,7 +206,9 @@ impl SessionSecrets {
 
 impl Drop for SessionSecrets {
     fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
+        if self.remove_on_drop {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
     }
 }
 
@@ -166,8 +244,27 @@ mod tests {
         let bad = parent.join(format!("waggle-bad-cred-{}", std::process::id()));
         std::fs::write(&bad, "no colon").unwrap();
         assert!(
-            matches!(Credentials::read(&bad), Err(BusError::Config(m)) if m.contains("user:password"))
+            matches!(Credentials::read(&bad), Err(BusError::Credentials(m)) if m.contains("user:password"))
         );
         std::fs::remove_file(&bad).unwrap();
+    }
+
+    #[test]
+    fn kept_secrets_stay_reopen_and_must_be_private() {
+        let dir = std::env::temp_dir().join(format!("waggle-kept-{}", std::process::id()));
+        let users = ["sim".to_string(), "launcher-b".to_string()];
+        let made = SessionSecrets::create_kept(&dir, &users).unwrap();
+        drop(made);
+        assert!(dir.join("dictionary").exists());
+        let opened = SessionSecrets::open(&dir, &users[1..]).unwrap();
+        opened.check_dictionary().unwrap();
+        assert!(opened.file_of("launcher-b").is_some());
+        assert!(opened.file_of("sim").is_none());
+        let missing = SessionSecrets::open(&dir, &["camera-O9".to_string()]);
+        assert!(matches!(missing, Err(BusError::Credentials(m)) if m.contains("camera-O9")));
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+        let open_dir = SessionSecrets::open(&dir, &users);
+        assert!(matches!(open_dir, Err(BusError::Credentials(m)) if m.contains("chmod")));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

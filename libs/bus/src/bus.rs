@@ -22,6 +22,10 @@ use crate::endpoints::{Endpoints, client_config, config, deny_on_every_link, ope
 pub enum BusError {
     #[error("invalid Zenoh configuration: {0}")]
     Config(String),
+    /// A credentials file or the session's secrets directory is missing, malformed or not
+    /// private.
+    #[error("credentials: {0}")]
+    Credentials(String),
     #[error("zenoh: {what}: {message}")]
     Zenoh { what: String, message: String },
     #[error(transparent)]

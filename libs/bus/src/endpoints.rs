@@ -58,6 +58,10 @@ pub fn is_loopback_endpoint(endpoint: &str) -> bool {
             .is_ok_and(|ip| ip.is_loopback())
 }
 
+/// How long a client keeps dialling the session's router at start-up, ms (the nodes' default
+/// start-up timeout).
+pub const CLIENT_CONNECT_TIMEOUT_MS: u64 = 120_000;
+
 /// The loopback listener used when no `--listen` is given.
 pub const LOOPBACK_ANY_PORT: &str = "tcp/127.0.0.1:0";
 
@@ -66,6 +70,21 @@ pub const LOOPBACK_ANY_PORT: &str = "tcp/127.0.0.1:0";
 fn base(mode: &str, endpoints: &Endpoints, listen: &[String]) -> Result<zenoh::Config, BusError> {
     let mut config = zenoh::Config::default();
     set(&mut config, "mode", format!("\"{mode}\""))?;
+    if mode == "client" {
+        // The hosts of a session start in any order: a client keeps dialling the router (every
+        // second) for as long as a process waits for its peers at start-up, instead of giving
+        // up at once when the router is not up yet.
+        set(
+            &mut config,
+            "connect/timeout_ms",
+            CLIENT_CONNECT_TIMEOUT_MS.to_string(),
+        )?;
+        set(
+            &mut config,
+            "connect/retry",
+            "{ period_init_ms: 250, period_max_ms: 1000, period_increase_factor: 2 }".into(),
+        )?;
+    }
     set(&mut config, "scouting/multicast/enabled", "false".into())?;
     set(&mut config, "listen/endpoints", json_list(listen))?;
     set(

@@ -39,13 +39,21 @@ impl Process {
         Self::new(role, role.as_str())
     }
 
-    /// Its process name: the role for a singleton (`sim`), role and observer otherwise
-    /// (`camera-O1`) — the name in `summary.json` and its user name on the bus.
+    /// Its process name: the role for a singleton (`sim`), role and id otherwise
+    /// (`camera-O1`, the launcher of host `b`: `launcher-b`) — the name in `summary.json` and
+    /// its user name on the bus.
     pub fn name(&self) -> String {
         match self.role {
             Role::Camera | Role::Observer => format!("{}-{}", self.role.as_str(), self.id),
-            _ => self.role.as_str().to_string(),
+            _ if self.id == self.role.as_str() => self.id.clone(),
+            _ => format!("{}-{}", self.role.as_str(), self.id),
         }
+    }
+
+    /// The launcher of one host of a multi-host session that does not supervise it (it only
+    /// starts, watches and stops that host's nodes).
+    pub fn host_launcher(host: &str) -> Self {
+        Self::new(Role::Launcher, host)
     }
 
     pub fn alive_key(&self, keys: &Keys) -> Result<String, BusError> {

@@ -1,0 +1,417 @@
+//! A session as a file: which node runs on which host with which arguments, the session's
+//! router and its endpoints, the injected faults and the case itself. `waggle compose` writes
+//! one ([`build`]), `waggle up` runs the nodes of one host or of all ([`crate::launch::up`]),
+//! and `waggle run` is the two in one on one host — the same nodes with the same arguments, so
+//! the same outcome.
+//!
+//! The file lists only what differs between nodes; what every node of the session shares (the
+//! session id, the number of observers, whether a recorder takes part, the router to dial and
+//! the node's own credentials file) and the paths inside the run directory (the recorder's
+//! output) are added by `waggle up` on the host that starts it.
+
+pub mod build;
+pub mod place;
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use proto::{Modality, ObserverId, Role};
+use serde::{Deserialize, Serialize};
+
+use crate::case::Case;
+use crate::launch::fault::{BlackSpec, ExtraFaults, Injected, KillSpec, ThrottleSpec};
+
+/// The compose format this build reads and writes.
+pub const COMPOSE_VERSION: u32 = 1;
+
+/// A compose file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Compose {
+    /// Format version ([`COMPOSE_VERSION`]).
+    pub version: u32,
+    /// Session id: every key lives under `waggle/<session>/`.
+    pub session: String,
+    /// The observers' sensor modality.
+    pub modality: Modality,
+    /// The case as named when composing (a built-in name or a path), for the recording.
+    pub case_name: String,
+    /// Every node authenticates with its own credentials and the router enforces each role's
+    /// access list; `false` is an open bus, allowed only on loopback.
+    pub auth: bool,
+    /// The session's credentials directory, relative to this file (authenticated sessions).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub secrets: Option<PathBuf>,
+    /// The case file's text (the case as flown).
+    pub case: String,
+    pub router: Router,
+    #[serde(default, skip_serializing_if = "Faults::is_empty")]
+    pub faults: Faults,
+    #[serde(rename = "node")]
+    pub nodes: Vec<Node>,
+}
+
+/// The session's Zenoh router.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Router {
+    /// The host it runs on.
+    pub host: String,
+    /// Endpoints it listens on; nodes on other hosts dial these, so a multi-host session needs
+    /// an address they reach (e.g. `tcp/192.168.1.10:7447`). Port 0 (any free port) works only
+    /// when every node runs on the router's host.
+    pub listen: Vec<String>,
+    /// Endpoints it connects to (another router, say); nodes on its host dial them too.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub connect: Vec<String>,
+}
+
+/// Faults injected beyond the case's own, as on `waggle run`'s command line.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Faults {
+    /// Black input from start-up, `O2`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub black: Vec<String>,
+    /// SIGKILL of a camera at a sim time, `O2@35`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub kill: Vec<String>,
+    /// Throttle of a camera, `O1@0:250:0`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub throttle: Vec<String>,
+}
+
+impl Faults {
+    pub fn is_empty(&self) -> bool {
+        self.black.is_empty() && self.kill.is_empty() && self.throttle.is_empty()
+    }
+
+    pub fn from_extra(extra: &ExtraFaults) -> Self {
+        Self {
+            black: extra.black.iter().map(BlackSpec::to_string).collect(),
+            kill: extra.kill.iter().map(KillSpec::to_string).collect(),
+            throttle: extra.throttle.iter().map(ThrottleSpec::to_string).collect(),
+        }
+    }
+
+    pub fn to_extra(&self) -> Result<ExtraFaults> {
+        fn parse<T: std::str::FromStr>(items: &[String], what: &str) -> Result<Vec<T>>
+        where
+            T::Err: std::error::Error + Send + Sync + 'static,
+        {
+            items
+                .iter()
+                .map(|s| s.parse::<T>().with_context(|| format!("faults.{what}")))
+                .collect()
+        }
+        Ok(ExtraFaults {
+            black: parse(&self.black, "black")?,
+            kill: parse(&self.kill, "kill")?,
+            throttle: parse(&self.throttle, "throttle")?,
+        })
+    }
+}
+
+/// One node process.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Node {
+    /// Its process name, as in `summary.json`: `sim`, `scheduler`, `performer`, `recorder`,
+    /// `camera-Oi`, `observer-Oi`.
+    pub role: String,
+    /// The host it runs on (a name of the user's choosing, given to `waggle up --host`).
+    pub host: String,
+    /// The node binary, looked up in the launcher's binary directory.
+    pub binary: String,
+    /// Its own arguments (the session-wide ones are added by `waggle up`).
+    #[serde(default)]
+    pub args: Vec<String>,
+}
+
+/// A host or role name: it becomes part of a user name and a key, so letters, digits, `-`, `_`.
+fn check_name(what: &str, name: &str) -> Result<()> {
+    if name.is_empty()
+        || name.len() > 64
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+    {
+        bail!("{what} {name:?} must be 1–64 letters, digits, '-' or '_'");
+    }
+    Ok(())
+}
+
+/// `proto/address:port` with a port number; the address and port.
+fn endpoint_parts(endpoint: &str) -> Result<(String, u16)> {
+    let bad = || {
+        anyhow::anyhow!(
+            "router endpoint {endpoint:?} is not PROTOCOL/ADDRESS:PORT (e.g. tcp/10.0.0.1:7447)"
+        )
+    };
+    let (_, locator) = endpoint.split_once('/').ok_or_else(bad)?;
+    let locator = locator.split(['#', '?']).next().unwrap_or("");
+    let (address, port) = locator.rsplit_once(':').ok_or_else(bad)?;
+    let port = port.parse::<u16>().map_err(|_| bad())?;
+    if address.is_empty() {
+        return Err(bad());
+    }
+    Ok((address.trim_matches(['[', ']']).to_string(), port))
+}
+
+/// True for an endpoint other hosts cannot dial: loopback or the unspecified address.
+fn local_only(endpoint: &str) -> bool {
+    bus::is_loopback_endpoint(endpoint)
+        || endpoint_parts(endpoint).is_ok_and(|(a, _)| {
+            a.parse::<std::net::IpAddr>()
+                .is_ok_and(|ip| ip.is_unspecified())
+        })
+}
+
+impl Compose {
+    /// Reads and checks a compose file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let compose: Compose =
+            toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+        compose
+            .check()
+            .with_context(|| format!("checking {}", path.display()))?;
+        Ok(compose)
+    }
+
+    /// The file's text.
+    pub fn to_toml(&self) -> Result<String> {
+        let body = toml::to_string(self).context("writing the compose file")?;
+        Ok(format!(
+            "# A Waggle session: `waggle up THIS_FILE [--host NAME]` on each host \
+             (see README, multi-host).\n{body}"
+        ))
+    }
+
+    /// The case.
+    pub fn case(&self) -> Result<Case> {
+        Case::from_text(&self.case, &format!("the case of session {}", self.session))
+    }
+
+    /// The faults the launcher injects: the case's and the file's.
+    pub fn injected(&self, case: &Case) -> Result<Vec<Injected>> {
+        crate::launch::fault::injected_faults(case, &self.faults.to_extra()?)
+    }
+
+    /// A recorder takes part.
+    pub fn records(&self) -> bool {
+        self.nodes.iter().any(|n| n.role == Role::Recorder.as_str())
+    }
+
+    /// Every host of the session (sorted): those of its nodes and the router's.
+    pub fn hosts(&self) -> Vec<String> {
+        let mut hosts: BTreeSet<String> = self.nodes.iter().map(|n| n.host.clone()).collect();
+        hosts.insert(self.router.host.clone());
+        hosts.into_iter().collect()
+    }
+
+    /// The host that runs the simulator: its launcher supervises the session and writes the
+    /// summary.
+    pub fn supervisor_host(&self) -> &str {
+        self.nodes
+            .iter()
+            .find(|n| n.role == Role::Sim.as_str())
+            .map_or(self.router.host.as_str(), |n| n.host.as_str())
+    }
+
+    /// The nodes placed on `host`, in file order.
+    pub fn nodes_on<'a>(&'a self, host: &'a str) -> impl Iterator<Item = &'a Node> + 'a {
+        self.nodes.iter().filter(move |n| n.host == host)
+    }
+
+    /// What a node on `host` dials: on the router's host, the router's listeners (the
+    /// unspecified address as loopback) and its connect endpoints; elsewhere, the listeners
+    /// other hosts can reach.
+    pub fn dial_from(&self, host: &str) -> Vec<String> {
+        if host == self.router.host {
+            return self
+                .router
+                .listen
+                .iter()
+                .map(|l| l.replace("0.0.0.0", "127.0.0.1").replace("[::]", "[::1]"))
+                .chain(self.router.connect.iter().cloned())
+                .collect();
+        }
+        self.router
+            .listen
+            .iter()
+            .filter(|l| !local_only(l))
+            .cloned()
+            .collect()
+    }
+
+    /// The process names this session must list: the mission's processes, and the recorder
+    /// when one takes part.
+    fn expected_roles(&self, observers: usize) -> Vec<String> {
+        let mut out: Vec<String> = bus::mission_processes(observers, false)
+            .iter()
+            .map(bus::Process::name)
+            .collect();
+        if self.records() {
+            out.push(Role::Recorder.as_str().to_string());
+        }
+        out
+    }
+
+    /// The user names of the session's credentials: every node, the supervising launcher and
+    /// each host's launcher.
+    pub fn users(&self) -> Vec<String> {
+        let mut out: Vec<String> = self.nodes.iter().map(|n| n.role.clone()).collect();
+        out.push(Role::Launcher.as_str().to_string());
+        out.extend(
+            self.hosts()
+                .iter()
+                .map(|h| bus::Process::host_launcher(h).name()),
+        );
+        out
+    }
+
+    /// The credentials `host` needs: its nodes' and its launcher's.
+    pub fn users_on(&self, host: &str) -> Vec<String> {
+        let mut out: Vec<String> = self.nodes_on(host).map(|n| n.role.clone()).collect();
+        if host == self.supervisor_host() {
+            out.push(Role::Launcher.as_str().to_string());
+        } else {
+            out.push(bus::Process::host_launcher(host).name());
+        }
+        out
+    }
+
+    /// Checks every field, naming the bad one.
+    pub fn check(&self) -> Result<()> {
+        if self.version != COMPOSE_VERSION {
+            bail!(
+                "version = {}: this waggle reads compose version {COMPOSE_VERSION}",
+                self.version
+            );
+        }
+        proto::Keys::new(&self.session).with_context(|| format!("session {:?}", self.session))?;
+        let case = self.case()?;
+        crate::launch::run_modality(&case, Some(self.modality))?;
+        self.injected(&case)?;
+        self.check_nodes(&case)?;
+        self.check_router()?;
+        if self.auth {
+            if self.secrets.is_none() {
+                bail!("auth = true needs secrets = DIR (written by `waggle compose`)");
+            }
+        } else if !self
+            .router
+            .listen
+            .iter()
+            .all(|l| bus::is_loopback_endpoint(l))
+        {
+            bail!(
+                "auth = false with a router listening beyond loopback ({}) would open the \
+                 session to the network",
+                self.router.listen.join(", ")
+            );
+        }
+        Ok(())
+    }
+
+    fn check_nodes(&self, case: &Case) -> Result<()> {
+        let expected = self.expected_roles(case.observers);
+        let mut seen = BTreeSet::new();
+        for n in &self.nodes {
+            check_name("host", &n.host)?;
+            if !expected.contains(&n.role) {
+                bail!(
+                    "node {:?} is not a process of this session (a case with {} observers has: {})",
+                    n.role,
+                    case.observers,
+                    expected.join(", ")
+                );
+            }
+            if !seen.insert(n.role.as_str()) {
+                bail!("node {:?} is listed twice", n.role);
+            }
+            if n.binary.is_empty() || n.binary.contains('/') || n.binary.starts_with('.') {
+                bail!(
+                    "node {}: binary {:?} must be a file name in the binary directory",
+                    n.role,
+                    n.binary
+                );
+            }
+        }
+        if let Some(missing) = expected.iter().find(|r| !seen.contains(r.as_str())) {
+            bail!("no node runs {missing}");
+        }
+        for f in self.injected(case)? {
+            ObserverId::new(f.observer().as_str())?;
+        }
+        Ok(())
+    }
+
+    fn check_router(&self) -> Result<()> {
+        check_name("router host", &self.router.host)?;
+        if self.router.listen.is_empty() {
+            bail!("router.listen is empty: the router must listen somewhere");
+        }
+        for e in self.router.listen.iter().chain(&self.router.connect) {
+            endpoint_parts(e)?;
+        }
+        let remote: Vec<String> = self
+            .hosts()
+            .into_iter()
+            .filter(|h| *h != self.router.host)
+            .collect();
+        if remote.is_empty() {
+            return Ok(());
+        }
+        if self.dial_from(&remote[0]).is_empty() {
+            bail!(
+                "hosts {} run nodes but the router (on {}) listens only on {}: give it an \
+                 address they reach, e.g. --router tcp/192.168.1.10:7447",
+                remote.join(", "),
+                self.router.host,
+                self.router.listen.join(", ")
+            );
+        }
+        if let Some(any) = self
+            .router
+            .listen
+            .iter()
+            .find(|l| endpoint_parts(l).is_ok_and(|(_, p)| p == 0))
+        {
+            bail!("router endpoint {any}: port 0 works only when every node runs on one host");
+        }
+        Ok(())
+    }
+
+    /// Replaces port 0 in the router's listeners with a free port of this machine (one-host
+    /// sessions), so its nodes know where to dial.
+    pub fn resolve_free_ports(&mut self) -> Result<()> {
+        for l in &mut self.router.listen {
+            let (address, port) = endpoint_parts(l)?;
+            if port != 0 {
+                continue;
+            }
+            let bound = std::net::TcpListener::bind((address.as_str(), 0))
+                .with_context(|| format!("finding a free port for {l}"))?;
+            let free = bound.local_addr()?.port();
+            let cut = l.rfind(":0").context("endpoint without port")?;
+            *l = format!("{}:{free}{}", &l[..cut], &l[cut + 2..]);
+        }
+        Ok(())
+    }
+
+    /// The secrets directory, resolved against the compose file's directory.
+    pub fn secrets_dir(&self, compose_file: &Path) -> Option<PathBuf> {
+        let dir = self.secrets.as_ref()?;
+        Some(match compose_file.parent() {
+            Some(p) if dir.is_relative() => p.join(dir),
+            _ => dir.clone(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,144 @@
+//! `--place ROLE=HOST`: which host runs which node (`camera-*=b`, `observer-O?=c`,
+//! `router=a`), applied in order so a later placement overrides an earlier one.
+
+use std::str::FromStr;
+
+use anyhow::{Result, bail};
+
+use super::{Compose, check_name};
+
+/// The name that places the router.
+pub const ROUTER: &str = "router";
+
+/// One `PATTERN=HOST` placement.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Placement {
+    /// A process name, with `*` (any run of characters) and `?` (one character).
+    pub pattern: String,
+    pub host: String,
+}
+
+/// A placement that does not parse.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("--place {input:?}: {why}")]
+pub struct PlacementError {
+    pub input: String,
+    pub why: String,
+}
+
+impl FromStr for Placement {
+    type Err = PlacementError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let err = |why: String| PlacementError {
+            input: s.to_string(),
+            why,
+        };
+        let (pattern, host) = s
+            .split_once('=')
+            .ok_or_else(|| err("not ROLE=HOST (e.g. camera-*=b)".into()))?;
+        if pattern.is_empty() {
+            return Err(err("the role pattern is empty".into()));
+        }
+        check_name("host", host).map_err(|e| err(e.to_string()))?;
+        Ok(Self {
+            pattern: pattern.to_string(),
+            host: host.to_string(),
+        })
+    }
+}
+
+/// `name` matches `pattern` (`*` any run of characters, `?` one character).
+pub fn glob_matches(pattern: &str, name: &str) -> bool {
+    let p: Vec<char> = pattern.chars().collect();
+    let n: Vec<char> = name.chars().collect();
+    // The classic two-pointer match with backtracking to the last `*`.
+    let (mut i, mut j) = (0, 0);
+    let mut star: Option<(usize, usize)> = None;
+    while j < n.len() {
+        if i < p.len() && (p[i] == '?' || p[i] == n[j]) {
+            i += 1;
+            j += 1;
+        } else if i < p.len() && p[i] == '*' {
+            star = Some((i, j));
+            i += 1;
+        } else if let Some((si, sj)) = star {
+            i = si + 1;
+            j = sj + 1;
+            star = Some((si, sj + 1));
+        } else {
+            return false;
+        }
+    }
+    p[i..].iter().all(|c| *c == '*')
+}
+
+/// Applies `placements` in order; a pattern that matches nothing is an error naming it.
+pub fn place(compose: &mut Compose, placements: &[Placement]) -> Result<()> {
+    for p in placements {
+        let mut matched = false;
+        for n in compose
+            .nodes
+            .iter_mut()
+            .filter(|n| glob_matches(&p.pattern, &n.role))
+        {
+            n.host = p.host.clone();
+            matched = true;
+        }
+        if glob_matches(&p.pattern, ROUTER) {
+            compose.router.host = p.host.clone();
+            matched = true;
+        }
+        if !matched {
+            let mut names: Vec<&str> = compose.nodes.iter().map(|n| n.role.as_str()).collect();
+            names.push(ROUTER);
+            bail!(
+                "--place {}={}: {:?} matches none of {}",
+                p.pattern,
+                p.host,
+                p.pattern,
+                names.join(", ")
+            );
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn globs_match_whole_names() {
+        for (p, n) in [
+            ("camera-*", "camera-O1"),
+            ("*", "sim"),
+            ("observer-O?", "observer-O3"),
+            ("*-O2", "camera-O2"),
+            ("c*m*a-*", "camera-O10"),
+            ("sim", "sim"),
+        ] {
+            assert!(glob_matches(p, n), "{p} {n}");
+        }
+        for (p, n) in [
+            ("camera-*", "observer-O1"),
+            ("sim", "simulator"),
+            ("observer-O?", "observer-O10"),
+            ("", "sim"),
+            ("*-O2", "camera-O21"),
+        ] {
+            assert!(!glob_matches(p, n), "{p} {n}");
+        }
+    }
+
+    #[test]
+    fn placements_parse_and_bad_ones_name_the_input() {
+        let p: Placement = "camera-*=b".parse().unwrap();
+        assert_eq!(p.pattern, "camera-*");
+        assert_eq!(p.host, "b");
+        for bad in ["camera-*", "=b", "sim=", "sim=a b", "sim=a/b"] {
+            let e = bad.parse::<Placement>().unwrap_err();
+            assert!(e.to_string().contains(bad), "{e}");
+        }
+    }
+}

@@ -1,0 +1,173 @@
+use super::build::{ComposeOptions, compose};
+use super::place::Placement;
+use super::*;
+use crate::launch::fault::KillSpec;
+
+fn options(case: &str, placements: &[&str], router: &[&str]) -> (Case, ComposeOptions) {
+    let case_value = Case::load(case).unwrap();
+    let opts = ComposeOptions {
+        case_name: case.to_string(),
+        case_text: crate::case::case_source(case).unwrap(),
+        session: "s1".into(),
+        modality: Modality::Events,
+        grace_ms: 10_000,
+        extra_faults: ExtraFaults {
+            kill: if case_value.observers >= 2 {
+                vec!["O2@35".parse::<KillSpec>().unwrap()]
+            } else {
+                Vec::new()
+            },
+            ..ExtraFaults::default()
+        },
+        observer_acl: false,
+        auth: true,
+        record: true,
+        record_all_rgb: false,
+        render: proto::RenderPath::Damage,
+        router_listen: router.iter().map(|s| s.to_string()).collect(),
+        router_connect: Vec::new(),
+        placements: placements.iter().map(|p| p.parse().unwrap()).collect(),
+    };
+    (case_value, opts)
+}
+
+fn composed(case: &str, placements: &[&str], router: &[&str]) -> Compose {
+    let (c, o) = options(case, placements, router);
+    let mut out = compose(&c, &o).unwrap();
+    out.secrets = Some("s1.secrets".into());
+    out
+}
+
+#[test]
+fn a_composed_session_round_trips_through_its_file_and_checks() {
+    let c = composed(
+        "nominal-3",
+        &["camera-*=b", "observer-O3=c", "camera-O3=c"],
+        &["tcp/10.1.0.1:7447"],
+    );
+    c.check().unwrap();
+    let text = c.to_toml().unwrap();
+    let back: Compose = toml::from_str(&text).unwrap();
+    assert_eq!(back, c);
+    assert_eq!(c.hosts(), ["b", "c", "local"]);
+    assert_eq!(c.supervisor_host(), "local");
+    let on_b: Vec<&str> = c.nodes_on("b").map(|n| n.role.as_str()).collect();
+    assert_eq!(on_b, ["camera-O1", "camera-O2"]);
+    assert_eq!(c.dial_from("b"), ["tcp/10.1.0.1:7447"]);
+    assert_eq!(c.faults.kill, ["O2@35"]);
+    // The camera of the killed observer stops its stream itself at the dropout time.
+    let cam2 = c.nodes.iter().find(|n| n.role == "camera-O2").unwrap();
+    assert!(
+        cam2.args
+            .windows(2)
+            .any(|w| w == ["--dropout-ns", "35000000000"])
+    );
+    assert!(c.users_on("b").contains(&"launcher-b".to_string()));
+    assert!(c.users_on("local").contains(&"launcher".to_string()));
+    assert_eq!(c.users().len(), 3 + 6 + 1 + 1 + 3);
+}
+
+#[test]
+fn the_router_host_dials_loopback_and_a_free_port_is_resolved() {
+    let mut c = composed("one-observer", &[], &["tcp/0.0.0.0:0"]);
+    c.auth = true;
+    assert_eq!(c.dial_from("local"), ["tcp/127.0.0.1:0"]);
+    let mut one = composed("one-observer", &[], &[]);
+    one.resolve_free_ports().unwrap();
+    let port = one.router.listen[0].rsplit_once(':').unwrap().1;
+    assert_ne!(port.parse::<u16>().unwrap(), 0);
+    assert!(c.resolve_free_ports().is_ok());
+}
+
+fn check_err(c: &Compose) -> String {
+    format!("{:#}", c.check().unwrap_err())
+}
+
+#[test]
+fn bad_compose_files_are_refused_naming_what_is_wrong() {
+    let good = composed("two-observers", &["observer-*=b"], &["tcp/10.1.0.1:7447"]);
+    good.check().unwrap();
+
+    let mut c = good.clone();
+    c.nodes.retain(|n| n.role != "camera-O2");
+    assert!(check_err(&c).contains("camera-O2"), "{}", check_err(&c));
+
+    let mut c = good.clone();
+    c.nodes.push(c.nodes[0].clone());
+    assert!(check_err(&c).contains("twice"));
+
+    let mut c = good.clone();
+    c.nodes[0].role = "camera-O7".into();
+    assert!(check_err(&c).contains("camera-O7"));
+
+    let mut c = good.clone();
+    c.nodes[0].binary = "../../bin/sh".into();
+    assert!(check_err(&c).contains("binary"));
+
+    let mut c = good.clone();
+    c.nodes[0].host = "a b".into();
+    assert!(check_err(&c).contains("host"));
+
+    let mut c = good.clone();
+    c.router.listen = vec!["tcp/127.0.0.1:7447".into()];
+    assert!(check_err(&c).contains("reach"), "{}", check_err(&c));
+
+    let mut c = good.clone();
+    c.router.listen = vec!["tcp/10.1.0.1:0".into()];
+    assert!(check_err(&c).contains("port 0"));
+
+    let mut c = good.clone();
+    c.router.listen = vec!["nonsense".into()];
+    assert!(check_err(&c).contains("nonsense"));
+
+    let mut c = composed("two-observers", &[], &["tcp/10.1.0.1:7447"]);
+    c.auth = false;
+    assert!(check_err(&c).contains("auth = false"));
+
+    let mut c = good.clone();
+    c.secrets = None;
+    assert!(check_err(&c).contains("secrets"));
+
+    let mut c = good.clone();
+    c.faults.kill = vec!["O9@3".into()];
+    assert!(check_err(&c).contains("O9"), "{}", check_err(&c));
+
+    let mut c = good.clone();
+    c.version = 2;
+    assert!(check_err(&c).contains("version"));
+
+    let mut c = good.clone();
+    c.case = "name = 3".into();
+    assert!(check_err(&c).contains("case"));
+
+    let mut c = good.clone();
+    c.session = "a/b".into();
+    assert!(check_err(&c).contains("a/b"));
+}
+
+#[test]
+fn unknown_keys_are_rejected() {
+    let good = composed("one-observer", &[], &[]).to_toml().unwrap();
+    for (from, to) in [
+        ("version = 1", "version = 1\ncolour = \"blue\""),
+        ("[router]", "[router]\nport = 1"),
+        ("[[node]]", "[[node]]\nrestart = true"),
+    ] {
+        let bad = good.replacen(from, to, 1);
+        let e = toml::from_str::<Compose>(&bad).unwrap_err().to_string();
+        assert!(e.contains("unknown field"), "{e}");
+    }
+}
+
+#[test]
+fn a_placement_that_matches_nothing_is_an_error() {
+    let (c, mut o) = options("one-observer", &[], &[]);
+    o.placements = vec!["camera-O2=b".parse::<Placement>().unwrap()];
+    o.extra_faults = ExtraFaults::default();
+    let e = compose(&c, &o).unwrap_err().to_string();
+    assert!(e.contains("camera-O2") && e.contains("camera-O1"), "{e}");
+    o.placements = vec!["router=r".parse::<Placement>().unwrap()];
+    let placed = compose(&c, &o).unwrap();
+    assert_eq!(placed.router.host, "r");
+    assert_eq!(placed.hosts(), ["local", "r"]);
+}

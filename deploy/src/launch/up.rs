@@ -1,0 +1,306 @@
+//! `waggle up FILE [--host NAME]`: starts and supervises the nodes a compose file places on
+//! one host (or on every host), with that host's part of the session:
+//! - the router's host hosts the session's Zenoh router in this process (per-process users,
+//!   per-role access list; open only on loopback);
+//! - the simulator's host supervises the session — handshake, faults, progress, the summary —
+//!   as a client of the router when the router runs elsewhere;
+//! - every other host's launcher is a client that follows only the clock (to stop a camera at
+//!   its dropout time) and the mission report, and writes its own logs and `host.json`.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use bus::{Bus, Credentials, Endpoints, NodeArgs, SessionSecrets, handshake};
+use proto::{Key, ObserverId, RenderPath, Role};
+
+use super::process::{Proc, Spawner};
+use super::summarise::{RunInfo, summarise};
+use super::supervise::{Duty, Supervisor};
+use super::{RunDone, RunPlace, stop_all, with_logs};
+use crate::compose::Compose;
+use crate::run_dir::{CASE_FILE, ProcessFigures, RECORDING_FILE, RunFiles};
+
+/// A host's record of its own nodes (`DIR/host.json` on a host that does not supervise).
+pub const HOST_FILE: &str = "host.json";
+
+/// How to bring a compose file up.
+#[derive(Debug, Clone, Default)]
+pub struct UpOptions {
+    /// Run only the nodes placed on this host (default: every node, on this machine).
+    pub host: Option<String>,
+    /// The run directory (default: a temporary directory).
+    pub out: Option<PathBuf>,
+    /// Directory holding the node binaries (default: the one `waggle` is in).
+    pub bin_dir: Option<PathBuf>,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+/// A host's own record.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct HostRecord {
+    pub session: String,
+    pub host: String,
+    pub processes: BTreeMap<String, ProcessFigures>,
+    pub faults: Vec<String>,
+    pub report_seen: bool,
+    pub interrupted: bool,
+}
+
+/// What `up` did: the summary when this host supervised the session.
+#[derive(Debug, Clone)]
+pub enum UpDone {
+    Supervised(Box<RunDone>),
+    Host {
+        record: HostRecord,
+        out_dir: PathBuf,
+    },
+}
+
+/// This invocation's share of the session.
+struct Share {
+    /// The hosts whose nodes it starts.
+    hosts: Vec<String>,
+    routing: bool,
+    supervising: bool,
+    /// The process name it has on the bus.
+    me: handshake::Process,
+}
+
+impl Share {
+    fn of(compose: &Compose, host: Option<&str>) -> Result<Self> {
+        let all = compose.hosts();
+        let hosts = match host {
+            None => all,
+            Some(h) if all.iter().any(|a| a == h) => vec![h.to_string()],
+            Some(h) => bail!(
+                "host {h:?} is not in the compose file (it places nodes on: {})",
+                all.join(", ")
+            ),
+        };
+        let routing = hosts.contains(&compose.router.host);
+        let supervising = hosts.iter().any(|h| h == compose.supervisor_host());
+        let me = if supervising {
+            handshake::Process::singleton(Role::Launcher)
+        } else {
+            handshake::Process::host_launcher(&hosts[0])
+        };
+        Ok(Self {
+            hosts,
+            routing,
+            supervising,
+            me,
+        })
+    }
+}
+
+/// Starts and supervises this host's share of `compose`. `secrets` are the session's
+/// credentials (required when `compose.auth`): those of this host's nodes and launcher, and
+/// the router's dictionary on the router's host.
+pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions) -> Result<UpDone> {
+    let started = Instant::now();
+    let share = Share::of(compose, opts.host.as_deref())?;
+    let mut compose = compose.clone();
+    if share.hosts.len() == compose.hosts().len() {
+        compose.resolve_free_ports()?;
+    }
+    let case = compose.case()?;
+    let injected = compose.injected(&case)?;
+    if compose.auth && secrets.is_none() {
+        bail!(
+            "session {} is authenticated but no credentials were given",
+            compose.session
+        );
+    }
+    let place = RunPlace::new(
+        &compose.session,
+        opts.out.as_deref(),
+        opts.bin_dir.as_deref(),
+    )?;
+    let observers: Vec<ObserverId> = (0..case.observers).map(ObserverId::from_index).collect();
+    // Every node started here dials like a node on the router's host when this invocation
+    // runs the router (one machine), else like one on its own host.
+    let dial_host = if share.routing {
+        compose.router.host.clone()
+    } else {
+        share.hosts[0].clone()
+    };
+    let dial = compose.dial_from(&dial_host);
+    let mut bus = open_bus(&compose, &share, secrets, &dial)?;
+    let keys = bus.keys().clone();
+    let watched: Vec<Key> = if share.supervising {
+        super::gather::subscriptions(&observers)
+    } else {
+        vec![Key::Clock, Key::SchedReport]
+    };
+    for key in watched {
+        bus.subscribe(&keys.of(&key))?;
+    }
+    if share.supervising {
+        bus.subscribe(&keys.rejects_any())?;
+    }
+    handshake::announce(&mut bus, &share.me)?;
+
+    let spawner = Spawner {
+        bin_dir: &place.bin_dir,
+        log_dir: &place.log_dir,
+        node: NodeArgs {
+            session: compose.session.clone(),
+            observers: case.observers,
+            standalone: false,
+            recorder: compose.records(),
+            startup_timeout_s: 120.0,
+            deny: Vec::new(),
+            client: true,
+            credentials: None,
+            endpoints: Endpoints {
+                connect: dial,
+                listen: Vec::new(),
+            },
+        },
+        secrets,
+    };
+    let mut procs: Vec<Proc> = Vec::new();
+    let spawned = spawn_share(&compose, &share, &spawner, &place.out_dir, &mut procs);
+    let stop = bus::on_stop_signal();
+    let result = spawned.and_then(|()| {
+        Supervisor {
+            bus: &mut bus,
+            procs: &mut procs,
+            me: &share.me,
+            case: &case,
+            observers: &observers,
+            injected: &injected,
+            stop: &stop,
+            quiet: opts.quiet,
+            recorder: compose.records(),
+            duty: if share.supervising {
+                Duty::Supervise
+            } else {
+                Duty::Host
+            },
+        }
+        .run()
+    });
+    stop_all(&mut procs);
+    let supervised = result.map_err(|e| with_logs(e, &place.log_dir, &procs))?;
+    let _ = bus.close();
+
+    if !share.supervising {
+        let record = HostRecord {
+            session: compose.session.clone(),
+            host: share.hosts.join(","),
+            processes: procs
+                .iter()
+                .map(|p| (p.name.clone(), p.figures()))
+                .collect(),
+            faults: supervised.fault_log,
+            report_seen: supervised.gathered.report.is_some(),
+            interrupted: supervised.interrupted,
+        };
+        let file = place.out_dir.join(HOST_FILE);
+        std::fs::write(&file, serde_json::to_string_pretty(&record)?)
+            .with_context(|| format!("writing {}", file.display()))?;
+        return Ok(UpDone::Host {
+            record,
+            out_dir: place.out_dir.clone(),
+        });
+    }
+    let info = RunInfo {
+        case: &case,
+        modality: compose.modality,
+        render: render_path(&compose),
+        session: &compose.session,
+        started,
+        injected: &injected,
+    };
+    let out = summarise(&info, supervised, &procs);
+    RunFiles::write(&place.out_dir, &out.summary, &out.observers, &out.session)?;
+    Ok(UpDone::Supervised(Box::new(RunDone {
+        summary: out.summary,
+        out_dir: place.out_dir.clone(),
+    })))
+}
+
+/// How the cameras render (their `--render` argument; damage when none says).
+fn render_path(compose: &Compose) -> RenderPath {
+    compose
+        .nodes
+        .iter()
+        .filter(|n| n.role.starts_with("camera-"))
+        .find_map(|n| {
+            let i = n.args.iter().position(|a| a == "--render")?;
+            n.args.get(i + 1)?.parse().ok()
+        })
+        .unwrap_or_default()
+}
+
+/// The launcher's own session: the router on the router's host, else a client of it.
+fn open_bus(
+    compose: &Compose,
+    share: &Share,
+    secrets: Option<&SessionSecrets>,
+    dial: &[String],
+) -> Result<Bus> {
+    let session = &compose.session;
+    if share.routing {
+        return super::router::open(compose, secrets);
+    }
+    let endpoints = Endpoints {
+        connect: dial.to_vec(),
+        listen: Vec::new(),
+    };
+    let config = match secrets {
+        Some(s) => {
+            let user = share.me.name();
+            let file = s
+                .file_of(&user)
+                .with_context(|| format!("no credentials for {user}"))?;
+            bus::client_config(&endpoints, &Credentials::read(file)?)?
+        }
+        None => bus::open_client_config(&endpoints)?,
+    };
+    Bus::open_config(session, config)
+        .with_context(|| format!("connecting to the session's router at {}", dial.join(", ")))
+}
+
+/// Starts the nodes of `share`; `procs` holds every child started, even when one fails.
+fn spawn_share(
+    compose: &Compose,
+    share: &Share,
+    spawner: &Spawner<'_>,
+    out_dir: &Path,
+    procs: &mut Vec<Proc>,
+) -> Result<()> {
+    for node in compose
+        .nodes
+        .iter()
+        .filter(|n| share.hosts.contains(&n.host))
+    {
+        let mut args = node.args.clone();
+        let recorder = node.role == Role::Recorder.as_str();
+        if recorder {
+            args.extend(recorder_paths(&compose.case, out_dir)?);
+        }
+        let mut p = spawner.spawn(&node.role, &node.binary, &args)?;
+        p.graceful = recorder;
+        procs.push(p);
+    }
+    Ok(())
+}
+
+/// The recorder's paths in the run directory; writes the case text to `out_dir/case.toml` so
+/// the recording holds the case and its expected outcome.
+fn recorder_paths(case_text: &str, out_dir: &Path) -> Result<Vec<String>> {
+    let case_file = out_dir.join(CASE_FILE);
+    std::fs::write(&case_file, case_text)
+        .with_context(|| format!("writing {}", case_file.display()))?;
+    Ok(vec![
+        "--out".into(),
+        out_dir.join(RECORDING_FILE).display().to_string(),
+        "--case-file".into(),
+        case_file.display().to_string(),
+    ])
+}

@@ -1,0 +1,194 @@
+//! `waggle compose` + `waggle up` on one host is `waggle run`: the same nodes with the same
+//! arguments give the golden run's `observers.json` and sensor digests (which `frozen.rs` checks
+//! `waggle run` against); bad compose files, hosts and router invocations are refused with an
+//! error naming what is wrong, before anything starts.
+
+use std::path::PathBuf;
+use std::process::Stdio;
+
+use deploy::run_dir::RunSummary;
+use waggle_tests::{waggle, waggle_with_nodes};
+
+mod golden_runs;
+use golden_runs::{golden_entry, sha256_hex};
+
+fn fresh_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("waggle-compose-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create the test directory");
+    dir
+}
+
+fn compose(dir: &std::path::Path, args: &[&str]) -> PathBuf {
+    let file = dir.join("session.toml");
+    let out = waggle()
+        .arg("compose")
+        .args(args)
+        .arg("--out")
+        .arg(&file)
+        .output()
+        .expect("run waggle compose");
+    assert!(
+        out.status.success(),
+        "waggle compose {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    file
+}
+
+#[test]
+fn compose_then_up_on_one_host_equals_run() {
+    let dir = fresh_dir("equal");
+    let file = compose(&dir, &["only-a", "--modality", "rgb"]);
+    let text = std::fs::read_to_string(&file).unwrap();
+    assert!(text.contains("[[node]]") && text.contains("role = \"camera-O3\""));
+    let secrets = dir.join("session.secrets");
+    let mode = std::os::unix::fs::PermissionsExt::mode(
+        &std::fs::metadata(&secrets).unwrap().permissions(),
+    );
+    assert_eq!(mode & 0o777, 0o700, "the credentials directory is private");
+
+    let run = dir.join("run");
+    let out = waggle_with_nodes()
+        .args(["up", "--quiet", "--out"])
+        .arg(&run)
+        .arg(&file)
+        .stdin(Stdio::null())
+        .output()
+        .expect("run waggle up");
+    assert!(
+        out.status.success(),
+        "waggle up: {}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let want = golden_entry("only-a", "rgb");
+    let observers = std::fs::read(run.join("observers.json")).unwrap();
+    assert_eq!(
+        sha256_hex(&observers),
+        want["observers_sha256"].as_str().unwrap(),
+        "compose + up differs from waggle run's golden observers.json ({})",
+        run.display()
+    );
+    let summary: RunSummary =
+        serde_json::from_slice(&std::fs::read(run.join("summary.json")).unwrap()).unwrap();
+    for (o, digest) in want["sensor_digests"].as_table().unwrap() {
+        assert_eq!(
+            summary.sensor_digests.get(o).map(String::as_str),
+            digest.as_str(),
+            "{o}"
+        );
+    }
+    assert!(
+        run.join("session.mcap").is_file(),
+        "the recorder wrote the session"
+    );
+    // Every process of the one host ran under the session's credentials, then they were kept.
+    assert!(secrets.join("dictionary").is_file());
+}
+
+/// Runs `waggle ARGS` and returns its stderr, asserting it failed.
+fn refused(args: &[&str]) -> String {
+    let out = waggle().args(args).output().expect("run waggle");
+    assert!(!out.status.success(), "waggle {args:?} succeeded");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+#[test]
+fn bad_sessions_hosts_and_routers_are_refused_naming_the_input() {
+    let dir = fresh_dir("refused");
+    let file_s = dir.join("s.toml");
+    let file = file_s.to_str().unwrap();
+    let e = refused(&[
+        "compose",
+        "one-observer",
+        "--place",
+        "camera-O7=b",
+        "--out",
+        file,
+    ]);
+    assert!(e.contains("camera-O7"), "{e}");
+    let e = refused(&[
+        "compose",
+        "one-observer",
+        "--place",
+        "camera-*",
+        "--out",
+        file,
+    ]);
+    assert!(e.contains("ROLE=HOST"), "{e}");
+    // Two hosts need a router address the other host can dial.
+    let e = refused(&[
+        "compose",
+        "one-observer",
+        "--place",
+        "camera-*=b",
+        "--out",
+        file,
+    ]);
+    assert!(e.contains("reach"), "{e}");
+    let e = refused(&[
+        "compose",
+        "one-observer",
+        "--no-auth",
+        "--router",
+        "tcp/192.0.2.1:7447",
+        "--place",
+        "camera-*=b",
+        "--out",
+        file,
+    ]);
+    assert!(e.contains("auth = false"), "{e}");
+
+    let good = compose(
+        &dir,
+        &[
+            "one-observer",
+            "--place",
+            "camera-*=b",
+            "--router",
+            "tcp/192.0.2.1:7447",
+        ],
+    );
+    let good_s = good.to_str().unwrap();
+    let e = refused(&["up", good_s, "--host", "z"]);
+    assert!(e.contains("\"z\"") && e.contains("local"), "{e}");
+    // An unknown key, then a forged node.
+    let text = std::fs::read_to_string(&good).unwrap();
+    std::fs::write(
+        &good,
+        text.replacen("version = 1", "version = 1\ncolour = 2", 1),
+    )
+    .unwrap();
+    let e = refused(&["up", good_s]);
+    assert!(e.contains("colour"), "{e}");
+    std::fs::write(
+        &good,
+        text.replacen("role = \"performer\"", "role = \"intruder\"", 1),
+    )
+    .unwrap();
+    let e = refused(&["up", good_s]);
+    assert!(e.contains("intruder"), "{e}");
+    // Credentials readable by others are refused, like ssh keys.
+    std::fs::write(&good, &text).unwrap();
+    let secrets = dir.join("session.secrets");
+    std::fs::set_permissions(
+        &secrets,
+        std::os::unix::fs::PermissionsExt::from_mode(0o755),
+    )
+    .unwrap();
+    let e = refused(&["up", good_s, "--host", "b"]);
+    assert!(e.contains("chmod"), "{e}");
+
+    let e = refused(&["router", "--listen", "tcp/127.0.0.1:0"]);
+    assert!(e.contains("--compose"), "{e}");
+    let e = refused(&[
+        "router",
+        "--no-auth",
+        "--session",
+        "s",
+        "--listen",
+        "tcp/0.0.0.0:7447",
+    ]);
+    assert!(e.contains("open the session to the network"), "{e}");
+}

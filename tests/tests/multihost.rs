@@ -1,0 +1,387 @@
+//! A session spread over hosts: Linux network namespaces on this machine stand for three hosts
+//! (`a` runs the router, the simulator, scheduler, performer and recorder; `b` the cameras and
+//! observers of O1 and O3; `c` those of O2), joined by veth pairs with addresses that exist only
+//! inside the namespaces the test creates (and removes, even when it fails). Each host runs
+//! `waggle up FILE --host NAME` in its namespace; the hosts start in the "wrong" order (b and c
+//! before the router's host a), so the clients' dialling retry is exercised every time.
+//!
+//! Faults come from outside the program, as an operator would make them:
+//! - c's uplink throttled with a `tc … tbf` token bucket and b's link taken down for 3 s, both
+//!   within the Zenoh lease (10 s) and the observers' grace (10 s): the lockstep stalls and
+//!   resumes, and the session is byte-identical to the one-host golden run (`observers.json`
+//!   and every camera's sensor digest);
+//! - b's link down for 20 s, beyond the lease: the router drops b's sessions, everyone else sees
+//!   b's liveliness tokens vanish and goes on without it, O1 and O3 decode nothing, the
+//!   summary fails naming them, and every host's launcher ends — no hang.
+//!
+//! Root is required (`ip netns`); every wait is bounded.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use deploy::run_dir::RunSummary;
+use waggle_tests::{bin, waggle_with_nodes};
+
+mod golden_runs;
+use golden_runs::{golden_entry, sha256_hex};
+
+/// One multi-host session at a time: their faults are timed in wall-clock seconds.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+/// How long one host's `waggle up` may take before the test fails (and kills it).
+const HOST_BOUND: Duration = Duration::from_secs(300);
+
+fn ip(args: &[&str]) {
+    let out = Command::new("ip")
+        .args(args)
+        .output()
+        .expect("run ip (iproute2; deploy/setup.sh installs it)");
+    assert!(
+        out.status.success(),
+        "ip {}: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Three namespaces `a`, `b`, `c` joined through `a`: a–b on 10.231.1.0/24, a–c on
+/// 10.231.2.0/24; b and c route everything through a. Removed when dropped.
+struct Hosts {
+    prefix: String,
+}
+
+impl Hosts {
+    fn new(tag: &str) -> Self {
+        let prefix = format!("wgl{}{tag}", std::process::id());
+        let hosts = Self { prefix };
+        for h in ["a", "b", "c"] {
+            let _ = Command::new("ip")
+                .args(["netns", "del", &hosts.ns(h)])
+                .output();
+            ip(&["netns", "add", &hosts.ns(h)]);
+            ip(&["-n", &hosts.ns(h), "link", "set", "lo", "up"]);
+        }
+        let (a, b, c) = (hosts.ns("a"), hosts.ns("b"), hosts.ns("c"));
+        ip(&[
+            "-n", &a, "link", "add", "eb", "type", "veth", "peer", "name", "ea", "netns", &b,
+        ]);
+        ip(&[
+            "-n", &a, "link", "add", "ec", "type", "veth", "peer", "name", "ea", "netns", &c,
+        ]);
+        for (ns, dev, addr) in [
+            (&a, "eb", "10.231.1.1/24"),
+            (&a, "ec", "10.231.2.1/24"),
+            (&b, "ea", "10.231.1.2/24"),
+            (&c, "ea", "10.231.2.2/24"),
+        ] {
+            ip(&["-n", ns, "addr", "add", addr, "dev", dev]);
+            ip(&["-n", ns, "link", "set", dev, "up"]);
+        }
+        ip(&["-n", &b, "route", "add", "default", "via", "10.231.1.1"]);
+        ip(&["-n", &c, "route", "add", "default", "via", "10.231.2.1"]);
+        hosts
+    }
+
+    fn ns(&self, host: &str) -> String {
+        format!("{}-{host}", self.prefix)
+    }
+
+    /// `waggle up FILE --host HOST --out DIR` inside the host's namespace.
+    fn up(&self, host: &str, file: &Path, out: &Path) -> Child {
+        Command::new("ip")
+            .args(["netns", "exec", &self.ns(host)])
+            .arg(bin("waggle"))
+            .args(["up", "--quiet", "--host", host, "--out"])
+            .arg(out)
+            .arg(file)
+            .env("RUST_BACKTRACE", "0")
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start waggle up in a namespace")
+    }
+
+    /// Host `host`'s link (its one veth end): down or up.
+    fn link(&self, host: &str, up: bool) {
+        ip(&[
+            "-n",
+            &self.ns(host),
+            "link",
+            "set",
+            "ea",
+            if up { "up" } else { "down" },
+        ]);
+    }
+
+    /// `tc` inside host `host`'s namespace.
+    fn tc(&self, host: &str, args: &[&str]) -> String {
+        let out = Command::new("ip")
+            .args(["netns", "exec", &self.ns(host), "tc"])
+            .args(args)
+            .output()
+            .expect("run tc");
+        assert!(
+            out.status.success(),
+            "tc {}: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    }
+}
+
+impl Drop for Hosts {
+    fn drop(&mut self) {
+        for h in ["a", "b", "c"] {
+            let _ = Command::new("ip")
+                .args(["netns", "del", &self.ns(h)])
+                .output();
+        }
+    }
+}
+
+/// A finished `waggle up`.
+struct Ended {
+    success: bool,
+    stdout: String,
+    stderr: String,
+}
+
+/// Waits for `child` up to `deadline`, killing it (and failing the test) past it.
+fn finish(host: &str, mut child: Child, deadline: Instant) -> Ended {
+    loop {
+        if let Some(status) = child.try_wait().expect("poll waggle up") {
+            let out = child.wait_with_output().expect("read its output");
+            return Ended {
+                success: status.success(),
+                stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+                stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+            };
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("waggle up --host {host} still running after {HOST_BOUND:?}: a hang");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// `waggle compose only-a --modality events` placed on a, b, c with the router on a.
+fn compose(dir: &Path) -> PathBuf {
+    let file = dir.join("session.toml");
+    let out = waggle_with_nodes()
+        .args(["compose", "only-a", "--modality", "events"])
+        .args(["--place", "*=a", "--place", "*-O1=b", "--place", "*-O3=b"])
+        .args([
+            "--place",
+            "*-O2=c",
+            "--router",
+            "tcp/10.231.1.1:7447",
+            "--out",
+        ])
+        .arg(&file)
+        .output()
+        .expect("run waggle compose");
+    assert!(
+        out.status.success(),
+        "waggle compose: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    file
+}
+
+/// `sensor-digest O1 …` lines the cameras of a host printed.
+fn camera_digests(host_dir: &Path) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(host_dir.join("logs")).expect("host logs") {
+        let path = entry.expect("log entry").path();
+        if path.extension().is_some_and(|e| e == "out") {
+            let text = std::fs::read_to_string(&path).expect("read a node's stdout");
+            for line in text.lines() {
+                if let Some(rest) = line.strip_prefix("sensor-digest ")
+                    && let Some((o, digest)) = rest.split_once(' ')
+                {
+                    out.push((o.to_string(), digest.to_string()));
+                }
+            }
+        }
+    }
+    out
+}
+
+fn fresh_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("waggle-multihost-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create the test directory");
+    dir
+}
+
+/// Runs the session on the three hosts, calling `faults(hosts, started)` while it runs, and
+/// returns each host's end and run directory.
+fn run_session(
+    name: &str,
+    faults: impl FnOnce(&Hosts, Instant),
+) -> (Hosts, Vec<(String, Ended, PathBuf)>) {
+    let dir = fresh_dir(name);
+    let file = compose(&dir);
+    let hosts = Hosts::new(&name[..1]);
+    let started = Instant::now();
+    let mut running = Vec::new();
+    // The router's host last: the other hosts' clients keep dialling until it is up.
+    for h in ["b", "c", "a"] {
+        let out = dir.join(format!("host-{h}"));
+        running.push((h.to_string(), hosts.up(h, &file, &out), out));
+        if h != "a" {
+            std::thread::sleep(Duration::from_secs(1));
+        }
+    }
+    faults(&hosts, started);
+    let deadline = started + HOST_BOUND;
+    let ended = running
+        .into_iter()
+        .map(|(h, child, out)| {
+            let e = finish(&h, child, deadline);
+            (h, e, out)
+        })
+        .collect();
+    (hosts, ended)
+}
+
+fn summary(host_dir: &Path) -> RunSummary {
+    let path = host_dir.join("summary.json");
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("{}: {e} (the simulator's host writes it)", path.display()));
+    serde_json::from_str(&text).expect("summary.json parses")
+}
+
+#[test]
+fn a_throttled_uplink_and_a_short_cut_stall_and_resume_byte_identically() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let mut tbf_stats = String::new();
+    let mut cut_ended = Duration::ZERO;
+    let (_hosts, ended) = run_session("stall", |hosts, started| {
+        let at = |s: u64| {
+            let t = started + Duration::from_secs(s);
+            std::thread::sleep(t.saturating_duration_since(Instant::now()));
+        };
+        at(8);
+        hosts.tc(
+            "c",
+            &[
+                "qdisc", "add", "dev", "ea", "root", "tbf", "rate", "4mbit", "burst", "32kbit",
+                "latency", "400ms",
+            ],
+        );
+        at(12);
+        hosts.link("b", false);
+        at(15);
+        hosts.link("b", true);
+        cut_ended = started.elapsed();
+        at(20);
+        tbf_stats = hosts.tc("c", &["-s", "qdisc", "show", "dev", "ea"]);
+        hosts.tc("c", &["qdisc", "del", "dev", "ea", "root"]);
+    });
+    for (h, e, _) in &ended {
+        assert!(e.success, "host {h} failed:\n{}\n{}", e.stdout, e.stderr);
+    }
+    // The throttle bit: packets waited for tokens.
+    let overlimits: u64 = tbf_stats
+        .split_whitespace()
+        .skip_while(|w| *w != "overlimits")
+        .nth(1)
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no overlimits in tc's statistics: {tbf_stats}"));
+    assert!(
+        overlimits > 0,
+        "the token bucket never held a packet back: {tbf_stats}"
+    );
+
+    let want = golden_entry("only-a", "events");
+    let a = &ended.iter().find(|(h, ..)| h == "a").expect("host a").2;
+    let s = summary(a);
+    assert!(s.mission.pass, "{:?}", s.mission.reasons);
+    // The cut fell inside the mission: the session was still running when the link came back.
+    assert!(
+        s.mission.wall_seconds > cut_ended.as_secs_f64() - 2.0,
+        "the mission ended ({:.1} s) before the cut did ({:.1} s)",
+        s.mission.wall_seconds,
+        cut_ended.as_secs_f64()
+    );
+    let observers = std::fs::read(a.join("observers.json")).expect("observers.json");
+    assert_eq!(
+        sha256_hex(&observers),
+        want["observers_sha256"].as_str().unwrap(),
+        "observers.json differs from the one-host golden run ({})",
+        a.display()
+    );
+    let mut digests: Vec<(String, String)> = ended
+        .iter()
+        .filter(|(h, ..)| h != "a")
+        .flat_map(|(_, _, dir)| camera_digests(dir))
+        .collect();
+    digests.sort();
+    let golden: Vec<(String, String)> = want["sensor_digests"]
+        .as_table()
+        .unwrap()
+        .iter()
+        .map(|(o, d)| (o.clone(), d.as_str().unwrap().to_string()))
+        .collect();
+    assert_eq!(
+        digests, golden,
+        "a camera's stream differs from the golden run"
+    );
+    for (h, _, dir) in ended.iter().filter(|(h, ..)| h != "a") {
+        let record: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join("host.json")).expect("host.json"))
+                .expect("host.json parses");
+        assert_eq!(record["report_seen"], true, "host {h}: {record}");
+    }
+}
+
+#[test]
+fn a_cut_beyond_the_lease_drops_the_host_and_the_run_fails_naming_its_observers() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let (_hosts, ended) = run_session("lease", |hosts, started| {
+        let at = |s: u64| {
+            let t = started + Duration::from_secs(s);
+            std::thread::sleep(t.saturating_duration_since(Instant::now()));
+        };
+        at(10);
+        hosts.link("b", false);
+        at(30);
+        hosts.link("b", true);
+    });
+    let get = |h: &str| ended.iter().find(|(x, ..)| x == h).expect("host");
+    let (_, a_end, a_dir) = get("a");
+    assert!(
+        !a_end.success,
+        "the supervising host passed a run that lost a host"
+    );
+    let s = summary(a_dir);
+    assert!(!s.mission.pass);
+    assert!(
+        s.mission
+            .reasons
+            .iter()
+            .any(|r| r.contains("complete messages")),
+        "{:?}",
+        s.mission.reasons
+    );
+    // The observers b carried decoded nothing; c's went on undisturbed.
+    assert_eq!(s.mission.observers["O1"].complete_messages, 0);
+    assert_eq!(s.mission.observers["O3"].complete_messages, 0);
+    assert_eq!(s.mission.observers["O2"].complete_messages, 1);
+    let (_, b_end, _) = get("b");
+    assert!(!b_end.success);
+    assert!(
+        b_end.stderr.contains("without a mission report"),
+        "host b: {}",
+        b_end.stderr
+    );
+    let (_, c_end, _) = get("c");
+    assert!(c_end.success, "host c: {}", c_end.stderr);
+}
