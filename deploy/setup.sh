@@ -22,8 +22,9 @@ say() { printf 'setup: %s\n' "$*" >&2; }
 die() { printf 'setup: error: %s\n' "$*" >&2; exit 1; }
 
 # --- Debian packages ------------------------------------------------------------------------
-# iproute2: `ip netns` and `tc` for the multi-host tests (network namespaces as hosts).
-apt_packages=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgbm1 unzip iproute2)
+# iproute2: `ip netns` and `tc` for the multi-host tests (network namespaces as hosts);
+# python3-venv: the official Python mcap reader the recording tests use (tests/js/.venv).
+apt_packages=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgbm1 unzip iproute2 python3-venv)
 missing=()
 for p in "${apt_packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -97,6 +98,44 @@ Inertial parameters match MuJoCo Menagerie's bitcraze_crazyflie_2 model.
 LIC
   rm -rf "$tp/.unpack-drone"
   touch "$drone_stamp"
+fi
+
+# --- test clients (tests/js) --------------------------------------------------------------------
+# The integration tests check the recorder's output with Foxglove's own libraries: Node clients
+# (live WebSocket view, MCAP validation against the official schemas) and the official Python mcap
+# reader. Both land inside tests/js (git-ignored node_modules/ and .venv/).
+js="$root/tests/js"
+MCAP_PY_VERSION="1.6.0"
+ZSTANDARD_VERSION="0.25.0"
+LZ4_VERSION="4.4.5" # mcap's other hard dependency, pinned too so the venv is reproducible
+
+command -v node >/dev/null || die "node (Node.js >= 20) is needed for the tests in tests/js: apt-get install nodejs npm"
+command -v npm >/dev/null || die "npm is needed to install tests/js: apt-get install npm"
+# npm ci rewrites node_modules/.package-lock.json, so it is newer than the lock file after a good install.
+if [ ! -f "$js/node_modules/.package-lock.json" ] || [ "$js/node_modules/.package-lock.json" -ot "$js/package-lock.json" ]; then
+  say "installing Node test clients (npm ci in tests/js)"
+  (cd "$js" && npm ci --no-audit --no-fund --loglevel=error >&2) || die "npm ci failed in $js"
+fi
+
+venv="$js/.venv"
+venv_ok() {
+  "$venv/bin/python" - "$MCAP_PY_VERSION" "$ZSTANDARD_VERSION" "$LZ4_VERSION" <<'PY' 2>/dev/null
+import sys
+from importlib.metadata import version
+import mcap.reader, zstandard, lz4.frame  # what read_mcap.py needs for our zstd (and lz4) chunks
+sys.exit([version("mcap"), version("zstandard"), version("lz4")] != sys.argv[1:])
+PY
+}
+if ! venv_ok; then
+  say "installing Python test reader (mcap $MCAP_PY_VERSION) into tests/js/.venv"
+  command -v python3 >/dev/null || die "python3 is needed for tests/js/.venv"
+  # A venv whose interpreter is gone (e.g. python upgraded) cannot be repaired in place.
+  "$venv/bin/python" -c '' 2>/dev/null || rm -rf "$venv"
+  [ -x "$venv/bin/python" ] || python3 -m venv "$venv" || die "could not create $venv (Debian: apt-get install python3-venv)"
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
+    "mcap==$MCAP_PY_VERSION" "zstandard==$ZSTANDARD_VERSION" "lz4==$LZ4_VERSION" \
+    || die "could not install mcap/zstandard/lz4 into $venv from PyPI"
+  venv_ok || die "$venv still lacks mcap $MCAP_PY_VERSION / zstandard $ZSTANDARD_VERSION / lz4 $LZ4_VERSION"
 fi
 
 say "ready: MuJoCo $MUJOCO_VERSION and Crazyflie meshes in $tp"

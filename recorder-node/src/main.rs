@@ -5,7 +5,10 @@
 //! every node the clock starts only once it is subscribed and it records from tick 0. It closes
 //! a chunk and flushes the file every `--flush-ms` of wall time, so a kill loses at most that
 //! much; it finishes the file (summary and footer) after `MissionEnd`, on SIGINT/SIGTERM, or
-//! when the simulator and the scheduler are both gone.
+//! when the simulator and the scheduler are both gone. With `--live ADDR:PORT` it also serves
+//! every view channel over a Foxglove WebSocket while it records ([`live`]).
+
+mod live;
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -56,6 +59,10 @@ struct Args {
     /// Close the current chunk and flush the file at least this often, ms of wall time.
     #[arg(long, default_value_t = 1000)]
     flush_ms: u64,
+    /// Serve the view channels live over a Foxglove WebSocket on this loopback address
+    /// (e.g. `127.0.0.1:8765`), while recording.
+    #[arg(long, value_name = "ADDR:PORT")]
+    live: Option<std::net::SocketAddr>,
     /// After `MissionEnd`, stop once nothing arrived for this long, ms.
     #[arg(long, default_value_t = 1000)]
     linger_ms: u64,
@@ -72,6 +79,9 @@ fn main() -> Result<()> {
     let stop = bus::on_stop_signal();
     let node = &args.node;
     let mut writer = session_writer(&args)?;
+    if let Some(addr) = args.live {
+        writer = writer.with_tap(Box::new(live::Live::start(addr, &node.session)?));
+    }
 
     let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
     let keys = bus.keys().clone();

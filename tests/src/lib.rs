@@ -104,3 +104,76 @@ pub fn spawn_background_run(case: &str, session: &str, dir: &Path) -> Child {
         .spawn()
         .expect("start waggle run")
 }
+
+/// `node tests/js/SCRIPT ARGS…` (Foxglove's own client libraries, installed by
+/// `deploy/setup.sh` into `tests/js/node_modules`).
+///
+/// # Panics
+///
+/// If the Node test clients are not installed, naming the command that installs them.
+pub fn node_client(script: &str) -> Command {
+    let js = workspace_root().join("tests/js");
+    assert!(
+        js.join("node_modules/@foxglove/ws-protocol").is_dir(),
+        "the Node test clients are not installed: run bash deploy/setup.sh"
+    );
+    let mut c = Command::new("node");
+    c.arg(js.join(script));
+    c
+}
+
+/// The official Python `mcap` reader (`tests/js/read_mcap.py` in the venv `deploy/setup.sh`
+/// makes) on `file`: its JSON report and whether it read the whole file.
+///
+/// # Panics
+///
+/// If the venv is missing, naming the command that makes it.
+pub fn python_mcap_read(file: &Path) -> (bool, String) {
+    let js = workspace_root().join("tests/js");
+    let python = js.join(".venv/bin/python");
+    assert!(
+        python.is_file(),
+        "the Python mcap reader is not installed: run bash deploy/setup.sh"
+    );
+    let out = Command::new(python)
+        .arg(js.join("read_mcap.py"))
+        .arg(file)
+        .output()
+        .expect("run read_mcap.py");
+    (
+        out.status.success(),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        ),
+    )
+}
+
+/// Checks `file` with `@mcap/core` against the official Foxglove schemas
+/// (`tests/js/validate_mcap.mjs`) and with the official Python reader; returns the validator's
+/// JSON report.
+///
+/// # Panics
+///
+/// If either reader fails or a view message does not validate.
+pub fn assert_recording_validates(file: &Path) -> serde_json::Value {
+    let out = node_client("validate_mcap.mjs")
+        .arg(file)
+        .output()
+        .expect("run validate_mcap.mjs");
+    let report = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{} does not validate against the official Foxglove schemas: {report}{}",
+        file.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (ok, text) = python_mcap_read(file);
+    assert!(
+        ok,
+        "the official Python mcap reader failed on {}: {text}",
+        file.display()
+    );
+    serde_json::from_str(&report).expect("validate_mcap.mjs prints JSON")
+}

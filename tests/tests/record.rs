@@ -369,6 +369,7 @@ fn assert_foxglove_views(path: &Path, modality: &str) {
     for view in [
         ("/view/tf", "foxglove.FrameTransforms"),
         ("/view/log", "foxglove.Log"),
+        ("/view/scene", "foxglove.SceneUpdate"),
     ] {
         assert!(
             seen.contains_key(&(view.0.to_string(), view.1.to_string())),

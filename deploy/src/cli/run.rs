@@ -87,6 +87,7 @@ impl SessionArgs {
             record_all_rgb: self.record_all_rgb,
             endpoints: Endpoints::default(),
             render: self.render.path,
+            live: None,
         };
         Ok((case, modality, opts))
     }
@@ -108,6 +109,10 @@ pub struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Watch the run live: serve the view channels (event and RGB images, poses, the 3D scene,
+    /// the log) over a Foxglove WebSocket on 127.0.0.1:PORT (Foxglove: Open connection).
+    #[arg(long, value_name = "PORT")]
+    live: Option<u16>,
     /// The session router's endpoints (default: listen on a free loopback port). Children
     /// connect to every listen endpoint given here, plus every connect endpoint.
     #[command(flatten)]
@@ -119,6 +124,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     opts.out = args.out;
     opts.bin_dir = args.bin_dir;
     opts.quiet = args.quiet;
+    opts.live = args.live;
     opts.endpoints = args.endpoints;
     let json = args.json;
     let done = run_case(&case, modality, &opts)?;

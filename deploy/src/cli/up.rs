@@ -31,6 +31,10 @@ pub struct UpArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Watch the run live: serve the view channels over a Foxglove WebSocket on
+    /// 127.0.0.1:PORT (on the recorder's host).
+    #[arg(long, value_name = "PORT")]
+    live: Option<u16>,
 }
 
 /// The session's secrets this invocation needs, from the directory the file names.
@@ -67,6 +71,7 @@ pub fn run(args: UpArgs) -> Result<()> {
         out: args.out,
         bin_dir: args.bin_dir,
         quiet: args.quiet,
+        live: args.live,
     };
     match up(&compose, secrets.as_ref(), &opts)? {
         UpDone::Supervised(done) => {

@@ -148,6 +148,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                     record_all_rgb: false,
                     endpoints: Endpoints::default(),
                     render,
+                    live: None,
                 },
             )?;
             if done.summary.interrupted {

@@ -69,6 +69,8 @@ pub struct RunOptions {
     pub endpoints: Endpoints,
     /// How the cameras render (both paths publish identical bytes).
     pub render: RenderPath,
+    /// Serve the view channels live over a Foxglove WebSocket on this loopback port.
+    pub live: Option<u16>,
 }
 
 /// The modality to run `case` in: `asked`, or events when the case applies to it (else RGB);
@@ -204,6 +206,7 @@ pub fn run_case(case: &Case, modality: Modality, opts: &RunOptions) -> Result<Ru
         out: opts.out.clone(),
         bin_dir: opts.bin_dir.clone(),
         quiet: opts.quiet,
+        live: opts.live,
     };
     match up::up(&compose, secrets.as_ref(), &up_opts)? {
         UpDone::Supervised(done) => Ok(*done),

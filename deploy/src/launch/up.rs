@@ -36,6 +36,9 @@ pub struct UpOptions {
     pub bin_dir: Option<PathBuf>,
     /// No progress bar.
     pub quiet: bool,
+    /// Serve the view channels live over a Foxglove WebSocket on this loopback port (the
+    /// recorder's host).
+    pub live: Option<u16>,
 }
 
 /// A host's own record.
@@ -108,6 +111,9 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
     }
     let case = compose.case()?;
     let injected = compose.injected(&case)?;
+    if let Some(port) = opts.live {
+        check_live(&compose, &share, port)?;
+    }
     if compose.auth && secrets.is_none() {
         bail!(
             "session {} is authenticated but no credentials were given",
@@ -129,19 +135,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
     };
     let dial = compose.dial_from(&dial_host);
     let mut bus = open_bus(&compose, &share, secrets, &dial)?;
-    let keys = bus.keys().clone();
-    let watched: Vec<Key> = if share.supervising {
-        super::gather::subscriptions(&observers)
-    } else {
-        vec![Key::Clock, Key::SchedReport]
-    };
-    for key in watched {
-        bus.subscribe(&keys.of(&key))?;
-    }
-    if share.supervising {
-        bus.subscribe(&keys.rejects_any())?;
-    }
-    handshake::announce(&mut bus, &share.me)?;
+    watch(&mut bus, &share, &observers)?;
 
     let spawner = Spawner {
         bin_dir: &place.bin_dir,
@@ -163,7 +157,14 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
         secrets,
     };
     let mut procs: Vec<Proc> = Vec::new();
-    let spawned = spawn_share(&compose, &share, &spawner, &place.out_dir, &mut procs);
+    let spawned = spawn_share(
+        &compose,
+        &share,
+        &spawner,
+        &place.out_dir,
+        opts.live,
+        &mut procs,
+    );
     let stop = bus::on_stop_signal();
     let result = spawned.and_then(|()| {
         Supervisor {
@@ -189,24 +190,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
     let _ = bus.close();
 
     if !share.supervising {
-        let record = HostRecord {
-            session: compose.session.clone(),
-            host: share.hosts.join(","),
-            processes: procs
-                .iter()
-                .map(|p| (p.name.clone(), p.figures()))
-                .collect(),
-            faults: supervised.fault_log,
-            report_seen: supervised.gathered.report.is_some(),
-            interrupted: supervised.interrupted,
-        };
-        let file = place.out_dir.join(HOST_FILE);
-        std::fs::write(&file, serde_json::to_string_pretty(&record)?)
-            .with_context(|| format!("writing {}", file.display()))?;
-        return Ok(UpDone::Host {
-            record,
-            out_dir: place.out_dir.clone(),
-        });
+        return host_record(&compose, &share, supervised, &procs, &place.out_dir);
     }
     let info = RunInfo {
         case: &case,
@@ -222,6 +206,72 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
         summary: out.summary,
         out_dir: place.out_dir.clone(),
     })))
+}
+
+/// `--live PORT` needs the recorder on this host.
+fn check_live(compose: &Compose, share: &Share, port: u16) -> Result<()> {
+    match compose
+        .nodes
+        .iter()
+        .find(|n| n.role == Role::Recorder.as_str())
+    {
+        None => {
+            bail!("--live {port}: the session records nothing (the live view is the recorder's)")
+        }
+        Some(r) if !share.hosts.contains(&r.host) => bail!(
+            "--live {port}: the recorder runs on host {}: pass --live to `waggle up --host {}`",
+            r.host,
+            r.host
+        ),
+        Some(_) => Ok(()),
+    }
+}
+
+/// Subscribes to what this launcher follows (everything it gathers when supervising, else the
+/// clock and the report) and announces it.
+fn watch(bus: &mut Bus, share: &Share, observers: &[ObserverId]) -> Result<()> {
+    let keys = bus.keys().clone();
+    let watched: Vec<Key> = if share.supervising {
+        super::gather::subscriptions(observers)
+    } else {
+        vec![Key::Clock, Key::SchedReport]
+    };
+    for key in watched {
+        bus.subscribe(&keys.of(&key))?;
+    }
+    if share.supervising {
+        bus.subscribe(&keys.rejects_any())?;
+    }
+    handshake::announce(bus, &share.me)?;
+    Ok(())
+}
+
+/// Writes a host's `host.json`.
+fn host_record(
+    compose: &Compose,
+    share: &Share,
+    supervised: super::supervise::Supervised,
+    procs: &[Proc],
+    out_dir: &Path,
+) -> Result<UpDone> {
+    let record = HostRecord {
+        session: compose.session.clone(),
+        host: share.hosts.join(","),
+        processes: procs
+            .iter()
+            .map(|p| (p.name.clone(), p.figures()))
+            .collect(),
+        faults: supervised.fault_log,
+        report_seen: supervised.gathered.report.is_some(),
+        interrupted: supervised.interrupted,
+    };
+    let file = out_dir.join(HOST_FILE);
+    std::fs::write(&file, serde_json::to_string_pretty(&record)?)
+        .with_context(|| format!("writing {}", file.display()))?;
+    Ok(UpDone::Host {
+        record,
+        out_dir: out_dir.to_path_buf(),
+    })
 }
 
 /// How the cameras render (their `--render` argument; damage when none says).
@@ -272,6 +322,7 @@ fn spawn_share(
     share: &Share,
     spawner: &Spawner<'_>,
     out_dir: &Path,
+    live: Option<u16>,
     procs: &mut Vec<Proc>,
 ) -> Result<()> {
     for node in compose
@@ -283,6 +334,14 @@ fn spawn_share(
         let recorder = node.role == Role::Recorder.as_str();
         if recorder {
             args.extend(recorder_paths(&compose.case, out_dir)?);
+            if let Some(port) = live {
+                args.push("--live".into());
+                args.push(format!("127.0.0.1:{port}"));
+                eprintln!(
+                    "live view: ws://127.0.0.1:{port} (Foxglove: Open connection → Foxglove \
+                     WebSocket)"
+                );
+            }
         }
         let mut p = spawner.spawn(&node.role, &node.binary, &args)?;
         p.graceful = recorder;

@@ -1,26 +1,24 @@
-//! Foxglove's well-known schemas in their JSON encoding (`jsonschema` schemas, `json`
-//! messages), so a recording opens usefully in Foxglove: images, frame transforms and logs.
-//!
-//! Only the fields we fill are described; names and types follow Foxglove's schema reference
-//! (`foxglove.RawImage`, `foxglove.FrameTransforms`, `foxglove.Log`). Bytes are base64 in JSON.
+//! The view channels in Foxglove's official schemas — the `foxglove` crate's message types,
+//! encoded as protobuf with the schema (a `FileDescriptorSet`) the crate ships — so a
+//! recording, and the live view, open usefully in Foxglove: images, frame transforms, logs
+//! and a 3D scene of the drones, the work sites and the drones' trajectories.
 
-use base64::Engine as _;
-use base64::engine::general_purpose::STANDARD as BASE64;
-use serde_json::{Value, json};
+use std::collections::BTreeMap;
 
-use proto::SimState;
+use foxglove::Encode;
+use foxglove::messages::{
+    Color, CubePrimitive, FrameTransform, FrameTransforms, LinePrimitive, Log, Point3, Pose,
+    Quaternion, RawImage, SceneEntity, SceneUpdate, SpherePrimitive, TextPrimitive, Timestamp,
+    Vector3,
+};
+use proto::{DronePose, SimState, Site};
 
-pub const RAW_IMAGE: &str = "foxglove.RawImage";
-pub const FRAME_TRANSFORMS: &str = "foxglove.FrameTransforms";
-pub const LOG: &str = "foxglove.Log";
-/// Schema encoding of the Foxglove channels.
-pub const SCHEMA_ENCODING: &str = "jsonschema";
-/// Message encoding of the Foxglove channels.
-pub const MESSAGE_ENCODING: &str = "json";
 /// Parent frame of every pose.
 pub const WORLD_FRAME: &str = "world";
+/// Schema and message encoding of the view channels.
+pub const VIEW_ENCODING: &str = "protobuf";
 
-/// Foxglove log levels.
+/// Foxglove log levels (`foxglove.Log.level`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LogLevel {
     Info = 2,
@@ -28,174 +26,212 @@ pub enum LogLevel {
     Error = 4,
 }
 
-fn time_schema() -> Value {
-    json!({
-        "type": "object",
-        "title": "time",
-        "properties": {
-            "sec": {"type": "integer", "minimum": 0},
-            "nsec": {"type": "integer", "minimum": 0, "maximum": 999_999_999}
-        }
+/// One encoded view message: its schema and its bytes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViewMessage {
+    pub schema: foxglove::Schema,
+    pub data: Vec<u8>,
+}
+
+impl ViewMessage {
+    fn of<T: Encode>(msg: &T) -> Self {
+        let schema = T::get_schema().expect("every foxglove message type has a schema");
+        let mut data = Vec::with_capacity(msg.encoded_len().unwrap_or(64));
+        msg.encode(&mut data)
+            .expect("a Vec grows to fit any message");
+        Self { schema, data }
+    }
+
+    /// The schema's name (`foxglove.RawImage`, …).
+    pub fn schema_name(&self) -> &str {
+        &self.schema.name
+    }
+}
+
+fn time(ns: u64) -> Option<Timestamp> {
+    // Sim time starts at 0 and stays far below 2^32 s.
+    Some(Timestamp::new(
+        u32::try_from(ns / 1_000_000_000).unwrap_or(u32::MAX),
+        (ns % 1_000_000_000) as u32,
+    ))
+}
+
+fn vector(v: [f64; 3]) -> Option<Vector3> {
+    Some(Vector3 {
+        x: v[0],
+        y: v[1],
+        z: v[2],
     })
 }
 
-fn vector3_schema() -> Value {
-    json!({
-        "type": "object",
-        "title": "foxglove.Vector3",
-        "properties": {
-            "x": {"type": "number"}, "y": {"type": "number"}, "z": {"type": "number"}
-        }
+fn quaternion(wxyz: [f64; 4]) -> Option<Quaternion> {
+    let [w, x, y, z] = wxyz;
+    Some(Quaternion { x, y, z, w })
+}
+
+fn pose(pos_m: [f64; 3], wxyz: [f64; 4]) -> Option<Pose> {
+    Some(Pose {
+        position: vector(pos_m),
+        orientation: quaternion(wxyz),
     })
 }
 
-/// The JSON schema of a Foxglove schema name (one of the constants above).
-pub fn schema(name: &str) -> Option<Vec<u8>> {
-    let s = match name {
-        RAW_IMAGE => json!({
-            "title": RAW_IMAGE,
-            "description": "A raw image",
-            "type": "object",
-            "properties": {
-                "timestamp": time_schema(),
-                "frame_id": {"type": "string"},
-                "width": {"type": "integer", "minimum": 0},
-                "height": {"type": "integer", "minimum": 0},
-                "encoding": {"type": "string"},
-                "step": {"type": "integer", "minimum": 0},
-                "data": {"type": "string", "contentEncoding": "base64"}
-            }
-        }),
-        FRAME_TRANSFORMS => json!({
-            "title": FRAME_TRANSFORMS,
-            "description": "An array of FrameTransform messages",
-            "type": "object",
-            "properties": {
-                "transforms": {
-                    "type": "array",
-                    "items": {
-                        "type": "object",
-                        "title": "foxglove.FrameTransform",
-                        "properties": {
-                            "timestamp": time_schema(),
-                            "parent_frame_id": {"type": "string"},
-                            "child_frame_id": {"type": "string"},
-                            "translation": vector3_schema(),
-                            "rotation": {
-                                "type": "object",
-                                "title": "foxglove.Quaternion",
-                                "properties": {
-                                    "x": {"type": "number"}, "y": {"type": "number"},
-                                    "z": {"type": "number"}, "w": {"type": "number"}
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-        }),
-        LOG => json!({
-            "title": LOG,
-            "description": "A log message",
-            "type": "object",
-            "properties": {
-                "timestamp": time_schema(),
-                "level": {"type": "integer", "oneOf": [
-                    {"title": "UNKNOWN", "const": 0}, {"title": "DEBUG", "const": 1},
-                    {"title": "INFO", "const": 2}, {"title": "WARNING", "const": 3},
-                    {"title": "ERROR", "const": 4}, {"title": "FATAL", "const": 5}
-                ]},
-                "message": {"type": "string"},
-                "name": {"type": "string"},
-                "file": {"type": "string"},
-                "line": {"type": "integer", "minimum": 0}
-            }
-        }),
-        _ => return None,
-    };
-    Some(s.to_string().into_bytes())
+fn color(r: f64, g: f64, b: f64, a: f64) -> Option<Color> {
+    Some(Color { r, g, b, a })
 }
 
-fn time(ns: u64) -> Value {
-    json!({"sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000})
-}
-
-/// A `foxglove.RawImage` of an 8-bit RGB image. Written directly rather than through a JSON
-/// value: the base64 data needs no escaping and is by far the largest part.
-pub fn raw_image(stamp_ns: u64, frame_id: &str, width: u32, height: u32, rgb: &[u8]) -> Vec<u8> {
-    let head = json!({
-        "timestamp": time(stamp_ns),
-        "frame_id": frame_id,
-        "width": width,
-        "height": height,
-        "encoding": "rgb8",
-        "step": width * 3,
+/// A `foxglove.RawImage` of an 8-bit RGB image.
+pub fn raw_image(
+    stamp_ns: u64,
+    frame_id: &str,
+    width: u32,
+    height: u32,
+    rgb: &[u8],
+) -> ViewMessage {
+    ViewMessage::of(&RawImage {
+        timestamp: time(stamp_ns),
+        frame_id: frame_id.to_string(),
+        width,
+        height,
+        encoding: "rgb8".into(),
+        step: width * 3,
+        data: rgb.to_vec().into(),
     })
-    .to_string();
-    let data = BASE64.encode(rgb);
-    let mut out = Vec::with_capacity(head.len() + data.len() + 16);
-    out.extend_from_slice(&head.as_bytes()[..head.len() - 1]);
-    out.extend_from_slice(b",\"data\":\"");
-    out.extend_from_slice(data.as_bytes());
-    out.extend_from_slice(b"\"}");
-    out
 }
 
 /// A `foxglove.FrameTransforms` with one `world → drone` transform per drone.
-pub fn frame_transforms(state: &SimState) -> Vec<u8> {
-    let transforms: Vec<Value> = state
-        .drones
-        .iter()
-        .map(|d| {
-            let [w, x, y, z] = d.quat_wxyz;
-            json!({
-                "timestamp": time(state.stamp_ns),
-                "parent_frame_id": WORLD_FRAME,
-                "child_frame_id": d.name,
-                "translation": {"x": d.pos_m[0], "y": d.pos_m[1], "z": d.pos_m[2]},
-                "rotation": {"x": x, "y": y, "z": z, "w": w},
+pub fn frame_transforms(state: &SimState) -> ViewMessage {
+    ViewMessage::of(&FrameTransforms {
+        transforms: state
+            .drones
+            .iter()
+            .map(|d| FrameTransform {
+                timestamp: time(state.stamp_ns),
+                parent_frame_id: WORLD_FRAME.into(),
+                child_frame_id: d.name.clone(),
+                translation: vector(d.pos_m),
+                rotation: quaternion(d.quat_wxyz),
             })
-        })
-        .collect();
-    json!({ "transforms": transforms }).to_string().into_bytes()
+            .collect(),
+    })
 }
 
 /// A `foxglove.Log` message from `name`.
-pub fn log(stamp_ns: u64, level: LogLevel, name: &str, message: &str) -> Vec<u8> {
-    json!({
-        "timestamp": time(stamp_ns),
-        "level": level as u8,
-        "message": message,
-        "name": name,
-        "file": "",
-        "line": 0,
+pub fn log(stamp_ns: u64, level: LogLevel, name: &str, message: &str) -> ViewMessage {
+    ViewMessage::of(&Log {
+        timestamp: time(stamp_ns),
+        level: level as i32,
+        message: message.to_string(),
+        name: name.to_string(),
+        file: String::new(),
+        line: 0,
     })
-    .to_string()
-    .into_bytes()
+}
+
+/// How many past positions each drone's trail keeps (at the scene's rate).
+pub const TRAIL_POINTS: usize = 600;
+
+/// The 3D scene's state: each drone's recent trajectory.
+#[derive(Debug, Clone, Default)]
+pub struct Scene {
+    trails: BTreeMap<String, Vec<[f64; 3]>>,
+}
+
+impl Scene {
+    /// Adds `state`'s positions to the trails and returns the `foxglove.SceneUpdate`: a sphere
+    /// and a label per drone (the performer larger, in orange), a cube and a label per work
+    /// site, and each drone's trajectory as a line strip.
+    pub fn update(&mut self, state: &SimState) -> ViewMessage {
+        for d in &state.drones {
+            let trail = self.trails.entry(d.name.clone()).or_default();
+            if trail.len() == TRAIL_POINTS {
+                trail.remove(0);
+            }
+            trail.push(d.pos_m);
+        }
+        let t = time(state.stamp_ns);
+        let entity = |id: &str| SceneEntity {
+            timestamp: t,
+            frame_id: WORLD_FRAME.into(),
+            id: id.to_string(),
+            ..SceneEntity::default()
+        };
+        let mut drones = entity("drones");
+        for d in &state.drones {
+            drones.spheres.push(drone_sphere(d));
+            drones.texts.push(label(d.pos_m, 0.12, &d.name));
+        }
+        let mut sites = entity("sites");
+        for site in Site::ALL {
+            let at = site.position_m();
+            sites.cubes.push(CubePrimitive {
+                pose: pose(at, [1.0, 0.0, 0.0, 0.0]),
+                size: vector([0.3, 0.3, 0.02]),
+                color: color(0.2, 0.7, 0.3, 0.6),
+            });
+            sites.texts.push(label(at, 0.1, &format!("site {site:?}")));
+        }
+        let mut trails = entity("trajectories");
+        for points in self.trails.values() {
+            trails.lines.push(LinePrimitive {
+                r#type: foxglove::messages::line_primitive::Type::LineStrip as i32,
+                pose: pose([0.0; 3], [1.0, 0.0, 0.0, 0.0]),
+                thickness: 0.01,
+                scale_invariant: false,
+                points: points
+                    .iter()
+                    .map(|p| Point3 {
+                        x: p[0],
+                        y: p[1],
+                        z: p[2],
+                    })
+                    .collect(),
+                color: color(0.3, 0.5, 1.0, 0.8),
+                colors: Vec::new(),
+                indices: Vec::new(),
+            });
+        }
+        ViewMessage::of(&SceneUpdate {
+            deletions: Vec::new(),
+            entities: vec![drones, sites, trails],
+        })
+    }
+}
+
+fn drone_sphere(d: &DronePose) -> SpherePrimitive {
+    let performer = d.name == "performer";
+    let size = if performer { 0.16 } else { 0.1 };
+    SpherePrimitive {
+        pose: pose(d.pos_m, d.quat_wxyz),
+        size: vector([size; 3]),
+        color: if performer {
+            color(1.0, 0.55, 0.1, 1.0)
+        } else {
+            color(0.2, 0.6, 1.0, 1.0)
+        },
+    }
+}
+
+fn label(at: [f64; 3], rise_m: f64, text: &str) -> TextPrimitive {
+    TextPrimitive {
+        pose: pose([at[0], at[1], at[2] + rise_m], [1.0, 0.0, 0.0, 0.0]),
+        billboard: true,
+        font_size: 14.0,
+        scale_invariant: true,
+        color: color(1.0, 1.0, 1.0, 1.0),
+        text: text.to_string(),
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use proto::DronePose;
+    use foxglove::Decode;
 
-    #[test]
-    fn messages_follow_the_foxglove_field_names() {
-        let img: Value = serde_json::from_slice(&raw_image(
-            1_500_000_000,
-            "O1",
-            2,
-            1,
-            &[0, 0, 255, 255, 0, 0],
-        ))
-        .unwrap();
-        assert_eq!(img["timestamp"], json!({"sec": 1, "nsec": 500_000_000}));
-        assert_eq!(img["encoding"], "rgb8");
-        assert_eq!(img["step"], 6);
-        assert_eq!(img["data"], "AAD//wAA");
-        let state = SimState {
+    fn state() -> SimState {
+        SimState {
             tick: 1,
-            stamp_ns: 40_000_000,
+            stamp_ns: 1_500_000_000,
             drones: vec![DronePose {
                 name: "performer".into(),
                 pos_m: [0.0, 0.0, 1.3],
@@ -203,22 +239,43 @@ mod tests {
                 vel_mps: [0.0; 3],
                 ang_vel_radps: [0.0; 3],
             }],
-        };
-        let tf: Value = serde_json::from_slice(&frame_transforms(&state)).unwrap();
-        let t = &tf["transforms"][0];
-        assert_eq!(t["child_frame_id"], "performer");
-        assert_eq!(t["parent_frame_id"], WORLD_FRAME);
-        assert_eq!(t["translation"]["z"], 1.3);
-        assert_eq!(t["rotation"]["w"], 1.0);
-        let l: Value = serde_json::from_slice(&log(0, LogLevel::Warning, "O2", "hi")).unwrap();
-        assert_eq!(
-            (l["level"].as_u64(), l["name"].as_str()),
-            (Some(3), Some("O2"))
-        );
-        for name in [RAW_IMAGE, FRAME_TRANSFORMS, LOG] {
-            let s: Value = serde_json::from_slice(&schema(name).unwrap()).unwrap();
-            assert_eq!(s["title"], name);
         }
-        assert!(schema("foxglove.Nope").is_none());
+    }
+
+    #[test]
+    fn view_messages_are_official_schemas_in_protobuf() {
+        let img = raw_image(1_500_000_000, "O1", 2, 1, &[0, 0, 255, 255, 0, 0]);
+        assert_eq!(img.schema_name(), "foxglove.RawImage");
+        assert_eq!(img.schema.encoding, VIEW_ENCODING);
+        let back = RawImage::decode(img.data.as_slice()).unwrap();
+        assert_eq!(
+            (back.width, back.step, back.encoding.as_str()),
+            (2, 6, "rgb8")
+        );
+        assert_eq!(back.timestamp, Some(Timestamp::new(1, 500_000_000)));
+        let tf = FrameTransforms::decode(frame_transforms(&state()).data.as_slice()).unwrap();
+        assert_eq!(tf.transforms[0].child_frame_id, "performer");
+        assert_eq!(tf.transforms[0].translation.as_ref().unwrap().z, 1.3);
+        assert_eq!(tf.transforms[0].rotation.as_ref().unwrap().w, 1.0);
+        let l = Log::decode(log(0, LogLevel::Warning, "O2", "hi").data.as_slice()).unwrap();
+        assert_eq!((l.level, l.name.as_str()), (3, "O2"));
+    }
+
+    #[test]
+    fn the_scene_shows_drones_sites_and_bounded_trails() {
+        let mut scene = Scene::default();
+        let mut s = state();
+        for i in 0..(TRAIL_POINTS + 5) {
+            s.drones[0].pos_m[0] = i as f64 * 0.01;
+            scene.update(&s);
+        }
+        let msg = scene.update(&s);
+        assert_eq!(msg.schema_name(), "foxglove.SceneUpdate");
+        let u = SceneUpdate::decode(msg.data.as_slice()).unwrap();
+        let ids: Vec<&str> = u.entities.iter().map(|e| e.id.as_str()).collect();
+        assert_eq!(ids, ["drones", "sites", "trajectories"]);
+        assert_eq!(u.entities[0].spheres.len(), 1);
+        assert_eq!(u.entities[1].cubes.len(), Site::ALL.len());
+        assert_eq!(u.entities[2].lines[0].points.len(), TRAIL_POINTS);
     }
 }

@@ -5,7 +5,8 @@
 //! - [`writer`]: [`SessionWriter`], raw wire bytes per key (lossless, empty event packets
 //!   included) plus Foxglove viewing channels, zstd chunks of bounded size, session metadata;
 //! - [`reader`]: [`read_recording`], chunk-by-chunk streaming that survives a cut file;
-//! - [`views`], [`foxglove`]: event-frame pictures, log lines and Foxglove's JSON schemas.
+//! - [`views`], [`foxglove`]: event-frame pictures, log lines, the 3D scene and Foxglove's
+//!   official schemas (protobuf).
 //!
 //! Pure apart from the writer's and reader's byte streams: the `recorder-node` binary adds the
 //! Zenoh subscription, the start-up handshake and signal handling.
@@ -21,8 +22,8 @@ pub use reader::{
 };
 pub use topics::{Decoded, MessageKind, RAW_ENCODING, Topic, classify, decode};
 pub use writer::{
-    RECORDER_METADATA, RecordError, RecordStats, Recorded, RecorderOptions, SESSION_METADATA,
-    SessionInfo, SessionWriter,
+    RECORDER_METADATA, RecordError, RecordStats, Recorded, RecorderOptions, SCENE_TOPIC,
+    SESSION_METADATA, SessionInfo, SessionWriter, ViewTap,
 };
 
 #[cfg(test)]
@@ -210,12 +211,11 @@ mod tests {
         assert_eq!(images.len(), 3);
         assert_eq!(images[1].1, "foxglove.RawImage");
         assert_eq!(images[1].2, 26 * TICK_NS);
-        let json: serde_json::Value = serde_json::from_slice(&images[1].3).unwrap();
-        assert_eq!(json["data"], "GhoaGhoa");
-        assert_eq!(
-            (json["width"].as_u64(), json["height"].as_u64()),
-            (Some(2), Some(1))
-        );
+        let image =
+            <::foxglove::messages::RawImage as ::foxglove::Decode>::decode(images[1].3.as_slice())
+                .unwrap();
+        assert_eq!(image.data.as_ref(), [26u8; 6]);
+        assert_eq!((image.width, image.height), (2, 1));
     }
 
     #[test]

@@ -2,9 +2,11 @@
 //!
 //! - each key's exact wire bytes on a raw channel (`/<key rest>`, schema `waggle.<Type>`,
 //!   encoding [`RAW_ENCODING`]) — event packets losslessly, empty ones included;
-//! - viewing channels in Foxglove's JSON schemas: `/view/<o>/events` (event-frame pictures at a
-//!   viewing rate), `/view/<o>/rgb` (RGB frames), `/view/tf` (poses), `/view/log` (tokens,
-//!   frames, decisions, faults, session controls, the mission report);
+//! - viewing channels in Foxglove's official schemas (protobuf, [`crate::foxglove`]):
+//!   `/view/<o>/events` (event-frame pictures at a viewing rate), `/view/<o>/rgb` (RGB frames),
+//!   `/view/tf` (poses), `/view/scene` (drones, sites and trajectories in 3D), `/view/log`
+//!   (tokens, frames, decisions, faults, session controls, the mission report) — each also
+//!   handed to a [`ViewTap`] when one is set (the live view);
 //! - `waggle.session` metadata first (session, case name and TOML, modality, observers) and
 //!   `waggle.recorder` metadata last (message counts, unknown keys, undecodable payloads).
 //!
@@ -19,7 +21,7 @@ use mcap::records::Metadata;
 use mcap::{Compression, WriteOptions, Writer};
 use proto::{ObserverId, SessionEvent, TICK_NS};
 
-use crate::foxglove::{self, LogLevel};
+use crate::foxglove::{self, LogLevel, Scene, VIEW_ENCODING, ViewMessage};
 use crate::topics::{Decoded, MessageKind, RAW_ENCODING, classify, decode};
 use crate::views::{EventView, log_line};
 
@@ -31,6 +33,15 @@ pub const RECORDER_METADATA: &str = "waggle.recorder";
 pub const LOG_TOPIC: &str = "/view/log";
 /// Topic of the pose view.
 pub const TF_TOPIC: &str = "/view/tf";
+/// Topic of the 3D scene.
+pub const SCENE_TOPIC: &str = "/view/scene";
+/// Sim-time period of the 3D scene's updates.
+pub const SCENE_PERIOD_NS: u64 = 200_000_000;
+
+/// Receives every view message as it is recorded (the live view).
+pub trait ViewTap: Send {
+    fn view(&mut self, topic: &str, log_time_ns: u64, msg: &ViewMessage);
+}
 /// Channel encoding of keys of no known type.
 const UNKNOWN_ENCODING: &str = "application/octet-stream";
 
@@ -160,9 +171,18 @@ pub struct SessionWriter<W: Write + Seek> {
     rgb_frames: BTreeMap<ObserverId, proto::RgbReassembler>,
     sim_time_ns: u64,
     stats: RecordStats,
+    scene: Scene,
+    next_scene_ns: u64,
+    tap: Option<Box<dyn ViewTap>>,
 }
 
 impl<W: Write + Seek> SessionWriter<W> {
+    /// Hands every view message to `tap` as well.
+    pub fn with_tap(mut self, tap: Box<dyn ViewTap>) -> Self {
+        self.tap = Some(tap);
+        self
+    }
+
     /// Starts a recording of `info.session` into `w`, writing the session metadata first.
     pub fn new(w: W, info: &SessionInfo, options: RecorderOptions) -> Result<Self, RecordError> {
         let keys = proto::Keys::new(&info.session).map_err(|e| {
@@ -191,6 +211,9 @@ impl<W: Write + Seek> SessionWriter<W> {
             rgb_frames: BTreeMap::new(),
             sim_time_ns: 0,
             stats: RecordStats::default(),
+            scene: Scene::default(),
+            next_scene_ns: 0,
+            tap: None,
         };
         me.mcap.write_metadata(&Metadata {
             name: SESSION_METADATA.into(),
@@ -270,21 +293,22 @@ impl<W: Write + Seek> SessionWriter<W> {
         )
     }
 
-    fn foxglove(
-        &mut self,
-        topic: &str,
-        schema: &str,
-        time_ns: u64,
-        data: &[u8],
-    ) -> Result<(), RecordError> {
-        let schema_data = foxglove::schema(schema).unwrap_or_default();
+    fn view(&mut self, topic: &str, time_ns: u64, msg: ViewMessage) -> Result<(), RecordError> {
         let id = self.channel(
             topic,
-            Some((schema, foxglove::SCHEMA_ENCODING, schema_data)),
-            foxglove::MESSAGE_ENCODING,
+            Some((
+                msg.schema_name(),
+                msg.schema.encoding.as_str(),
+                msg.schema.data.to_vec(),
+            )),
+            VIEW_ENCODING,
             BTreeMap::new(),
         )?;
-        self.put(id, time_ns, data)
+        self.put(id, time_ns, &msg.data)?;
+        if let Some(tap) = self.tap.as_mut() {
+            tap.view(topic, time_ns, &msg);
+        }
+        Ok(())
     }
 
     /// Applies one RGB update of camera `o`; the whole frame when its view image is due.
@@ -378,50 +402,47 @@ impl<W: Write + Seek> SessionWriter<W> {
                         .entry(o.clone())
                         .or_insert_with(|| EventView::new(period));
                     if let Some(img) = view.push(p) {
-                        let data = foxglove::raw_image(
+                        let msg = foxglove::raw_image(
                             img.stamp_ns,
                             o.as_str(),
                             img.image.width(),
                             img.image.height(),
                             img.image.as_raw(),
                         );
-                        self.foxglove(
-                            &format!("/view/{o}/events"),
-                            foxglove::RAW_IMAGE,
-                            img.stamp_ns,
-                            &data,
-                        )?;
+                        self.view(&format!("/view/{o}/events"), img.stamp_ns, msg)?;
                         self.stats.view_images += 1;
                     }
                 }
             }
             (Decoded::RgbUpdate(u), Some(o)) => {
                 if let Some(f) = self.rgb_view_frame(o, u) {
-                    let data = foxglove::raw_image(
+                    let msg = foxglove::raw_image(
                         f.stamp_ns,
                         o.as_str(),
                         u32::from(f.width),
                         u32::from(f.height),
                         &f.rgb,
                     );
-                    self.foxglove(
-                        &format!("/view/{o}/rgb"),
-                        foxglove::RAW_IMAGE,
-                        f.stamp_ns,
-                        &data,
-                    )?;
+                    self.view(&format!("/view/{o}/rgb"), f.stamp_ns, msg)?;
                     self.stats.view_images += 1;
                 }
             }
             (Decoded::SimState(s), _) if s.stamp_ns % TICK_NS == 0 => {
-                let data = foxglove::frame_transforms(s);
-                self.foxglove(TF_TOPIC, foxglove::FRAME_TRANSFORMS, s.stamp_ns, &data)?;
+                self.view(TF_TOPIC, s.stamp_ns, foxglove::frame_transforms(s))?;
+                if s.stamp_ns >= self.next_scene_ns {
+                    self.next_scene_ns = s.stamp_ns + SCENE_PERIOD_NS;
+                    let msg = self.scene.update(s);
+                    self.view(SCENE_TOPIC, s.stamp_ns, msg)?;
+                }
             }
             _ => {}
         }
         if let Some((level, name, text)) = log_line(msg) {
-            let data = foxglove::log(time_ns, level, &name, &text);
-            self.foxglove(LOG_TOPIC, foxglove::LOG, time_ns, &data)?;
+            self.view(
+                LOG_TOPIC,
+                time_ns,
+                foxglove::log(time_ns, level, &name, &text),
+            )?;
         }
         Ok(())
     }
@@ -429,8 +450,7 @@ impl<W: Write + Seek> SessionWriter<W> {
     /// Writes a log line of the recorder itself (e.g. why it stopped) on the log view.
     pub fn note(&mut self, level: LogLevel, text: &str) -> Result<(), RecordError> {
         let t = self.sim_time_ns;
-        let data = foxglove::log(t, level, "recorder", text);
-        self.foxglove(LOG_TOPIC, foxglove::LOG, t, &data)
+        self.view(LOG_TOPIC, t, foxglove::log(t, level, "recorder", text))
     }
 
     /// Closes the current chunk and flushes it to the underlying writer: everything recorded so
