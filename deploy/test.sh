@@ -2,7 +2,8 @@
 # The test suite from a fresh machine: installs what it needs (idempotent), checks the code, then
 # runs every test. This is the README's test command and what CI runs (.ci/run).
 #
-#   deploy/test.sh            default suite (≈ 22 min on 2 cores, build included)
+#   deploy/test.sh            default suite (≈ 26 min on 2 cores, build included; run as root:
+#                             the multi-host tests make network namespaces)
 #   deploy/test.sh --full     also the long `#[ignore]`d tests: whole missions as processes with
 #                             sensors, the frozen-behaviour runs of nominal-3 and dropout-o2 (≈ 1 h)
 #   deploy/test.sh ARGS…      any other arguments go to `cargo test --release` instead of

@@ -93,26 +93,37 @@ impl SessionArgs {
     }
 }
 
+/// How this machine's launcher runs its share of a session (shared by `waggle run` and
+/// `waggle up`).
+#[derive(Debug, Args)]
+pub struct LaunchArgs {
+    /// The run directory: summary.json, observers.json (the simulator's host), session.mcap (the
+    /// recorder's host), host.json (other hosts) and every local process's log in DIR/logs
+    /// (default: a temporary directory).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Directory holding the node binaries (default: the one `waggle` is in).
+    #[arg(long)]
+    pub bin_dir: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Watch the run live: serve the view channels (event and RGB images, poses, the 3D scene,
+    /// the log) over a Foxglove WebSocket on 127.0.0.1:PORT (Foxglove: Open connection), from
+    /// the recorder's host.
+    #[arg(long, value_name = "PORT")]
+    pub live: Option<u16>,
+}
+
 #[derive(Debug, Args)]
 pub struct RunArgs {
     #[command(flatten)]
     session: SessionArgs,
-    /// Write DIR/summary.json, DIR/observers.json and the process logs (DIR/logs) here.
-    #[arg(long)]
-    out: Option<PathBuf>,
-    /// Print the summary as JSON.
-    #[arg(long)]
-    json: bool,
-    /// Directory holding the node binaries (default: the one `waggle` is in).
-    #[arg(long)]
-    bin_dir: Option<PathBuf>,
-    /// No progress bar.
-    #[arg(long)]
-    quiet: bool,
-    /// Watch the run live: serve the view channels (event and RGB images, poses, the 3D scene,
-    /// the log) over a Foxglove WebSocket on 127.0.0.1:PORT (Foxglove: Open connection).
-    #[arg(long, value_name = "PORT")]
-    live: Option<u16>,
+    #[command(flatten)]
+    launch: LaunchArgs,
     /// The session router's endpoints (default: listen on a free loopback port). Children
     /// connect to every listen endpoint given here, plus every connect endpoint.
     #[command(flatten)]
@@ -121,17 +132,17 @@ pub struct RunArgs {
 
 pub fn run(args: RunArgs) -> Result<()> {
     let (case, modality, mut opts) = args.session.options()?;
-    opts.out = args.out;
-    opts.bin_dir = args.bin_dir;
-    opts.quiet = args.quiet;
-    opts.live = args.live;
+    let launch = args.launch;
+    opts.out = launch.out;
+    opts.bin_dir = launch.bin_dir;
+    opts.quiet = launch.quiet;
+    opts.live = launch.live;
     opts.endpoints = args.endpoints;
-    let json = args.json;
     let done = run_case(&case, modality, &opts)?;
-    if opts.out.is_none() && !json {
+    if opts.out.is_none() && !launch.json {
         println!("summary and logs in {}", done.out_dir.display());
     }
-    report(&done.summary, json)
+    report(&done.summary, launch.json)
 }
 
 /// Prints a supervised session's summary (JSON or the table) and fails when it was interrupted

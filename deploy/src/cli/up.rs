@@ -18,23 +18,8 @@ pub struct UpArgs {
     /// the router.
     #[arg(long)]
     host: Option<String>,
-    /// This host's run directory: summary (simulator's host), recording (recorder's host),
-    /// `host.json` (other hosts) and every local node's log in DIR/logs.
-    #[arg(long)]
-    out: Option<PathBuf>,
-    /// Print the summary as JSON.
-    #[arg(long)]
-    json: bool,
-    /// Directory holding the node binaries (default: the one `waggle` is in).
-    #[arg(long)]
-    bin_dir: Option<PathBuf>,
-    /// No progress bar.
-    #[arg(long)]
-    quiet: bool,
-    /// Watch the run live: serve the view channels over a Foxglove WebSocket on
-    /// 127.0.0.1:PORT (on the recorder's host).
-    #[arg(long, value_name = "PORT")]
-    live: Option<u16>,
+    #[command(flatten)]
+    launch: super::run::LaunchArgs,
 }
 
 /// The session's secrets this invocation needs, from the directory the file names.
@@ -66,19 +51,20 @@ pub fn open_secrets(
 pub fn run(args: UpArgs) -> Result<()> {
     let compose = Compose::load(&args.file)?;
     let secrets = open_secrets(&compose, &args.file, args.host.as_deref())?;
+    let json = args.launch.json;
     let opts = UpOptions {
         host: args.host,
-        out: args.out,
-        bin_dir: args.bin_dir,
-        quiet: args.quiet,
-        live: args.live,
+        out: args.launch.out,
+        bin_dir: args.launch.bin_dir,
+        quiet: args.launch.quiet,
+        live: args.launch.live,
     };
     match up(&compose, secrets.as_ref(), &opts)? {
         UpDone::Supervised(done) => {
-            if opts.out.is_none() && !args.json {
+            if opts.out.is_none() && !json {
                 println!("summary and logs in {}", done.out_dir.display());
             }
-            super::run::report(&done.summary, args.json)
+            super::run::report(&done.summary, json)
         }
         UpDone::Host { record, out_dir } => {
             let procs: Vec<String> = record
