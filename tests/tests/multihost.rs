@@ -91,35 +91,33 @@ impl Hosts {
         format!("{}-{host}", self.prefix)
     }
 
-    /// `waggle up FILE --host HOST --out DIR` inside the host's namespace.
-    fn up(&self, host: &str, file: &Path, out: &Path) -> Child {
+    /// `waggle ARGS…` started inside the host's namespace, its output captured.
+    fn waggle(&self, host: &str, args: &[&std::ffi::OsStr]) -> Child {
         Command::new("ip")
             .args(["netns", "exec", &self.ns(host)])
             .arg(bin("waggle"))
-            .args(["up", "--quiet", "--host", host, "--out"])
-            .arg(out)
-            .arg(file)
+            .args(args)
             .env("RUST_BACKTRACE", "0")
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
-            .expect("start waggle up in a namespace")
+            .expect("start waggle in a namespace")
+    }
+
+    /// `waggle up FILE --host HOST --out DIR` inside the host's namespace.
+    fn up(&self, host: &str, file: &Path, out: &Path) -> Child {
+        let args = ["up", "--quiet", "--host", host, "--out"].map(std::ffi::OsStr::new);
+        self.waggle(
+            host,
+            &[&args[..], &[out.as_os_str(), file.as_os_str()]].concat(),
+        )
     }
 
     /// `waggle router --compose FILE` inside the host's namespace (a router on its own).
     fn router(&self, host: &str, file: &Path) -> Child {
-        Command::new("ip")
-            .args(["netns", "exec", &self.ns(host)])
-            .arg(bin("waggle"))
-            .args(["router", "--compose"])
-            .arg(file)
-            .env("RUST_BACKTRACE", "0")
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start waggle router in a namespace")
+        let args = ["router", "--compose"].map(std::ffi::OsStr::new);
+        self.waggle(host, &[&args[..], &[file.as_os_str()]].concat())
     }
 
     /// Host `host`'s link (its one veth end): down or up.
