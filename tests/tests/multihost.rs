@@ -36,7 +36,8 @@ static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 /// How long one host's `waggle up` may take before the test fails (and kills it).
 const HOST_BOUND: Duration = Duration::from_secs(300);
 
-fn ip(args: &[&str]) {
+/// Runs `ip ARGS…`, asserting it succeeded; its stdout.
+fn ip(args: &[&str]) -> String {
     let out = Command::new("ip")
         .args(args)
         .output()
@@ -47,6 +48,7 @@ fn ip(args: &[&str]) {
         args.join(" "),
         String::from_utf8_lossy(&out.stderr)
     );
+    String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
 /// Three namespaces `a`, `b`, `c` joined through `a`: a–b on 10.231.1.0/24, a–c on
@@ -132,20 +134,10 @@ impl Hosts {
         ]);
     }
 
-    /// `tc` inside host `host`'s namespace.
+    /// `tc ARGS…` inside host `host`'s namespace; its stdout.
     fn tc(&self, host: &str, args: &[&str]) -> String {
-        let out = Command::new("ip")
-            .args(["netns", "exec", &self.ns(host), "tc"])
-            .args(args)
-            .output()
-            .expect("run tc");
-        assert!(
-            out.status.success(),
-            "tc {}: {}",
-            args.join(" "),
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8_lossy(&out.stdout).into_owned()
+        let ns = self.ns(host);
+        ip(&[&["netns", "exec", ns.as_str(), "tc"][..], args].concat())
     }
 }
 
