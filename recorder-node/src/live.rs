@@ -9,9 +9,16 @@ use std::sync::Arc;
 use anyhow::{Context as _, Result, bail};
 use foxglove::{ChannelBuilder, Context, PartialMetadata, RawChannel, WebSocketServer};
 use recording::ViewTap;
-use recording::foxglove::{VIEW_ENCODING, ViewMessage};
+use recording::foxglove::{VIEW_ENCODING, ViewKind, ViewMessage};
 
-/// The server and one channel per view topic, created when its first message comes.
+/// The server and one channel per view topic.
+///
+/// The channels the session is known to carry are created before the server starts, so every
+/// client learns of them while it registers. A channel created while a client is connected is
+/// advertised to it before the `foxglove` crate (0.30.3) registers the channel for that client:
+/// a client that subscribes at once can get "Unknown channel ID" and never receive it. We saw
+/// one camera's images missing for a whole run that way on a loaded 2-core machine. A topic
+/// outside the expected set is still served, created when its first message comes.
 pub struct Live {
     context: Arc<Context>,
     channels: BTreeMap<String, Arc<RawChannel>>,
@@ -22,7 +29,7 @@ pub struct Live {
 impl Live {
     /// Serves on `addr`. Only loopback: the view shows ground truth and the server has no
     /// authentication (watch a remote host through an SSH tunnel).
-    pub fn start(addr: SocketAddr, session: &str) -> Result<Self> {
+    pub fn start(addr: SocketAddr, session: &str, expected: &[(String, ViewKind)]) -> Result<Self> {
         if !addr.ip().is_loopback() {
             bail!(
                 "--live {addr}: the live view serves ground truth without authentication, so \
@@ -30,6 +37,12 @@ impl Live {
             );
         }
         let context = Context::new();
+        let mut channels = BTreeMap::new();
+        for (topic, kind) in expected {
+            let channel = channel(&context, topic, kind.schema())
+                .with_context(|| format!("creating the live channel {topic}"))?;
+            channels.insert(topic.clone(), channel);
+        }
         let server = WebSocketServer::new()
             .name(format!("waggle {session}"))
             .bind(addr.ip().to_string(), addr.port())
@@ -42,7 +55,7 @@ impl Live {
         );
         Ok(Self {
             context,
-            channels: BTreeMap::new(),
+            channels,
             _server: server,
         })
     }
@@ -53,12 +66,7 @@ impl ViewTap for Live {
         let channel = match self.channels.get(topic) {
             Some(c) => c.clone(),
             None => {
-                let built = ChannelBuilder::new(topic)
-                    .context(&self.context)
-                    .message_encoding(VIEW_ENCODING)
-                    .schema(msg.schema.clone())
-                    .build_raw();
-                match built {
+                match channel(&self.context, topic, msg.schema.clone()) {
                     Ok(c) => {
                         self.channels.insert(topic.to_string(), c.clone());
                         c
@@ -78,4 +86,16 @@ impl ViewTap for Live {
             },
         );
     }
+}
+
+fn channel(
+    context: &Arc<Context>,
+    topic: &str,
+    schema: foxglove::Schema,
+) -> Result<Arc<RawChannel>, foxglove::FoxgloveError> {
+    ChannelBuilder::new(topic)
+        .context(context)
+        .message_encoding(VIEW_ENCODING)
+        .schema(schema)
+        .build_raw()
 }

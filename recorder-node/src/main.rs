@@ -80,7 +80,8 @@ fn main() -> Result<()> {
     let node = &args.node;
     let mut writer = session_writer(&args)?;
     if let Some(addr) = args.live {
-        writer = writer.with_tap(Box::new(live::Live::start(addr, &node.session)?));
+        let live = live::Live::start(addr, &node.session, &writer.expected_views())?;
+        writer = writer.with_tap(Box::new(live));
     }
 
     let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;

@@ -20,7 +20,7 @@ import wsProtocol from "@foxglove/ws-protocol"; // CommonJS build: its named exp
 import WebSocket from "ws";
 import { compareDescriptor, decodeOfficial } from "./foxglove_defs.mjs";
 
-const { FoxgloveClient } = wsProtocol;
+const { FoxgloveClient, StatusLevel } = wsProtocol;
 const MAX_ERRORS = 10;
 const RETRY_MS = 200;
 const SUBPROTOCOLS = ["foxglove.sdk.v1", FoxgloveClient.SUPPORTED_SUBPROTOCOL]; // the latter is foxglove.websocket.v1
@@ -125,6 +125,9 @@ function attempt() {
     client.on("advertise", (advertised) => onAdvertise(client, advertised));
     client.on("unadvertise", (ids) => { for (const id of ids) live.delete(id); });
     client.on("message", onMessage);
+    // A server's error status (e.g. "Unknown channel ID" for a subscription) explains a channel
+    // that never delivers; warnings such as a repeated subscription are not failures.
+    client.on("status", (s) => { if (s.level === StatusLevel.ERROR) note(`server: ${s.message}`); });
     client.on("error", (e) => { if (opened) note(`websocket: ${e?.message ?? e}`); });
     client.on("close", () => resolve(opened));
   });

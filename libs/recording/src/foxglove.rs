@@ -33,9 +33,38 @@ pub struct ViewMessage {
     pub data: Vec<u8>,
 }
 
+/// The schema of one of the view channels' message types.
+pub fn schema_of<T: Encode>() -> foxglove::Schema {
+    T::get_schema().expect("every foxglove message type has a schema")
+}
+
+/// The view channels' message types, by what they show.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ViewKind {
+    /// `foxglove.RawImage`: a camera's RGB frames or its event-frame pictures.
+    Image,
+    /// `foxglove.FrameTransforms`: the drones' poses.
+    Transforms,
+    /// `foxglove.SceneUpdate`: the 3D scene.
+    Scene,
+    /// `foxglove.Log`: the log lines.
+    Log,
+}
+
+impl ViewKind {
+    pub fn schema(self) -> foxglove::Schema {
+        match self {
+            Self::Image => schema_of::<RawImage>(),
+            Self::Transforms => schema_of::<FrameTransforms>(),
+            Self::Scene => schema_of::<SceneUpdate>(),
+            Self::Log => schema_of::<Log>(),
+        }
+    }
+}
+
 impl ViewMessage {
     fn of<T: Encode>(msg: &T) -> Self {
-        let schema = T::get_schema().expect("every foxglove message type has a schema");
+        let schema = schema_of::<T>();
         let mut data = Vec::with_capacity(msg.encoded_len().unwrap_or(64));
         msg.encode(&mut data)
             .expect("a Vec grows to fit any message");

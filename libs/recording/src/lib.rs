@@ -143,8 +143,11 @@ mod tests {
             assert_eq!(p.is_empty(), (k + 1) % 4 == 0);
         }
         // 200 ms view: one picture per 5 packets.
-        let images = got.iter().filter(|m| m.0 == "/view/O1/events").count();
-        assert_eq!(images, 6);
+        let images: Vec<_> = got.iter().filter(|m| m.0 == "/view/O1/events").collect();
+        assert_eq!(images.len(), 6);
+        // The schema the live view promised for this channel before the first image came.
+        let promised = foxglove::ViewKind::Image.schema().name;
+        assert!(images.iter().all(|m| m.1 == promised));
         assert!(got.iter().any(|m| m.0 == "/unknown/what/is/this"));
         assert_eq!(got.iter().filter(|m| m.0 == "/clock").count(), 31);
     }
@@ -216,6 +219,57 @@ mod tests {
                 .unwrap();
         assert_eq!(image.data.as_ref(), [26u8; 6]);
         assert_eq!((image.width, image.height), (2, 1));
+    }
+
+    #[test]
+    fn the_expected_view_channels_follow_the_modality_and_the_group() {
+        let expected = |modality: Option<&str>, observers: usize, event_view: Option<u64>| {
+            let info = SessionInfo {
+                session: "v".into(),
+                observers,
+                modality: modality.map(String::from),
+                ..SessionInfo::default()
+            };
+            let options = RecorderOptions {
+                event_view_period_ns: event_view,
+                ..RecorderOptions::default()
+            };
+            let w = SessionWriter::new(Cursor::new(Vec::new()), &info, options).unwrap();
+            w.expected_views()
+                .into_iter()
+                .map(|(topic, kind)| format!("{topic} {}", kind.schema().name))
+                .collect::<Vec<_>>()
+        };
+        let common = [
+            "/view/log foxglove.Log",
+            "/view/scene foxglove.SceneUpdate",
+            "/view/tf foxglove.FrameTransforms",
+        ];
+        let with = |images: &[&str]| {
+            let mut v: Vec<String> = images
+                .iter()
+                .chain(common.iter())
+                .map(|s| s.to_string())
+                .collect();
+            v.sort();
+            v
+        };
+        assert_eq!(
+            expected(Some("events"), 3, Some(500_000_000)),
+            with(&[
+                "/view/O1/events foxglove.RawImage",
+                "/view/O2/events foxglove.RawImage",
+                "/view/O3/events foxglove.RawImage",
+            ])
+        );
+        let eight = expected(Some("rgb"), 8, None);
+        assert_eq!(eight.len(), 11);
+        assert!(eight.contains(&"/view/O8/rgb foxglove.RawImage".to_string()));
+        assert!(!eight.iter().any(|t| t.contains("events")));
+        // No event pictures wanted, or a modality the writer does not know: no image channel
+        // is promised (an image that comes all the same still gets its channel then).
+        assert_eq!(expected(Some("events"), 3, None), with(&[]));
+        assert_eq!(expected(None, 3, Some(500_000_000)), with(&[]));
     }
 
     #[test]

@@ -19,9 +19,10 @@ use std::io::{Seek, Write};
 
 use mcap::records::Metadata;
 use mcap::{Compression, WriteOptions, Writer};
+use proto::scene::observer_name;
 use proto::{ObserverId, SessionEvent, TICK_NS};
 
-use crate::foxglove::{self, LogLevel, Scene, VIEW_ENCODING, ViewMessage};
+use crate::foxglove::{self, LogLevel, Scene, VIEW_ENCODING, ViewKind, ViewMessage};
 use crate::topics::{Decoded, MessageKind, RAW_ENCODING, classify, decode};
 use crate::views::{EventView, log_line};
 
@@ -174,6 +175,8 @@ pub struct SessionWriter<W: Write + Seek> {
     scene: Scene,
     next_scene_ns: u64,
     tap: Option<Box<dyn ViewTap>>,
+    observers: usize,
+    modality: Option<String>,
 }
 
 impl<W: Write + Seek> SessionWriter<W> {
@@ -214,12 +217,44 @@ impl<W: Write + Seek> SessionWriter<W> {
             scene: Scene::default(),
             next_scene_ns: 0,
             tap: None,
+            observers: info.observers,
+            modality: info.modality.clone(),
         };
         me.mcap.write_metadata(&Metadata {
             name: SESSION_METADATA.into(),
             metadata: info.to_metadata(),
         })?;
         Ok(me)
+    }
+
+    /// The view channels this session will carry, known before its first message, sorted by
+    /// topic: every observer's images (when the modality is known), the poses, the scene and
+    /// the log. A live view advertises them all before any client connects (see
+    /// `recorder-node`'s `live`); a view topic not listed here is still recorded when it comes.
+    pub fn expected_views(&self) -> Vec<(String, ViewKind)> {
+        let images = match self.modality.as_deref() {
+            Some("events") if self.options.event_view_period_ns.is_some() => Some("events"),
+            Some("rgb") => Some("rgb"),
+            _ => None,
+        };
+        let mut out: Vec<(String, ViewKind)> = images
+            .into_iter()
+            .flat_map(|kind| {
+                (0..self.observers).map(move |i| {
+                    (
+                        format!("/view/{}/{kind}", observer_name(i)),
+                        ViewKind::Image,
+                    )
+                })
+            })
+            .chain([
+                (TF_TOPIC.to_string(), ViewKind::Transforms),
+                (SCENE_TOPIC.to_string(), ViewKind::Scene),
+                (LOG_TOPIC.to_string(), ViewKind::Log),
+            ])
+            .collect();
+        out.sort_by(|a, b| a.0.cmp(&b.0));
+        out
     }
 
     pub fn stats(&self) -> &RecordStats {
