@@ -45,14 +45,17 @@ const { url, timeoutS, minChannels } = parseArgs(process.argv.slice(2));
 const deadline = Date.now() + timeoutS * 1000;
 
 const channels = {}; // topic -> {schemaName, encoding, messages, invalid} (the printed result)
-const live = new Map(); // channel id -> {topic, valid: count, schemaError} for currently advertised channels
+const live = new Map(); // channel id -> {topic, schemaName, schemaError} for currently advertised channels
 const bySubscription = new Map(); // subscription id -> channel id
 const errors = [];
 let errorCount = 0;
 const note = (msg) => { errorCount++; if (errors.length < MAX_ERRORS) errors.push(msg); };
 
+// Every topic ever advertised must have delivered a valid message: a channel the server withdrew
+// (all of them, when the recorder ends) without delivering one does not count as done.
 const isComplete = () =>
-  Object.keys(channels).length >= minChannels && [...live.values()].every((c) => c.valid > 0);
+  Object.keys(channels).length >= minChannels &&
+  Object.values(channels).every((c) => c.messages - c.invalid > 0);
 
 let finished = false;
 let current; // the FoxgloveClient of the connection attempt under way
@@ -83,7 +86,7 @@ function onAdvertise(client, advertised) {
       if (problems.length) schemaError = `${ch.topic}: ${problems.join("; ")}`;
     }
     if (schemaError) note(schemaError);
-    live.set(ch.id, { topic: ch.topic, schemaName: ch.schemaName, valid: 0, schemaError });
+    live.set(ch.id, { topic: ch.topic, schemaName: ch.schemaName, schemaError });
     bySubscription.set(client.subscribe(ch.id), ch.id);
   }
 }
@@ -96,7 +99,6 @@ function onMessage({ subscriptionId, data }) {
   if (ch.schemaError) { result.invalid++; return; } // reason already noted once at advertise
   try {
     decodeOfficial(ch.schemaName, new Uint8Array(data.buffer, data.byteOffset, data.byteLength));
-    ch.valid++;
   } catch (e) {
     result.invalid++;
     note(`${ch.topic}: ${e.message}`);
