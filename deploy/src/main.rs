@@ -30,6 +30,9 @@ enum Cli {
     Up(cli::up::UpArgs),
     /// Serve a session's Zenoh router on its own (authenticated from its compose file).
     Router(cli::router::RouterArgs),
+    /// Write what one host of a session needs (the compose file and only that host's
+    /// credentials) into a new directory, to copy to that host.
+    Bundle(cli::bundle::BundleArgs),
     /// Run a case once per camera render path (full, damage) in one invocation and print
     /// wall/sim, camera CPU per simulated second and their ratio side by side.
     Bench(cli::bench::BenchArgs),
@@ -66,6 +69,7 @@ fn main() -> anyhow::Result<()> {
         Cli::Compose(args) => cli::compose::run(args),
         Cli::Up(args) => cli::up::run(args),
         Cli::Router(args) => cli::router::run(args),
+        Cli::Bundle(args) => cli::bundle::run(args),
         Cli::Events(args) => cli::events::run(args),
         Cli::Bench(args) => cli::bench::run(args),
         Cli::Replay(args) => cli::replay::run(args),

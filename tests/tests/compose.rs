@@ -153,6 +153,26 @@ fn bad_sessions_hosts_and_routers_are_refused_naming_the_input() {
     let good_s = good.to_str().unwrap();
     let e = refused(&["up", good_s, "--host", "z"]);
     assert!(e.contains("\"z\"") && e.contains("local"), "{e}");
+    // A bundle is for a host of the session, into a new directory.
+    let e = refused(&[
+        "bundle",
+        good_s,
+        "--host",
+        "z",
+        "--out",
+        dir.join("bz").to_str().unwrap(),
+    ]);
+    assert!(e.contains("\"z\"") && e.contains("local"), "{e}");
+    assert!(!dir.join("bz").exists(), "a refused bundle leaves nothing");
+    let e = refused(&[
+        "bundle",
+        good_s,
+        "--host",
+        "b",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(e.contains("exists already"), "{e}");
     // An unknown key, then a forged node.
     let text = std::fs::read_to_string(&good).unwrap();
     std::fs::write(

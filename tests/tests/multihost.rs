@@ -15,10 +15,13 @@
 //!   and every camera's sensor digest);
 //! - b's link down for 20 s, beyond the lease: the router drops b's sessions, everyone else sees
 //!   b's liveliness tokens vanish and goes on without it, O1 and O3 decode nothing, the
-//!   summary fails naming them, and every host's launcher ends — no hang.
+//!   summary fails naming them, and every host's launcher ends — no hang. (Rarely the router
+//!   stalls on b's dead link until it returns, zenoh#1876, and c loses it too: O2 is then judged
+//!   a dropout, still without a hang.)
 //!
 //! Root is required (`ip netns`); every wait is bounded.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::Mutex;
@@ -212,6 +215,52 @@ fn compose(dir: &Path, router: RouterOn) -> PathBuf {
     file
 }
 
+/// `waggle bundle FILE --host HOST`: the compose file and only that host's credentials (the
+/// router's dictionary for the router's host). Returns the bundle's compose file.
+fn bundle(file: &Path, host: &str, router: bool) -> PathBuf {
+    let dir = file.with_file_name(format!("bundle-{host}"));
+    let out = waggle_with_nodes()
+        .args(["bundle", "--host", host, "--out"])
+        .arg(&dir)
+        .arg(file)
+        .output()
+        .expect("run waggle bundle");
+    assert!(
+        out.status.success(),
+        "waggle bundle --host {host}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut held: Vec<String> = std::fs::read_dir(dir.join("session.secrets"))
+        .expect("the bundle's secrets")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    held.sort();
+    let mut want: Vec<String> = match host {
+        "a" => vec!["launcher", "performer", "recorder", "scheduler", "sim"],
+        "b" => vec![
+            "camera-O1",
+            "camera-O3",
+            "launcher-b",
+            "observer-O1",
+            "observer-O3",
+        ],
+        "c" => vec!["camera-O2", "launcher-c", "observer-O2"],
+        _ => vec![],
+    }
+    .into_iter()
+    .map(|u| format!("{u}.credentials"))
+    .collect();
+    if host == "r" {
+        want.push("launcher-r.credentials".into());
+    }
+    if router {
+        want.push("dictionary".into());
+    }
+    want.sort();
+    assert_eq!(held, want, "host {host}'s bundle");
+    dir.join("session.toml")
+}
+
 /// `sensor-digest O1 …` lines the cameras of a host printed.
 fn camera_digests(host_dir: &Path) -> Vec<(String, String)> {
     let mut out = Vec::new();
@@ -247,19 +296,31 @@ fn run_session(
 ) -> (Hosts, Vec<(String, Ended, PathBuf)>) {
     let dir = fresh_dir(name);
     let file = compose(&dir, router);
+    let router_host = match router {
+        RouterOn::Alone => "r",
+        RouterOn::SupervisorHost => "a",
+    };
+    // Each host gets its own bundle; the session's whole secrets directory is gone before any
+    // host starts, so every host runs on its own credentials alone.
+    let bundles: BTreeMap<&str, PathBuf> = ["a", "b", "c", "r"]
+        .into_iter()
+        .filter(|h| *h != "r" || router == RouterOn::Alone)
+        .map(|h| (h, bundle(&file, h, h == router_host)))
+        .collect();
+    std::fs::remove_dir_all(file.with_extension("secrets")).expect("remove the whole secrets");
     let hosts = Hosts::new(&name[..1]);
     let started = Instant::now();
     let mut running = Vec::new();
     // The router last: the other hosts' clients keep dialling until it is up.
     for h in ["b", "c", "a"] {
         let out = dir.join(format!("host-{h}"));
-        running.push((h.to_string(), hosts.up(h, &file, &out), out));
+        running.push((h.to_string(), hosts.up(h, &bundles[h], &out), out));
         std::thread::sleep(Duration::from_secs(1));
     }
     if router == RouterOn::Alone {
         running.push((
             "r".to_string(),
-            hosts.router("a", &file),
+            hosts.router("a", &bundles["r"]),
             dir.join("router"),
         ));
     }
@@ -269,6 +330,9 @@ fn run_session(
         .into_iter()
         .map(|(h, child, out)| {
             let e = finish(&h, child, deadline);
+            // Kept beside the host's run directory: the router's own log (zenoh's warnings) is
+            // in its launcher's stderr.
+            let _ = std::fs::write(out.with_extension("stderr"), &e.stderr);
             (h, e, out)
         })
         .collect();
@@ -395,10 +459,20 @@ fn a_cut_beyond_the_lease_drops_the_host_and_the_run_fails_naming_its_observers(
         "{:?}",
         s.mission.reasons
     );
-    // The observers b carried decoded nothing; c's went on undisturbed.
+    // The observers b carried decoded nothing.
     assert_eq!(s.mission.observers["O1"].complete_messages, 0);
     assert_eq!(s.mission.observers["O3"].complete_messages, 0);
-    assert_eq!(s.mission.observers["O2"].complete_messages, 1);
+    // c's observer goes on and decodes its message — unless the router stalled on b's dead
+    // link past c's own lease. Zenoh 1.10.2's router can block on a push to an unresponsive
+    // transport until the link returns (eclipse-zenoh/zenoh#1876, open); once in about ten
+    // runs c's camera lost the router too and ended. Then O2 must be judged, not waited for:
+    // the camera's packets are counted missing and the run fails naming O2 as well.
+    let o2 = s.mission.observers["O2"].complete_messages;
+    let o2_missing = s.missing_packets.get("O2").copied().unwrap_or(0);
+    assert!(
+        o2 == 1 || (o2 == 0 && o2_missing > 0),
+        "O2: {o2} complete messages, {o2_missing} missing packets"
+    );
     let (_, b_end, _) = get("b");
     assert!(!b_end.success);
     assert!(

@@ -25,7 +25,7 @@ pub struct ComposeArgs {
     #[arg(long = "router", value_name = "ENDPOINT")]
     router: Vec<String>,
     /// The compose file to write. Its credentials go to FILE's name with `.secrets` (a private
-    /// directory: copy it with the file to every host, e.g. `scp -rp`).
+    /// directory; `waggle bundle FILE --host NAME` extracts what one host needs).
     #[arg(long)]
     out: PathBuf,
 }
@@ -76,8 +76,10 @@ fn describe(c: &Compose, file: &Path, secrets: Option<&Path>) {
     );
     if let Some(s) = secrets {
         println!(
-            "credentials in {} (private: copy it beside the file on every host)",
-            s.display()
+            "credentials in {} (private; `waggle bundle {} --host NAME --out DIR` copies the \
+             file and only that host's credentials, for that host)",
+            s.display(),
+            file.display()
         );
     }
     println!(

@@ -4,6 +4,7 @@
 pub mod allocate;
 pub mod audit;
 pub mod bench;
+pub mod bundle;
 pub mod compose;
 pub mod events;
 pub mod link;

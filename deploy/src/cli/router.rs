@@ -27,6 +27,7 @@ pub struct RouterArgs {
 }
 
 pub fn run(args: RouterArgs) -> Result<()> {
+    crate::launch::own_log::to_stderr();
     let stop = bus::on_stop_signal();
     let (session, config, listen) = match &args.compose {
         Some(file) => {

@@ -19,6 +19,7 @@
 pub mod bench;
 pub mod fault;
 pub mod gather;
+pub mod own_log;
 pub mod process;
 pub mod router;
 pub mod summarise;

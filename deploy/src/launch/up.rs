@@ -18,7 +18,7 @@ use proto::{Key, ObserverId, RenderPath, Role};
 use super::process::{Proc, Spawner};
 use super::summarise::{RunInfo, summarise};
 use super::supervise::{Duty, Supervisor};
-use super::{RunDone, RunPlace, stop_all, with_logs};
+use super::{RunDone, RunPlace, own_log, stop_all, with_logs};
 use crate::compose::Compose;
 use crate::run_dir::{CASE_FILE, ProcessFigures, RECORDING_FILE, RunFiles};
 
@@ -125,6 +125,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
         opts.out.as_deref(),
         opts.bin_dir.as_deref(),
     )?;
+    own_log::to_file(&place.log_dir.join("launcher.log"))?;
     let observers: Vec<ObserverId> = (0..case.observers).map(ObserverId::from_index).collect();
     // Every node started here dials like a node on the router's host when this invocation
     // runs the router (one machine), else like one on its own host.

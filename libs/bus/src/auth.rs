@@ -167,6 +167,47 @@ impl SessionSecrets {
         })
     }
 
+    /// Copies the credentials this holds (and the router's dictionary if `with_dictionary`)
+    /// into a new private directory `dir`, which must not exist: what one host needs and no
+    /// more, so a host never holds another host's passwords.
+    pub fn export(&self, dir: &Path, with_dictionary: bool) -> Result<Self, BusError> {
+        let io = |what: &str, path: &Path, e: std::io::Error| {
+            BusError::Credentials(format!("{what} {}: {e}", path.display()))
+        };
+        if dir.exists() {
+            return Err(BusError::Credentials(format!(
+                "{} exists already: name a new directory",
+                dir.display()
+            )));
+        }
+        std::fs::create_dir_all(dir).map_err(|e| io("creating", dir, e))?;
+        std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))
+            .map_err(|e| io("protecting", dir, e))?;
+        let copy = |from: &Path| -> Result<PathBuf, BusError> {
+            let name = from.file_name().ok_or_else(|| {
+                BusError::Credentials(format!("{} has no file name", from.display()))
+            })?;
+            let to = dir.join(name);
+            let text = std::fs::read_to_string(from).map_err(|e| io("reading", from, e))?;
+            write_private(&to, &text)?;
+            Ok(to)
+        };
+        let mut files = BTreeMap::new();
+        for (user, file) in &self.files {
+            files.insert(user.clone(), copy(file)?);
+        }
+        if with_dictionary {
+            self.check_dictionary()?;
+            copy(&self.dictionary)?;
+        }
+        Ok(Self {
+            dictionary: dir.join("dictionary"),
+            dir: dir.to_path_buf(),
+            files,
+            remove_on_drop: false,
+        })
+    }
+
     /// Checks the router's dictionary is there and private.
     pub fn check_dictionary(&self) -> Result<(), BusError> {
         let mode = std::fs::metadata(&self.dictionary)
@@ -266,5 +307,46 @@ mod tests {
         let open_dir = SessionSecrets::open(&dir, &users);
         assert!(matches!(open_dir, Err(BusError::Credentials(m)) if m.contains("chmod")));
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn an_export_holds_only_the_chosen_credentials_privately() {
+        let base = std::env::temp_dir().join(format!("waggle-export-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&base);
+        let all = ["sim".to_string(), "camera-O1".into(), "launcher-b".into()];
+        SessionSecrets::create_kept(&base.join("all"), &all).unwrap();
+        let b = SessionSecrets::open(&base.join("all"), &all[1..]).unwrap();
+        let out = base.join("b");
+        let exported = b.export(&out, false).unwrap();
+        let mut names: Vec<String> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["camera-O1.credentials", "launcher-b.credentials"]);
+        assert_eq!(
+            std::fs::metadata(&out).unwrap().permissions().mode() & 0o777,
+            0o700
+        );
+        let file = exported.file_of("camera-O1").unwrap();
+        assert_eq!(
+            std::fs::metadata(file).unwrap().permissions().mode() & 0o777,
+            0o600
+        );
+        assert_eq!(
+            Credentials::read(file).unwrap(),
+            Credentials::read(b.file_of("camera-O1").unwrap()).unwrap()
+        );
+        // The host can open what it holds, and nothing else.
+        SessionSecrets::open(&out, &all[1..]).unwrap();
+        assert!(SessionSecrets::open(&out, &all[..1]).is_err());
+        assert!(exported.check_dictionary().is_err());
+        // The router's host also gets the dictionary; an existing directory is never overwritten.
+        let with = b.export(&base.join("router"), true).unwrap();
+        with.check_dictionary().unwrap();
+        assert!(
+            matches!(b.export(&out, false), Err(BusError::Credentials(m)) if m.contains("exists"))
+        );
+        std::fs::remove_dir_all(&base).unwrap();
     }
 }

@@ -1,0 +1,88 @@
+//! `waggle bundle FILE --host NAME --out DIR`: what one host of a session needs, to copy there —
+//! the compose file and that host's own credentials (the router's host also gets the router's
+//! dictionary), so no host holds another host's passwords.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+
+use crate::compose::Compose;
+
+#[derive(Debug, Args)]
+pub struct BundleArgs {
+    /// The compose file (`waggle compose … --out FILE`), beside its secrets directory.
+    file: PathBuf,
+    /// The host the bundle is for: one the file places nodes or the router on.
+    #[arg(long)]
+    host: String,
+    /// A new directory to write: the compose file under its own name, and beside it the
+    /// credentials of that host's processes only.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run(args: BundleArgs) -> Result<()> {
+    let compose = Compose::load(&args.file)?;
+    let name = args
+        .file
+        .file_name()
+        .with_context(|| format!("{} has no file name", args.file.display()))?;
+    if args.out.exists() {
+        bail!(
+            "--out {}: exists already; name a new directory",
+            args.out.display()
+        );
+    }
+    // Opening the host's share first checks the host and every file it needs.
+    let secrets = super::up::open_secrets(&compose, &args.file, Some(&args.host))?;
+    let target = args.out.join(name);
+    let secrets_target = match (&secrets, &compose.secrets) {
+        (Some(_), Some(dir)) if dir.is_absolute() => bail!(
+            "{} names its secrets by an absolute path ({}): a bundle needs one relative to the file",
+            args.file.display(),
+            dir.display()
+        ),
+        (Some(_), Some(_)) => compose.secrets_dir(&target),
+        _ => None,
+    };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::copy(&args.file, &target)
+        .with_context(|| format!("copying {} to {}", args.file.display(), target.display()))?;
+    let router = args.host == compose.router.host;
+    if let (Some(s), Some(dir)) = (&secrets, &secrets_target) {
+        s.export(dir, router)
+            .with_context(|| format!("writing {}'s credentials", args.host))?;
+    }
+
+    let users = compose.users_on(&args.host);
+    println!(
+        "bundle for host {} of session {} in {}: {}",
+        args.host,
+        compose.session,
+        args.out.display(),
+        match &secrets_target {
+            Some(dir) => format!(
+                "{} and the credentials of {}{} in {}",
+                target.display(),
+                users.join(", "),
+                if router {
+                    " with the router's dictionary"
+                } else {
+                    ""
+                },
+                dir.display()
+            ),
+            None => format!("{} (no credentials: the session is open)", target.display()),
+        }
+    );
+    println!(
+        "copy it there (e.g. scp -rp {}/. {}:run/) and run: waggle up run/{} --host {}",
+        args.out.display(),
+        args.host,
+        name.to_string_lossy(),
+        args.host
+    );
+    Ok(())
+}
