@@ -195,6 +195,10 @@ pub fn run_case(case: &Case, modality: Modality, opts: &RunOptions) -> Result<Ru
         }
     }
     let secrets = if compose.auth {
+        let removed = SessionSecrets::remove_stale(&std::env::temp_dir());
+        if removed > 0 {
+            tracing::info!(removed, "removed the credentials of killed launchers");
+        }
         Some(
             SessionSecrets::create(&std::env::temp_dir(), &compose.session, &compose.users())
                 .context("creating the session's credentials")?,

@@ -72,6 +72,11 @@ pub struct SessionSecrets {
     remove_on_drop: bool,
 }
 
+/// Name prefix of the launchers' own secrets directories.
+const OWNED_PREFIX: &str = "waggle-secrets-";
+/// The file naming the process that owns a launcher's secrets directory.
+const OWNER_FILE: &str = "owner.pid";
+
 /// The name of a process's credentials file.
 fn credentials_file_name(user: &str) -> String {
     format!("{user}.credentials")
@@ -90,11 +95,46 @@ fn write_private(path: &Path, text: &str) -> Result<(), BusError> {
 
 impl SessionSecrets {
     /// Creates a password for each of `users` under `parent/waggle-secrets-<session>`, removed
-    /// when dropped.
+    /// when dropped. The directory names its owner (`owner.pid`), so that one left by a
+    /// launcher that was killed outright (SIGKILL: no drop) is removed by the next
+    /// ([`SessionSecrets::remove_stale`]).
     pub fn create(parent: &Path, session: &str, users: &[String]) -> Result<Self, BusError> {
-        let mut out = Self::create_kept(&parent.join(format!("waggle-secrets-{session}")), users)?;
+        let mut out = Self::create_kept(&parent.join(format!("{OWNED_PREFIX}{session}")), users)?;
         out.remove_on_drop = true;
+        write_private(
+            &out.dir.join(OWNER_FILE),
+            &format!("{}\n", std::process::id()),
+        )?;
         Ok(out)
+    }
+
+    /// Removes the secrets directories under `parent` whose owning launcher is gone (its
+    /// `owner.pid` names no live process); returns how many. Directories without an owner
+    /// file, or that cannot be read or removed, are left alone.
+    pub fn remove_stale(parent: &Path) -> usize {
+        let Ok(entries) = std::fs::read_dir(parent) else {
+            return 0;
+        };
+        let mut removed = 0;
+        for entry in entries.flatten() {
+            let dir = entry.path();
+            let owned = entry
+                .file_name()
+                .to_str()
+                .is_some_and(|n| n.starts_with(OWNED_PREFIX));
+            if !owned || !dir.is_dir() {
+                continue;
+            }
+            let owner = std::fs::read_to_string(dir.join(OWNER_FILE))
+                .ok()
+                .and_then(|t| t.trim().parse::<u32>().ok());
+            let Some(pid) = owner else { continue };
+            let alive = Path::new("/proc").join(pid.to_string()).exists();
+            if !alive && std::fs::remove_dir_all(&dir).is_ok() {
+                removed += 1;
+            }
+        }
+        removed
     }
 
     /// Creates a password for each of `users` in directory `dir` (replaced if it exists), kept
@@ -348,5 +388,30 @@ mod tests {
             matches!(b.export(&out, false), Err(BusError::Credentials(m)) if m.contains("exists"))
         );
         std::fs::remove_dir_all(&base).unwrap();
+    }
+
+    #[test]
+    fn secrets_of_a_killed_launcher_are_removed_by_the_next() {
+        let parent = std::env::temp_dir().join(format!("waggle-stale-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&parent);
+        std::fs::create_dir_all(&parent).unwrap();
+        let live = SessionSecrets::create(&parent, "live", &["sim".into()]).unwrap();
+        // A launcher that died without dropping its secrets: a process that has exited.
+        let mut gone = std::process::Command::new("true").spawn().unwrap();
+        let gone_pid = gone.id();
+        gone.wait().unwrap();
+        let dead = SessionSecrets::create(&parent, "dead", &["sim".into()]).unwrap();
+        std::fs::write(dead.dir().join(OWNER_FILE), format!("{gone_pid}\n")).unwrap();
+        let dead_dir = dead.dir().to_path_buf();
+        std::mem::forget(dead);
+        // Kept secrets (beside a compose file) have no owner: never touched.
+        let kept =
+            SessionSecrets::create_kept(&parent.join("waggle-secrets-kept"), &["sim".into()])
+                .unwrap();
+        assert_eq!(SessionSecrets::remove_stale(&parent), 1);
+        assert!(!dead_dir.exists());
+        assert!(live.dir().exists() && kept.dir().exists());
+        drop(live);
+        std::fs::remove_dir_all(&parent).unwrap();
     }
 }
