@@ -77,6 +77,21 @@ pub fn waggle() -> Command {
     Command::new(bin("waggle"))
 }
 
+/// Runs `cmd` to its end and returns its output, panicking with its stderr unless it succeeded
+/// (`what` names it in the message, e.g. `waggle compose`).
+pub fn succeed(cmd: &mut Command, what: &str) -> std::process::Output {
+    let out = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {what}: {e}"));
+    assert!(
+        out.status.success(),
+        "{what} failed ({}): {}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// A `waggle` command for subcommands that launch the node processes (`run`, `sweep`), after
 /// checking every node binary is there beside it.
 pub fn waggle_with_nodes() -> Command {

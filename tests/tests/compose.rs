@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::process::Stdio;
 
 use deploy::run_dir::RunSummary;
-use waggle_tests::{waggle, waggle_with_nodes};
+use waggle_tests::{succeed, waggle, waggle_with_nodes};
 
 mod golden_runs;
 use golden_runs::{golden_entry, sha256_hex};
@@ -21,17 +21,9 @@ fn fresh_dir(name: &str) -> PathBuf {
 
 fn compose(dir: &std::path::Path, args: &[&str]) -> PathBuf {
     let file = dir.join("session.toml");
-    let out = waggle()
-        .arg("compose")
-        .args(args)
-        .arg("--out")
-        .arg(&file)
-        .output()
-        .expect("run waggle compose");
-    assert!(
-        out.status.success(),
-        "waggle compose {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        waggle().arg("compose").args(args).arg("--out").arg(&file),
+        &format!("waggle compose {args:?}"),
     );
     file
 }

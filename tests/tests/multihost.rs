@@ -28,7 +28,7 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use deploy::run_dir::RunSummary;
-use waggle_tests::{bin, waggle_with_nodes};
+use waggle_tests::{bin, succeed, waggle, waggle_with_nodes};
 
 mod golden_runs;
 use golden_runs::{golden_entry, sha256_hex};
@@ -41,16 +41,11 @@ const HOST_BOUND: Duration = Duration::from_secs(300);
 
 /// Runs `ip ARGS…`, asserting it succeeded; its stdout.
 fn ip(args: &[&str]) -> String {
-    let out = Command::new("ip")
-        .args(args)
-        .output()
-        .expect("run ip (iproute2; deploy/setup.sh installs it)");
-    assert!(
-        out.status.success(),
-        "ip {}: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stderr)
+    let what = format!(
+        "ip {} (iproute2: deploy/setup.sh installs it)",
+        args.join(" ")
     );
+    let out = succeed(Command::new("ip").args(args), &what);
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
@@ -198,19 +193,15 @@ fn compose(dir: &Path, router: RouterOn) -> PathBuf {
         RouterOn::Alone => &["--place", "router=r"],
         RouterOn::SupervisorHost => &[],
     };
-    let out = waggle_with_nodes()
-        .args(["compose", "only-a", "--modality", "events"])
-        .args(["--place", "*=a", "--place", "*-O1=b", "--place", "*-O3=b"])
-        .args(["--place", "*-O2=c"])
-        .args(alone)
-        .args(["--router", "tcp/10.231.1.1:7447", "--out"])
-        .arg(&file)
-        .output()
-        .expect("run waggle compose");
-    assert!(
-        out.status.success(),
-        "waggle compose: {}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        waggle_with_nodes()
+            .args(["compose", "only-a", "--modality", "events"])
+            .args(["--place", "*=a", "--place", "*-O1=b", "--place", "*-O3=b"])
+            .args(["--place", "*-O2=c"])
+            .args(alone)
+            .args(["--router", "tcp/10.231.1.1:7447", "--out"])
+            .arg(&file),
+        "waggle compose",
     );
     file
 }
@@ -219,16 +210,12 @@ fn compose(dir: &Path, router: RouterOn) -> PathBuf {
 /// router's dictionary for the router's host). Returns the bundle's compose file.
 fn bundle(file: &Path, host: &str, router: bool) -> PathBuf {
     let dir = file.with_file_name(format!("bundle-{host}"));
-    let out = waggle_with_nodes()
-        .args(["bundle", "--host", host, "--out"])
-        .arg(&dir)
-        .arg(file)
-        .output()
-        .expect("run waggle bundle");
-    assert!(
-        out.status.success(),
-        "waggle bundle --host {host}: {}",
-        String::from_utf8_lossy(&out.stderr)
+    succeed(
+        waggle()
+            .args(["bundle", "--host", host, "--out"])
+            .arg(&dir)
+            .arg(file),
+        &format!("waggle bundle --host {host}"),
     );
     let mut held: Vec<String> = std::fs::read_dir(dir.join("session.secrets"))
         .expect("the bundle's secrets")

@@ -12,17 +12,13 @@ mod common;
 use common::{link, payloads};
 
 fn trials(dir: &Path, args: &[&str]) -> (Value, std::process::Output) {
-    let out = waggle_tests::waggle()
-        .arg("trials")
-        .args(args)
-        .arg("--out")
-        .arg(dir)
-        .output()
-        .expect("run waggle trials");
-    assert!(
-        out.status.success(),
-        "waggle trials {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = waggle_tests::succeed(
+        waggle_tests::waggle()
+            .arg("trials")
+            .args(args)
+            .arg("--out")
+            .arg(dir),
+        &format!("waggle trials {args:?}"),
     );
     let json = std::fs::read(dir.join("trials.json")).expect("trials.json");
     (serde_json::from_slice(&json).expect("JSON"), out)

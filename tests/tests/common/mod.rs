@@ -18,16 +18,9 @@ pub fn nominal_link(modality: &str) -> Value {
 
 /// Runs `waggle link ARGS --json` and parses its output; panics with stderr on failure.
 pub fn link(args: &[&str]) -> Value {
-    let out = waggle_tests::waggle()
-        .arg("link")
-        .args(args)
-        .arg("--json")
-        .output()
-        .expect("run waggle");
-    assert!(
-        out.status.success(),
-        "waggle link {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = waggle_tests::succeed(
+        waggle_tests::waggle().arg("link").args(args).arg("--json"),
+        &format!("waggle link {args:?}"),
     );
     serde_json::from_slice(&out.stdout).expect("JSON output")
 }
