@@ -162,6 +162,11 @@ fn bad_perturbations_and_counts_are_refused_naming_the_input() {
         (vec!["--perturb", "link.drop_rate=-0.5"], "link.drop_rate"),
         (vec!["--perturb", "rgb.read_noise_grey"], "KEY=VALUE"),
         (vec!["--trials", "0"], "--trials"),
+        (vec!["--sensor-preset", "v2e-loud"], "v2e-loud"),
+        (
+            vec!["--sensor-preset", "v2e-noisy", "--perturb", "events.threshold=5"],
+            "events.threshold",
+        ),
     ] {
         let out = dir.to_string_lossy();
         let base = [

@@ -27,9 +27,8 @@ pub struct MissionArgs {
     /// baseline: observer i always takes offer site i mod sites).
     #[arg(long, value_enum, default_value_t)]
     policy: Policy,
-    /// A perturbation term KEY=VALUE (repeatable; `waggle trials --help` lists them).
-    #[arg(long = "perturb", value_name = "KEY=VALUE")]
-    perturb: Vec<String>,
+    #[command(flatten)]
+    perturb: super::PerturbArgs,
     /// Seed of the perturbation's draws.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -54,7 +53,7 @@ pub fn run(args: MissionArgs) -> Result<()> {
     let opts = MissionOptions {
         render: args.render.path,
         policy: args.policy,
-        perturbation: perturb::Perturbation::parse(&args.perturb)?,
+        perturbation: args.perturb.perturbation()?,
         seed: args.seed,
         stop: None,
     };

@@ -40,6 +40,28 @@ impl FlightsArg {
     }
 }
 
+/// `--sensor-preset NAME` and `--perturb KEY=VALUE…`, shared by the commands that perturb.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PerturbArgs {
+    /// A named sensor preset (`v2e-clean`, `v2e-default`, `v2e-noisy`): its `events.*` terms,
+    /// under any --perturb given too. None: the paper's ideal sensors.
+    #[arg(long = "sensor-preset", value_name = "NAME")]
+    pub sensor_preset: Option<String>,
+    /// A perturbation term KEY=VALUE (repeatable; `waggle trials --help` lists them).
+    #[arg(long = "perturb", value_name = "KEY=VALUE")]
+    pub perturb: Vec<String>,
+}
+
+impl PerturbArgs {
+    /// The preset's terms, then every --perturb over them.
+    pub fn perturbation(&self) -> anyhow::Result<perturb::Perturbation> {
+        Ok(perturb::Perturbation::with_preset(
+            self.sensor_preset.as_deref(),
+            &self.perturb,
+        )?)
+    }
+}
+
 /// `--render damage|full`, shared by every command that renders cameras.
 #[derive(Debug, Clone, Copy, clap::Args)]
 pub struct RenderArg {

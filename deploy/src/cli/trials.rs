@@ -48,10 +48,8 @@ pub struct TrialsArgs {
     /// Seed of the run: trial k draws from a seed derived from it and k.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// A perturbation term KEY=VALUE (repeatable; see the table below). None: the noiseless
-    /// sensors of `waggle link`.
-    #[arg(long = "perturb", value_name = "KEY=VALUE")]
-    perturb: Vec<String>,
+    #[command(flatten)]
+    perturb: super::PerturbArgs,
     /// Trials at once (threads; default: the machine's cores).
     #[arg(long)]
     jobs: Option<usize>,
@@ -77,6 +75,26 @@ fn perturbation_help() -> String {
             p.key, p.unit, p.default, p.doc
         ));
     }
+    s.push_str("\nSensor presets (--sensor-preset NAME; --perturb terms override them):\n");
+    for preset in perturb::preset::PRESETS {
+        let terms: Vec<String> = preset
+            .terms
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect();
+        s.push_str(&format!(
+            "  {:<12} {} [{}]\n",
+            preset.name,
+            terms.join(" "),
+            preset.source
+        ));
+        if !preset.unmodelled.is_empty() {
+            s.push_str(&format!(
+                "               not modelled yet: {}\n",
+                preset.unmodelled
+            ));
+        }
+    }
     s
 }
 
@@ -85,7 +103,7 @@ fn default_jobs() -> usize {
 }
 
 pub fn run(args: TrialsArgs) -> Result<()> {
-    let perturbation = Perturbation::parse(&args.perturb)?;
+    let perturbation = args.perturb.perturbation()?;
     if args.case.is_some() {
         return run_case(args, perturbation);
     }

@@ -114,12 +114,12 @@ impl Slot {
                     camera,
                     rectification,
                 )?)),
-                Some(ObserverSensor::with_event_noise(
+                Some(ObserverSensor::with_event_sensor(
                     kind,
                     i,
                     black,
                     opts.perturbation
-                        .event_noise(stream_seed(opts.seed, Stream::EventSensor, i)),
+                        .event_sensor(stream_seed(opts.seed, Stream::EventSensor, i)),
                 )?),
             ),
         };

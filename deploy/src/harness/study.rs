@@ -10,6 +10,7 @@
 //! trials = 100
 //! seed = 1
 //! criterion = "exact-payloads"
+//! sensor_preset = "v2e-default"          # optional: a named sensor preset under `fixed`
 //! fixed = { "link.drop_rate" = 0.0 }      # optional: terms held at one value
 //! rectify = "frontal"                     # optional: off | pitched (default) | frontal
 //! [[vary]]                                # one table per condition; several allowed
@@ -115,6 +116,9 @@ pub struct StudyFile {
     #[serde(default)]
     pub seed: u64,
     pub criterion: String,
+    /// A named sensor preset (`perturb::preset`) every point starts from, under `fixed`.
+    #[serde(default)]
+    pub sensor_preset: Option<String>,
     #[serde(default)]
     pub fixed: BTreeMap<String, f64>,
     /// The receivers' viewpoint rectification: `off`, `pitched` (default) or `frontal`.
@@ -229,7 +233,8 @@ impl StudyFile {
             .map(|p| parse_bits6(p).map_err(anyhow::Error::msg))
             .collect::<Result<Vec<u8>>>()
             .context("link")?;
-        let mut base = Perturbation::default();
+        let mut base = Perturbation::with_preset::<&str>(self.sensor_preset.as_deref(), &[])
+            .context("sensor_preset")?;
         for (k, v) in &self.fixed {
             base.set(k, *v).context("fixed")?;
         }
@@ -583,6 +588,28 @@ levels = [0.0, 0.5]
         );
         let e = parse(&GOOD.replace("exact-payloads", "most")).unwrap_err();
         assert!(format!("{e:#}").contains("most"), "{e:#}");
+        let e = parse(&GOOD.replace("trials = 10", "trials = 10\nsensor_preset = \"v2e-loud\""))
+            .unwrap_err();
+        assert!(format!("{e:#}").contains("v2e-loud"), "{e:#}");
+    }
+
+    #[test]
+    fn a_sensor_preset_is_the_base_of_every_point_under_fixed_and_vary() {
+        let with = GOOD.replace("trials = 10", "trials = 10\nsensor_preset = \"v2e-noisy\"");
+        let pts = parse(&with)
+            .unwrap()
+            .points(RenderPath::default(), 1)
+            .unwrap();
+        for p in &pts {
+            assert_eq!(p.options.perturbation.get("events.leak_hz"), 0.1);
+            assert_eq!(p.options.perturbation.get("events.threshold"), 0.2);
+        }
+        // The varied term overrides the preset's value at each level.
+        let shot: Vec<f64> = pts
+            .iter()
+            .map(|p| p.options.perturbation.get("events.shot_noise_hz"))
+            .collect();
+        assert!(shot.contains(&0.5), "{shot:?}");
     }
 
     #[test]

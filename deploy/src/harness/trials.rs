@@ -311,10 +311,10 @@ fn observe(
     let mut finished = true;
     match opts.modality {
         Modality::Events => {
-            let mut config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX);
-            config.noise = opts
-                .perturbation
-                .event_noise(stream_seed(seed, Stream::EventSensor, i));
+            let config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX).with_model(
+                opts.perturbation
+                    .event_sensor(stream_seed(seed, Stream::EventSensor, i)),
+            );
             let mut camera = EventCamera::new(config).context("event camera")?;
             flight.tracks[i].replay(|t, rgb, change| {
                 if stop.load(Ordering::Relaxed) {

@@ -57,6 +57,33 @@ impl CameraConfig {
     }
 }
 
+/// What a sensor is, as opposed to how it is driven: its contrast threshold and its
+/// non-idealities. The default is the paper's ideal sensor (C = 0.18, no noise).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EventSensorModel {
+    /// Contrast threshold C, log intensity.
+    pub threshold: f64,
+    pub noise: EventNoise,
+}
+
+impl Default for EventSensorModel {
+    fn default() -> Self {
+        Self {
+            threshold: DEFAULT_THRESHOLD,
+            noise: EventNoise::default(),
+        }
+    }
+}
+
+impl CameraConfig {
+    /// This configuration with `model`'s threshold and noise.
+    pub fn with_model(mut self, model: EventSensorModel) -> Self {
+        self.threshold = model.threshold;
+        self.noise = model.noise;
+        self
+    }
+}
+
 /// The converter of a camera: the exact one for an ideal sensor, else the noisy one.
 #[derive(Clone)]
 enum Sensor {

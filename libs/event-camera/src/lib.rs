@@ -55,7 +55,7 @@ pub mod picture;
 pub mod reference;
 pub mod synthetic;
 
-pub use camera::{CameraConfig, EventCamera};
+pub use camera::{CameraConfig, EventCamera, EventSensorModel};
 pub use converter::Converter;
 pub use error::{CameraError, ConvertError, MIN_THRESHOLD, NoiseError, PictureError};
 pub use event::{DEFAULT_THRESHOLD, Event, Polarity};

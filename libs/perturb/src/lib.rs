@@ -4,6 +4,7 @@
 //! * [`spec`] — the parameter set ([`Perturbation`]): `events.*` (the event sensor's v2e terms,
 //!   applied by [`event_camera::NoisyConverter`]), `rgb.*` ([`rgb::RgbNoise`]), `geometry.*` and
 //!   `flight.*` (placement jitter and gusts: a re-flown trial) and `link.*` ([`link::LinkNoise`]).
+//! * [`preset`] — named sensor presets (v2e's `clean`, default and `noisy` values), cited.
 //! * [`seed`] — one trial seed → independent, reproducible streams per term and observer.
 //! * [`stats`] — the Wilson score interval for success rates.
 //!
@@ -11,6 +12,7 @@
 //! (ChaCha8 streams, integer seeds).
 
 pub mod link;
+pub mod preset;
 pub mod rgb;
 pub mod seed;
 pub mod spec;

@@ -6,7 +6,7 @@
 
 use std::collections::BTreeMap;
 
-use event_camera::EventNoise;
+use event_camera::{EventNoise, EventSensorModel};
 
 use crate::link::LinkNoise;
 use crate::rgb::RgbNoise;
@@ -49,13 +49,22 @@ const fn p(
 /// Every term, by group (the order of `waggle trials --help` and of the docs).
 pub const PARAMETERS: &[Parameter] = &[
     p(
+        "events.threshold",
+        "log intensity",
+        event_camera::DEFAULT_THRESHOLD,
+        0.01,
+        2.0,
+        false,
+        "nominal contrast threshold C of every pixel (the paper's sensor: 0.18; v2e: 0.2)",
+    ),
+    p(
         "events.threshold_sigma",
         "log intensity",
         0.0,
         0.0,
         1.0,
         false,
-        "per-pixel contrast-threshold mismatch: σ of each pixel's threshold around C = 0.18",
+        "per-pixel contrast-threshold mismatch: σ of each pixel's threshold around C",
     ),
     p(
         "events.refractory_ms",
@@ -190,6 +199,8 @@ pub const PARAMETERS: &[Parameter] = &[
 pub enum PerturbError {
     #[error("unknown perturbation {key:?} (known: {known})")]
     UnknownKey { key: String, known: String },
+    #[error("unknown sensor preset {name:?} (known: {known})")]
+    UnknownPreset { name: String, known: String },
     #[error("perturbation {0:?} is not KEY=VALUE (e.g. events.shot_noise_hz=0.5)")]
     NotAnAssignment(String),
     #[error("perturbation {key}: {value:?} is not a number")]
@@ -303,7 +314,15 @@ impl Perturbation {
         self.placement_sigma() != (0.0, 0.0) || self.gust_sigma_n() > 0.0
     }
 
-    /// The event sensor's terms, seeded with `seed`.
+    /// The event sensor (threshold and noise), its noise seeded with `seed`.
+    pub fn event_sensor(&self, seed: u64) -> EventSensorModel {
+        EventSensorModel {
+            threshold: self.get("events.threshold"),
+            noise: self.event_noise(seed),
+        }
+    }
+
+    /// The event sensor's noise terms, seeded with `seed`.
     pub fn event_noise(&self, seed: u64) -> EventNoise {
         let hot_pixels = self.get("events.hot_pixels") as u32;
         EventNoise {

@@ -2,7 +2,7 @@
 //! event camera with 40 ms packets. The black-input fault is applied before anything else (for
 //! events: before conversion, from start-up, as in the paper).
 
-use event_camera::{CameraConfig, EventCamera, EventNoise};
+use event_camera::{CameraConfig, EventCamera, EventSensorModel};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX};
 use proto::{EventPacket, FrameChange, RgbFrame};
 
@@ -54,15 +54,16 @@ enum State {
 impl ObserverSensor {
     /// A sensor for observer index `observer`; `black` blacks its input out from start-up.
     pub fn new(kind: Modality, observer: usize, black: bool) -> Result<Self, SensorError> {
-        Self::with_event_noise(kind, observer, black, EventNoise::default())
+        Self::with_event_sensor(kind, observer, black, EventSensorModel::default())
     }
 
-    /// [`Self::new`] with the event sensor's non-idealities (ignored by an RGB sensor).
-    pub fn with_event_noise(
+    /// [`Self::new`] with the event sensor's contrast threshold and non-idealities (ignored by an
+    /// RGB sensor).
+    pub fn with_event_sensor(
         kind: Modality,
         observer: usize,
         black: bool,
-        noise: EventNoise,
+        model: EventSensorModel,
     ) -> Result<Self, SensorError> {
         let state = match kind {
             Modality::Rgb => State::Rgb {
@@ -73,7 +74,7 @@ impl ObserverSensor {
             Modality::Events => {
                 let mut config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX);
                 config.black_input = black;
-                config.noise = noise;
+                let config = config.with_model(model);
                 State::Events(Box::new(EventCamera::new(config)?))
             }
         };
