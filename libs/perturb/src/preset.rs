@@ -3,8 +3,9 @@
 //! terms given explicitly (`--perturb`) override it.
 //!
 //! The v2e presets carry v2e's own values (Y. Hu, S.-C. Liu, T. Delbruck, "v2e: From Video
-//! Frames to Realistic DVS Events", CVPRW 2021; SensorsINI/v2e, `v2e_args.py`: the `--dvs_params`
-//! choices `clean` and `noisy`, and the defaults when none is given). Where v2e models a term
+//! Frames to Realistic DVS Events", CVPRW 2021; SensorsINI/v2e at commit cac6384 (2025-10-17):
+//! `emulator.py`'s `set_dvs_params` for `--dvs_params clean` and `noisy`, `v2e_args.py`'s
+//! defaults when none is given). Where v2e models a term
 //! this crate does not yet, the preset says so in [`Preset::unmodelled`] and the term is left out
 //! rather than approximated silently.
 
@@ -22,19 +23,16 @@ pub struct Preset {
     pub unmodelled: &'static str,
 }
 
-/// v2e's refractory period when no `--refractory_period` is given (all of its presets).
+/// v2e's refractory period when no `--dvs_params` is given (`v2e_args.py`); its `clean` and
+/// `noisy` parameter sets turn the refractory period off (`emulator.py`, `set_dvs_params`).
 const V2E_REFRACTORY_MS: f64 = 0.5;
 
 /// Every preset, by name.
 pub const PRESETS: &[Preset] = &[
     Preset {
         name: "v2e-clean",
-        source: "v2e --dvs_params clean (v2e_args.py)",
-        terms: &[
-            ("events.threshold", 0.2),
-            ("events.threshold_sigma", 0.02),
-            ("events.refractory_ms", V2E_REFRACTORY_MS),
-        ],
+        source: "v2e --dvs_params clean (emulator.py set_dvs_params)",
+        terms: &[("events.threshold", 0.2), ("events.threshold_sigma", 0.02)],
         unmodelled: "",
     },
     Preset {
@@ -48,20 +46,19 @@ pub const PRESETS: &[Preset] = &[
             ("events.shot_noise_hz", 0.001),
         ],
         unmodelled: "photoreceptor cutoff 300 Hz, leak jitter 10 %, shot noise scaled by \
-                     intensity, noise-rate spread 0.1 decades, lin-log curve below 20 DN",
+                     intensity, leak-rate spread 0.1 decades, lin-log curve below 20 DN",
     },
     Preset {
         name: "v2e-noisy",
-        source: "v2e --dvs_params noisy (v2e_args.py)",
+        source: "v2e --dvs_params noisy (emulator.py set_dvs_params)",
         terms: &[
             ("events.threshold", 0.2),
             ("events.threshold_sigma", 0.05),
-            ("events.refractory_ms", V2E_REFRACTORY_MS),
             ("events.leak_hz", 0.1),
             ("events.shot_noise_hz", 5.0),
         ],
         unmodelled: "photoreceptor cutoff 30 Hz, leak jitter 10 %, shot noise scaled by \
-                     intensity, noise-rate spread 0.1 decades, lin-log curve below 20 DN",
+                     intensity, leak-rate spread 0.1 decades, lin-log curve below 20 DN",
     },
 ];
 
@@ -132,8 +129,11 @@ mod tests {
         assert!(get("v2e-clean", "events.shot_noise_hz").is_none());
         for name in ["v2e-clean", "v2e-default", "v2e-noisy"] {
             assert_eq!(get(name, "events.threshold").unwrap().1, 0.2, "{name}");
-            assert_eq!(get(name, "events.refractory_ms").unwrap().1, 0.5, "{name}");
         }
+        // Only v2e's defaults have a refractory period; `clean` and `noisy` set it to 0.
+        assert_eq!(get("v2e-default", "events.refractory_ms").unwrap().1, 0.5);
+        assert!(get("v2e-clean", "events.refractory_ms").is_none());
+        assert!(get("v2e-noisy", "events.refractory_ms").is_none());
     }
 
     #[test]
