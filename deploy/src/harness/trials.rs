@@ -80,6 +80,19 @@ pub struct ObserverTrial {
     /// Sensor messages (frames or packets) the camera produced, and how many the link lost.
     pub messages: u64,
     pub messages_lost: u64,
+    /// Event cameras: events the receiver got, and how many its noise front end removed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub events_received: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub events_removed: Option<u64>,
+}
+
+/// What one observer's receiver made of a trial's sensor stream.
+struct Observed {
+    out: ObserverOut,
+    messages: u64,
+    lost: u64,
+    denoise: Option<perception::events::DenoiseCounts>,
 }
 
 /// One trial.
@@ -289,7 +302,7 @@ fn observe(
     opts: &TrialsOptions,
     seed: u64,
     stop: &AtomicBool,
-) -> Result<Option<(ObserverOut, u64, u64)>> {
+) -> Result<Option<Observed>> {
     let placement = flight.spec.formation.placements()[i];
     let mut perception =
         Perception::for_camera(opts.modality, placement.camera(), opts.rectification)?;
@@ -378,7 +391,12 @@ fn observe(
     for t in &mut out.tokens {
         t.t_s += delay_s;
     }
-    Ok(Some((out, messages, lost)))
+    Ok(Some(Observed {
+        out,
+        messages,
+        lost,
+        denoise: perception.denoise_counts(),
+    }))
 }
 
 /// Latency and comparison with the ideal receiver of each released frame.
@@ -430,7 +448,13 @@ fn run_trial(
     let want = opts.want();
     let mut observers = BTreeMap::new();
     for i in 0..flight.spec.formation.len() {
-        let Some((out, messages, messages_lost)) = observe(flight, i, opts, seed, stop)? else {
+        let Some(Observed {
+            out,
+            messages,
+            lost: messages_lost,
+            denoise,
+        }) = observe(flight, i, opts, seed, stop)?
+        else {
             return Ok(None);
         };
         let ideal = flight
@@ -451,6 +475,8 @@ fn run_trial(
                 vs_ideal_s,
                 messages,
                 messages_lost,
+                events_received: denoise.map(|d| d.seen),
+                events_removed: denoise.map(|d| d.removed),
             },
         );
     }

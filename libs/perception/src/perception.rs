@@ -112,6 +112,14 @@ impl Perception {
         }
     }
 
+    /// Events seen and removed by the event receiver's noise front end (`None` for RGB).
+    pub fn denoise_counts(&self) -> Option<crate::events::DenoiseCounts> {
+        match self {
+            Self::Events(r) => Some(r.denoise_counts()),
+            Self::Rgb(_) => None,
+        }
+    }
+
     /// A new round or reception window: forget target, partial frame and stream continuity.
     pub fn reset(&mut self) {
         match self {

@@ -1,12 +1,13 @@
 //! The sans-IO tick assembler: what an observer has in hand decides which tick it processes next
-//! and with what (DESIGN.md §3). The `observer-node` process, `waggle replay` and the in-process
-//! mission all drive one [`TickAssembler`], so they assemble the observer's input identically.
+//! and with what (docs/DESIGN.md §3). The `observer-node` process, `waggle replay` and the
+//! in-process mission all drive one [`TickAssembler`], so they assemble the observer's input
+//! identically.
 //!
 //! # Protocol
 //!
 //! Tick k (`k = 0, 1, …`) is processed once
 //! 1. the session controls of tick k−1 have been applied (for k ≥ 1; they apply *before*
-//!    packet k, DESIGN.md §3),
+//!    packet k, docs/DESIGN.md §3),
 //! 2. `clock{k}` has arrived, and
 //! 3. packet k is in hand — or is judged missing.
 //!
@@ -305,7 +306,7 @@ impl TickAssembler {
     /// missing, or `None` to wait for it.
     pub fn next_step(&mut self, judge: impl FnOnce(u64) -> Option<MissingReason>) -> Option<Step> {
         let tick = self.next;
-        // The session controls of tick k−1 apply before packet k (DESIGN.md §3).
+        // The session controls of tick k−1 apply before packet k (docs/DESIGN.md §3).
         if self.sessions_applied < tick {
             let controls = self.sessions.remove(&(tick - 1))?;
             self.sessions_applied = tick;

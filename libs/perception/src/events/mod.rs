@@ -4,12 +4,16 @@
 //! and released frames out.
 //!
 //! - [`health`]: malformed packets (counted by reason) and delivery discontinuities;
+//! - [`background`]: the measured background-activity rate;
+//! - [`denoise`]: the noise front end (spatio-temporal correlation filter);
 //! - [`support`]: unique-pixel support, spans, percentile-bound centre, polarity balance;
 //! - [`tracker`]: localise near the optical centre, track locally, judge support before polarity;
 //! - [`acquisition`]: the NULL gate — a closed moving path observed, a 20 s tracking lease;
 //! - [`receiver`]: the chain, feeding the shared segmenter and frame parser.
 
 pub mod acquisition;
+pub mod background;
+pub mod denoise;
 pub mod error;
 pub mod health;
 pub mod receiver;
@@ -17,6 +21,8 @@ pub mod support;
 pub mod tracker;
 
 pub use acquisition::{Acquisition, AcquisitionConfig, AcquisitionEvent};
+pub use background::BackgroundEstimate;
+pub use denoise::{Adaptive, DenoiseConfig, DenoiseCounts, NoiseFilter};
 pub use error::EventReceiverError;
 pub use health::{Delivery, DeliveryMonitor, Discontinuity, PacketRejection};
 pub use receiver::{

@@ -3,11 +3,13 @@
 //! Per 40 ms packet, stamped with its end watermark:
 //! 1. [`DeliveryMonitor`] — malformed packets are rejected (counted by reason) and interrupt;
 //!    missing, invalid or non-continuous packets interrupt.
-//! 2. [`SupportTracker`] — broad activity and supported one-sided polarity interrupt; otherwise
+//! 2. [`NoiseFilter`] — the noise front end: events without correlated neighbours (shot noise,
+//!    leak, hot pixels) are removed; always on.
+//! 3. [`SupportTracker`] — broad activity and supported one-sided polarity interrupt; otherwise
 //!    the estimate is located from this packet's support or held (quiet, sparse tails).
-//! 3. [`Acquisition`] — the NULL gate: a closed moving path observed, and event-supported
+//! 4. [`Acquisition`] — the NULL gate: a closed moving path observed, and event-supported
 //!    tracking no older than the 20 s lease.
-//! 4. [`Decoder`] — the shared segmenter (20 px anchor, 3 s NULL, event match settings) and the
+//! 5. [`Decoder`] — the shared segmenter (20 px anchor, 3 s NULL, event match settings) and the
 //!    17-token frame parser.
 //!
 //! An interruption drops the target, the acquisition and any incomplete frame; the decoder
@@ -19,6 +21,7 @@ use std::collections::BTreeMap;
 use proto::{DecodeError, EventPacket, ReleasedFrame, Token};
 
 use crate::events::acquisition::{Acquisition, AcquisitionConfig, AcquisitionEvent};
+use crate::events::denoise::{DenoiseConfig, DenoiseCounts, NoiseFilter};
 use crate::events::error::EventReceiverError;
 use crate::events::health::{Delivery, DeliveryMonitor, Discontinuity, PacketRejection};
 use crate::events::support::Window;
@@ -33,6 +36,8 @@ pub struct EventReceiverConfig {
     pub height: u16,
     /// Length of one packet's interval (the receiver steps once per packet).
     pub packet_period_ns: u64,
+    /// The noise front end.
+    pub denoise: DenoiseConfig,
     pub tracker: TrackerConfig,
     pub acquisition: AcquisitionConfig,
     pub segmenter: SegmenterConfig,
@@ -46,6 +51,7 @@ impl EventReceiverConfig {
             width: proto::scene::IMAGE_WIDTH_PX,
             height: proto::scene::IMAGE_HEIGHT_PX,
             packet_period_ns: 40_000_000,
+            denoise: DenoiseConfig::receiver(),
             tracker: TrackerConfig::paper(),
             acquisition: AcquisitionConfig::paper(),
             segmenter: SegmenterConfig::events(),
@@ -69,6 +75,7 @@ impl EventReceiverConfig {
                 ),
             });
         }
+        self.denoise.validate()?;
         self.tracker.validate()?;
         self.acquisition.validate()?;
         self.segmenter.validate()?;
@@ -178,6 +185,9 @@ const MAX_RECENT_SAMPLES: usize = 1_500;
 pub struct EventReceiver {
     config: EventReceiverConfig,
     delivery: DeliveryMonitor,
+    filter: NoiseFilter,
+    /// The packet after the noise front end (reused).
+    filtered: EventPacket,
     tracker: SupportTracker,
     acquisition: Acquisition,
     decoder: Decoder,
@@ -197,6 +207,8 @@ impl EventReceiver {
         config.validate()?;
         Ok(Self {
             delivery: DeliveryMonitor::new(config.width, config.height, config.packet_period_ns),
+            filter: NoiseFilter::new(config.denoise, config.width, config.height)?,
+            filtered: EventPacket::from_events(0, (0, 0), (config.width, config.height), &[]),
             tracker: SupportTracker::new(config.tracker, config.width, config.height)?,
             acquisition: Acquisition::new(config.acquisition)?,
             decoder: Decoder::new(config.segmenter)?,
@@ -244,6 +256,11 @@ impl EventReceiver {
     /// Acquisitions and lease expiries, in order.
     pub fn acquisition_events(&self) -> &[AcquisitionEvent] {
         &self.acquisition_events
+    }
+
+    /// Events seen and removed by the noise front end.
+    pub fn denoise_counts(&self) -> DenoiseCounts {
+        self.filter.counts()
     }
 
     /// Segmenter refusals (stamps out of order); always zero for a correct receiver.
@@ -325,7 +342,8 @@ impl EventReceiver {
             }
         }
         let stamp_ns = packet.end_ns;
-        match self.tracker.observe(packet) {
+        self.filter.filter(packet, &mut self.filtered);
+        match self.tracker.observe(&self.filtered) {
             Observation::Interrupted(fault) => {
                 self.interrupt_at(Some(stamp_ns), fault.into(), &mut out)
             }

@@ -305,10 +305,21 @@ fn ellipse_cover(x: usize, y: usize, c: [f64; 2], a: f64, b: f64) -> f64 {
 /// Renders `script` at 100 Hz from t = 0 through its end and converts it with the real event
 /// camera (`black`: the camera's black-input fault). Returns every packet.
 pub fn convert(script: &Script, black: bool) -> Vec<EventPacket> {
-    let config = CameraConfig {
-        black_input: black,
-        ..CameraConfig::paper(WIDTH, HEIGHT)
-    };
+    convert_with(
+        script,
+        CameraConfig {
+            black_input: black,
+            ..CameraConfig::paper(WIDTH, HEIGHT)
+        },
+    )
+}
+
+/// [`convert`] through a camera of configuration `config` (e.g. a noisy sensor).
+#[allow(
+    dead_code,
+    reason = "not every test binary converts through a noisy camera"
+)]
+pub fn convert_with(script: &Script, config: CameraConfig) -> Vec<EventPacket> {
     let mut camera = EventCamera::new(config).expect("paper camera");
     let mut rgb = vec![0u8; 3 * WIDTH as usize * HEIGHT as usize];
     let mut packets = Vec::new();
