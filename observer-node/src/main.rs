@@ -2,7 +2,7 @@
 //!
 //! Its whole view of the world is three subscriptions — its own sensor (`sensor/Oi/*`), the
 //! clock and the session controls (`sched/session`) — plus liveliness tokens. It publishes its
-//! tokens, released frames, decisions and one `status{k}` per tick (DESIGN.md §2–§3).
+//! tokens, released frames, decisions and one `status{k}` per tick (docs/DESIGN.md §2–§3).
 //!
 //! The process is a thin shell around [`perception::tick::TickAssembler`] and
 //! [`perception::runtime::ObserverRuntime`]: tick k is processed once `clock{k}` has arrived,

@@ -1,4 +1,4 @@
-//! Isolation (DESIGN.md §2): an observer process never subscribes to ground truth
+//! Isolation (docs/DESIGN.md §2): an observer process never subscribes to ground truth
 //! (`sim/state`, `sim/contacts`, `truth/**`), to the performer's or scheduler's commands, nor
 //! to another observer's keys. Proven twice: by the source of the crate (no code path names
 //! those keys) and by the running binary (Zenoh reports no subscriber of it on those keys,

@@ -49,7 +49,7 @@ pub struct CameraArgs {
 
 /// Folds `bytes` into the running digest `h` (8-byte words, multiply–rotate): cheap enough for
 /// every RGB frame, and any changed byte changes it. Two runs without faults must end with the
-/// same digest (DESIGN.md §3: byte-identical sensor payloads).
+/// same digest (docs/DESIGN.md §3: byte-identical sensor payloads).
 pub fn digest(mut h: u64, bytes: &[u8]) -> u64 {
     const K: u64 = 0x9E37_79B9_7F4A_7C15;
     let mut chunks = bytes.chunks_exact(8);
@@ -82,7 +82,7 @@ fn closing_lines(
     );
 }
 
-/// The wire form of RGB frame `f` (DESIGN.md's reconstruction contract on [`RgbUpdate`]): only
+/// The wire form of RGB frame `f` (the reconstruction contract of [`RgbUpdate`]): only
 /// its changed rectangle when it differs from the frame published just before
 /// (`last_published`) by `change`, else the whole frame. Records `f` as the last published.
 fn rgb_wire(f: &RgbFrame, change: FrameChange, last_published: &mut Option<u64>) -> Vec<u8> {

@@ -1,4 +1,4 @@
-//! `sim-node run`: the physics process of a distributed session (DESIGN.md §3).
+//! `sim-node run`: the physics process of a distributed session (docs/DESIGN.md §3).
 //!
 //! Tick k: physics has reached t_k; the node publishes `sim/state` for the render instants in
 //! (t_{k−1}, t_k] (every 10 ms; tick 0 has the single instant 0), `sim/contacts{k}`, then

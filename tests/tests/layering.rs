@@ -11,6 +11,9 @@
 //!
 //! Every workspace member must belong to a layer, so a new crate cannot slip past these rules.
 //! A failure names each offending edge.
+//!
+//! A second test keeps the repository self-contained: no tracked file may point at documents
+//! outside it, and every design-section citation must name a section `docs/DESIGN.md` has.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -164,4 +167,93 @@ fn the_layering_rules_reject_the_edges_they_name() {
     ] {
         assert!(violation(from, to).is_none(), "{from:?} → {to:?} rejected");
     }
+}
+
+/// The repository stands on its own: no tracked file points at a design brief or a paper kept
+/// outside it, and every section of docs/DESIGN.md that a file cites (`§3`, `§8a`, each end of
+/// `§2–§3`) exists there. Every offence is reported as `file:line`.
+#[test]
+fn the_repository_cites_only_itself() {
+    let root = workspace_root();
+    let listed = Command::new("git")
+        .args(["ls-files", "-z"])
+        .current_dir(&root)
+        .output()
+        .expect("run git ls-files");
+    assert!(
+        listed.status.success(),
+        "git ls-files failed: {}",
+        String::from_utf8_lossy(&listed.stderr)
+    );
+    let design = std::fs::read_to_string(root.join("docs/DESIGN.md")).expect("docs/DESIGN.md");
+    let sections: Vec<&str> = design
+        .lines()
+        .filter_map(|l| l.strip_prefix("## "))
+        .filter_map(|h| h.split_once(". ").map(|(n, _)| n))
+        .collect();
+    assert!(
+        sections.contains(&"1"),
+        "docs/DESIGN.md has no numbered sections (`## 1. …`): {sections:?}"
+    );
+    // Spelled in pieces so that this file does not match itself.
+    let outside = [
+        ["..", "/shared"].concat(),
+        ["shared", "/DESIGN"].concat(),
+        ["shared", "/paper"].concat(),
+    ];
+    let cite = ["DESIGN.md", " §"].concat();
+    let mut bad = Vec::new();
+    for path in listed.stdout.split(|&b| b == 0).filter(|p| !p.is_empty()) {
+        let path = String::from_utf8_lossy(path);
+        // Deleted from the work tree, a submodule, or not text: nothing to check.
+        let Ok(bytes) = std::fs::read(root.join(&*path)) else {
+            continue;
+        };
+        let Ok(text) = String::from_utf8(bytes) else {
+            continue;
+        };
+        for (n, line) in text.lines().enumerate() {
+            let n = n + 1;
+            if let Some(o) = outside.iter().find(|o| line.contains(o.as_str())) {
+                bad.push(format!(
+                    "{path}:{n}: points outside the repository ({o}): {line}"
+                ));
+            }
+            for (i, _) in line.match_indices(cite.as_str()) {
+                if !line[..i].ends_with("docs/") {
+                    bad.push(format!(
+                        "{path}:{n}: cite docs/DESIGN.md by that path: {line}"
+                    ));
+                }
+                // A section, then more after `–§` or `-§`; a placeholder such as `§n` is skipped.
+                let mut rest = &line[i + cite.len()..];
+                loop {
+                    let section: String = rest
+                        .chars()
+                        .take_while(char::is_ascii_alphanumeric)
+                        .collect();
+                    let numbered = section.starts_with(|c: char| c.is_ascii_digit());
+                    if numbered && !sections.contains(&section.as_str()) {
+                        bad.push(format!(
+                            "{path}:{n}: docs/DESIGN.md has no §{section}: {line}"
+                        ));
+                    }
+                    rest = &rest[section.len()..];
+                    match rest
+                        .strip_prefix(&['–', '-'][..])
+                        .and_then(|r| r.strip_prefix('§'))
+                    {
+                        Some(more) => rest = more,
+                        None => break,
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "{} reference(s) to fix:\n{}",
+        bad.len(),
+        bad.join("\n")
+    );
 }

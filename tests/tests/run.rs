@@ -287,7 +287,7 @@ fn dropout_o2_kills_the_camera_and_o2_never_moves() {
 fn two_runs_of_nominal_3_are_identical_even_behind_an_observer_acl() {
     let a = run("nominal-3", "events", "det-a", &[]);
     // The second run closes every observer's links to ground truth, commands, faults and the
-    // other observers' keys with a Zenoh ACL (DESIGN.md §2): nothing may change.
+    // other observers' keys with a Zenoh ACL (docs/DESIGN.md §2): nothing may change.
     let b = run("nominal-3", "events", "det-b", &["--observer-acl"]);
     assert_nominal(&a);
     assert_nominal(&b);

@@ -164,7 +164,12 @@ fn bad_perturbations_and_counts_are_refused_naming_the_input() {
         (vec!["--trials", "0"], "--trials"),
         (vec!["--sensor-preset", "v2e-loud"], "v2e-loud"),
         (
-            vec!["--sensor-preset", "v2e-noisy", "--perturb", "events.threshold=5"],
+            vec![
+                "--sensor-preset",
+                "v2e-noisy",
+                "--perturb",
+                "events.threshold=5",
+            ],
             "events.threshold",
         ),
     ] {

@@ -45,7 +45,7 @@ pub struct SessionArgs {
     pub throttle: Vec<ThrottleSpec>,
     /// Run every observer behind a Zenoh access-control list that denies it ground truth
     /// (`sim/**`, `truth/**`), the performer's and scheduler's commands, faults and every other
-    /// observer's keys (DESIGN.md §2: the run must still pass).
+    /// observer's keys (docs/DESIGN.md §2: the run must still pass).
     #[arg(long)]
     pub observer_acl: bool,
     /// Open bus for debugging with Zenoh tools: no authentication, no per-role access control

@@ -1,5 +1,5 @@
 //! `waggle mission`: a whole case in one process (physics, cameras, performer, observers,
-//! scheduler), stepped in the lockstep order of DESIGN.md §3. It is the reference the
+//! scheduler), stepped in the lockstep order of docs/DESIGN.md §3. It is the reference the
 //! distributed runtime must reproduce, and the fast way to run a case while developing.
 //!
 //! Per tick k (40 ms): the scheduler consumes the decisions observers made from data up to t_k

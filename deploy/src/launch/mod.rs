@@ -1,6 +1,6 @@
 //! `waggle run CASE`: a whole case as separate OS processes talking over Zenoh only
-//! (DESIGN.md §2–§3) — the simulator, one camera and one observer process per observer, the
-//! performer and the scheduler — started, supervised and summarised by this launcher.
+//! (docs/DESIGN.md §2–§3) — the simulator, one camera and one observer process per observer,
+//! the performer and the scheduler — started, supervised and summarised by this launcher.
 //!
 //! The launcher hosts the session's Zenoh router, listening on loopback unless told otherwise
 //! (multicast scouting off); every child is a client of it. By default each child

@@ -1,6 +1,6 @@
-//! Who may publish and subscribe to what: the information boundaries of DESIGN.md §2 for every
-//! role, as data ([`role_access`]) and as the Zenoh access-control list that enforces them on
-//! the session's router ([`router_acl`]).
+//! Who may publish and subscribe to what: the information boundaries of docs/DESIGN.md §2 for
+//! every role, as data ([`role_access`]) and as the Zenoh access-control list that enforces them
+//! on the session's router ([`router_acl`]).
 //!
 //! Each process authenticates with its own user name (its process name: `sim`, `camera-O1`,
 //! …). The router denies by default; a process may publish only the keys it owns and receive

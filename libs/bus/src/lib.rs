@@ -1,4 +1,4 @@
-//! Zenoh plumbing shared by every Waggle process (DESIGN.md §2).
+//! Zenoh plumbing shared by every Waggle process (docs/DESIGN.md §2).
 //!
 //! - [`Endpoints`]: the `--connect` / `--listen` options every node takes, and the session
 //!   [`config`] built from them (peer mode, multicast scouting off, loopback by default);

@@ -1,4 +1,4 @@
-//! Event conversion cost per 640×480 frame (DESIGN.md §8 target: ≤ 0.35 ms, one core).
+//! Event conversion cost per 640×480 frame (docs/DESIGN.md §14 target: ≤ 0.35 ms, one core).
 //!
 //! Run: `cargo bench -p event-camera --bench convert`. Criterion reports time per frame and,
 //! as "elem/s", pixels per second. Frames: the rendered fixtures in

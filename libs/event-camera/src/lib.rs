@@ -3,7 +3,7 @@
 //! Pure code (no I/O): the camera process feeds rendered RGB frames and publishes the packets;
 //! `waggle events convert` feeds PNG frames from disk.
 //!
-//! # The model (DESIGN.md §5, the paper's "Synthetic event generation")
+//! # The model (docs/DESIGN.md §7, the paper's "Synthetic event generation")
 //!
 //! * Log luminance `L = ln(max(0.299R + 0.587G + 0.114B, 1))`, defined bit-exactly in
 //!   [`luminance`]: `Y = (299R + 587G + 114B) / 1000` formed as an exact integer, divided once in

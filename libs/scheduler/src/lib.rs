@@ -9,7 +9,7 @@
 //! ```text
 //! let mut s = Scheduler::new(SchedulerConfig::new(3, Modality::Events))?;
 //! for k in 0.. {
-//!     // after every live observer's status{k} (DESIGN.md §3, step 4):
+//!     // after every live observer's status{k} (docs/DESIGN.md §3, step 4):
 //!     let out = s.step(&TickInput { clock: ClockTick::at(k), positions_m, decisions, alive })?;
 //!     // publish, in this order: out.session (RoundReset before WindowOpen …),
 //!     // out.broadcast_message() (the performer starts it at t_k), out.command() (sched/cmd{k});

@@ -1,6 +1,6 @@
 //! What a process refused (`rejects/<role>/<id>`): every message it dropped instead of
-//! obeying, counted by key and reason, published once as it ends (DESIGN.md §2: a hostile or
-//! broken peer must never abort a run, and nothing it sends may be obeyed silently).
+//! obeying, counted by key and reason, published once as it ends (docs/DESIGN.md §11: a
+//! hostile or broken peer must never abort a run, and nothing it sends may be obeyed silently).
 
 use serde::{Deserialize, Serialize};
 
