@@ -45,6 +45,10 @@ if ! cargo deny --version >/dev/null 2>&1; then
   cargo install --locked --version "$CARGO_DENY_VERSION" cargo-deny ||
     fail "could not install cargo-deny (crates.io unreachable?)"
 fi
+# cargo-deny reads the metadata of every platform's dependencies; a fresh machine has downloaded
+# only this platform's, so fetch the rest first (crates.io; cached after the first run).
+cargo fetch --locked >/dev/null ||
+  fail "could not fetch the locked dependencies (crates.io unreachable?)"
 cargo deny --offline --log-level error check bans licenses sources ||
   fail "dependency audit (bans, licenses, sources) failed: see the report above and deny.toml"
 # The advisory database is a git repository on GitHub; where it cannot be fetched (CI has no
