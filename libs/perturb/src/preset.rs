@@ -9,7 +9,7 @@
 //! this crate does not yet, the preset says so in [`Preset::unmodelled`] and the term is left out
 //! rather than approximated silently.
 
-use crate::spec::{PerturbError, Perturbation};
+use crate::spec::{PerturbError, Perturbation, find_named};
 
 /// One named preset.
 #[derive(Debug, Clone, Copy)]
@@ -64,17 +64,10 @@ pub const PRESETS: &[Preset] = &[
 
 /// The preset called `name`.
 pub fn preset(name: &str) -> Result<&'static Preset, PerturbError> {
-    PRESETS
-        .iter()
-        .find(|p| p.name == name)
-        .ok_or_else(|| PerturbError::UnknownPreset {
-            name: name.to_owned(),
-            known: PRESETS
-                .iter()
-                .map(|p| p.name)
-                .collect::<Vec<_>>()
-                .join(", "),
-        })
+    find_named(PRESETS, name, |p| p.name).map_err(|known| PerturbError::UnknownPreset {
+        name: name.to_owned(),
+        known,
+    })
 }
 
 impl Perturbation {

@@ -216,19 +216,25 @@ pub enum PerturbError {
     },
 }
 
+/// The entry of `table` whose name (`name_of`) is `name`, or every name, comma-separated, for
+/// the error that refuses it.
+pub(crate) fn find_named<T>(
+    table: &'static [T],
+    name: &str,
+    name_of: fn(&T) -> &'static str,
+) -> Result<&'static T, String> {
+    table
+        .iter()
+        .find(|t| name_of(t) == name)
+        .ok_or_else(|| table.iter().map(name_of).collect::<Vec<_>>().join(", "))
+}
+
 /// The parameter named `key`.
 pub fn parameter(key: &str) -> Result<&'static Parameter, PerturbError> {
-    PARAMETERS
-        .iter()
-        .find(|p| p.key == key)
-        .ok_or_else(|| PerturbError::UnknownKey {
-            key: key.to_owned(),
-            known: PARAMETERS
-                .iter()
-                .map(|p| p.key)
-                .collect::<Vec<_>>()
-                .join(", "),
-        })
+    find_named(PARAMETERS, key, |p| p.key).map_err(|known| PerturbError::UnknownKey {
+        key: key.to_owned(),
+        known,
+    })
 }
 
 /// The values a trial runs with: every term not set is at its default (off).
