@@ -96,12 +96,14 @@ impl ConvertError {
 pub enum NoiseError {
     #[error("event noise `{field}` must be finite and non-negative, got {value}")]
     NotFiniteNonNegative { field: &'static str, value: f64 },
-    #[error("event noise `{field}` = {value} Hz exceeds the maximum of {max} Hz")]
-    RateTooHigh {
+    #[error("event noise `{field}` = {value} exceeds the maximum of {max}")]
+    TooLarge {
         field: &'static str,
         value: f64,
         max: f64,
     },
+    #[error("event noise `linlog_dn` must be 0 (off) or at least 1, got {0}")]
+    LinLogBelowOne(f64),
     #[error(
         "event noise `hot_pixel_hz` must be positive when hot_pixels = {hot_pixels}, got {value}"
     )]

@@ -27,17 +27,20 @@
 //!
 //! # Sensor noise (off by default)
 //!
-//! [`EventNoise`] adds the non-idealities of the v2e model (Hu, Liu, Delbruck 2021), in spirit
-//! and with documented simplifications (see [`noise`]), all seeded by one `seed`:
+//! [`EventNoise`] adds the non-idealities of the v2e model (Hu, Liu, Delbruck 2021), checked
+//! against v2e's own output (`tests/v2e.rs`; see [`noise`] for the exact rules), all seeded by
+//! one `seed`:
 //!
+//! * `linlog_dn` (luminance): v2e's lin-log curve, linear below the knee;
+//! * `cutoff_hz` (Hz): intensity-dependent photoreceptor low-pass;
 //! * `threshold_sigma` (log intensity): per-pixel threshold mismatch `C_i ~ N(C, σ²)`, clamped
-//!   to ≥ [`MIN_THRESHOLD`];
+//!   to ≥ [`noise::MIN_PIXEL_THRESHOLD`];
 //! * `refractory_ns` (ns): crossings within this time after a pixel's last emitted event are
 //!   not emitted (its level still follows the input);
-//! * `leak_hz` (Hz): the reference leaks down by `leak_hz·C_i` per second, so static pixels emit
-//!   ON events at about `leak_hz`;
-//! * `shot_noise_hz` (Hz per pixel): Poisson spurious events, fair polarity, no effect on the
-//!   reference;
+//! * `leak_hz` (Hz), `leak_spread_decades`, `leak_jitter`: the reference leaks down by
+//!   `leak_hz·C_i` per second, at a rate that varies across pixels and over time;
+//! * `shot_noise_hz` (Hz per pixel), `shot_noise_bright_drop`: Poisson spurious events, fair
+//!   polarity, no effect on the reference, more in low-threshold and dark pixels;
 //! * `hot_pixels`, `hot_pixel_hz` (count, Hz): distinct pixels emitting periodic ON events.
 //!
 //! [`NoisyConverter`] implements it with the [`Converter`] API and is bit-identical to it when

@@ -40,6 +40,45 @@ pub fn log_table() -> &'static [f64] {
     TABLE.get_or_init(|| (0..=MAX_KEY).map(log_luminance_of_key).collect())
 }
 
+/// `L` on v2e's lin-log curve with its knee at luminance `knee_dn` (≥ 1): linear below the
+/// knee, `L = Y·ln(knee)/knee`, and `ln Y` above; continuous and increasing. v2e
+/// (`emulator_utils.lin_log`, knee 20 DN) keeps dark pixels from amplifying tiny changes into
+/// events the way a pure log would.
+pub fn lin_log_of_key(key: u32, knee_dn: f64) -> f64 {
+    let y = f64::from(key) / 1000.0;
+    if y <= knee_dn {
+        y * (knee_dn.ln() / knee_dn)
+    } else {
+        y.ln()
+    }
+}
+
+/// The table of `L` for every key `0..=MAX_KEY`: [`log_table`] when `linlog_dn` is 0, else
+/// [`lin_log_of_key`] with that knee. Each distinct knee is built once per process and kept
+/// (2 MB each; a process uses one or two).
+pub fn table_for(linlog_dn: f64) -> &'static [f64] {
+    /// (knee's bits, its table), one entry per knee used.
+    type Tables = std::sync::Mutex<Vec<(u64, &'static [f64])>>;
+    static TABLES: OnceLock<Tables> = OnceLock::new();
+    if linlog_dn == 0.0 {
+        return log_table();
+    }
+    let tables = TABLES.get_or_init(Default::default);
+    let mut tables = tables
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some(&(_, t)) = tables.iter().find(|(bits, _)| *bits == linlog_dn.to_bits()) {
+        return t;
+    }
+    let table: &'static [f64] = Box::leak(
+        (0..=MAX_KEY)
+            .map(|key| lin_log_of_key(key, linlog_dn))
+            .collect::<Box<[f64]>>(),
+    );
+    tables.push((linlog_dn.to_bits(), table));
+    table
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -79,5 +118,19 @@ mod tests {
         // Strictly increasing above Y = 1, flat (0) below.
         assert!(table[..=1000].iter().all(|&l| l == 0.0));
         assert!(table[1000..].windows(2).all(|w| w[0] < w[1]));
+    }
+
+    #[test]
+    fn lin_log_is_linear_below_the_knee_log_above_and_increasing() {
+        let table = table_for(20.0);
+        assert_eq!(table[0], 0.0);
+        assert!((table[10_000] - 10.0 * 20f64.ln() / 20.0).abs() < 1e-15);
+        assert!((table[20_000] - 20f64.ln()).abs() < 1e-12);
+        assert_eq!(table[100_000], 100f64.ln());
+        assert!(table.windows(2).all(|w| w[0] < w[1]));
+        assert!(std::ptr::eq(table, table_for(20.0)));
+        assert!(std::ptr::eq(table_for(0.0), log_table()));
+        // Knee 1 is today's curve above Y = 1 (and 0 below, where today's clamps).
+        assert_eq!(table_for(1.0)[5000], log_table()[5000]);
     }
 }

@@ -4,12 +4,13 @@
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
-use event_camera::luminance::log_luminance;
+use event_camera::luminance::luminance_key;
+use event_camera::noise::LOWPASS_SETTLED;
 use event_camera::reference::ReferenceConverter;
 use event_camera::synthetic::MovingBlobScene;
 use event_camera::{
     CameraConfig, CameraError, ConvertError, Converter, DEFAULT_THRESHOLD, Event, EventCamera,
-    EventNoise, MAX_NOISE_RATE_HZ, NoiseError, NoisyConverter, Polarity,
+    EventNoise, NoiseError, NoisyConverter, Polarity,
 };
 use proptest::prelude::*;
 use proto::{EventPacket, PixelRect};
@@ -227,6 +228,7 @@ fn noisy_camera_packs_the_noisy_converter_stream() {
         hot_pixels: 4,
         hot_pixel_hz: 20.0,
         seed: 3,
+        ..EventNoise::default()
     };
     let frames = scene_frames(w, h, 201); // 0 .. 2 s: 50 whole packets
     let config = CameraConfig {
@@ -244,18 +246,20 @@ fn noisy_camera_packs_the_noisy_converter_stream() {
 // ---------------------------------------------------------------------------------------------
 // The noisy rules, stated literally (no shot noise or hot pixels: those are pure draws).
 
-/// Scalar statement of the module docs' rules for threshold mismatch, leak and refractory
-/// period, taking the drawn `C_i` and `φ_i` from the converter under test.
+/// Scalar statement of the module docs' rules for the lin-log curve, the low-pass, threshold
+/// mismatch, leak (phase, spread, jitter) and refractory period, taking the drawn `C_i`,
+/// `φ_i`, `s_i` and `w_{i,m}` from the converter under test.
 struct Spec {
     width: usize,
+    drawn: NoisyConverter,
     thresholds: Vec<f64>,
     phases: Vec<f64>,
-    leak_hz: f64,
-    refractory_ns: u64,
+    scales: Vec<f64>,
+    noise: EventNoise,
     first_ns: u64,
     last_ns: u64,
-    l_init: Vec<f64>,
-    l_prev: Vec<f64>,
+    p_init: Vec<f64>,
+    p_prev: Vec<f64>,
     level: Vec<i32>,
     last_emit: Vec<Option<u64>>,
 }
@@ -265,50 +269,87 @@ impl Spec {
         let (w, h) = (converter.width(), converter.height());
         let mut thresholds = Vec::new();
         let mut phases = Vec::new();
+        let mut scales = Vec::new();
         for y in 0..h {
             for x in 0..w {
                 thresholds.push(converter.threshold_of(x, y));
                 phases.push(converter.leak_phase_of(x, y));
+                scales.push(converter.leak_scale_of(x, y));
             }
         }
         let n = thresholds.len();
         Self {
             width: usize::from(w),
+            drawn: converter.clone(),
             thresholds,
             phases,
-            leak_hz: converter.noise().leak_hz,
-            refractory_ns: converter.noise().refractory_ns,
+            scales,
+            noise: *converter.noise(),
             first_ns: 0,
             last_ns: 0,
-            l_init: Vec::new(),
-            l_prev: Vec::new(),
+            p_init: Vec::new(),
+            p_prev: Vec::new(),
             level: vec![0; n],
             last_emit: vec![None; n],
         }
     }
 
+    /// `Λ_i(g) = φ_i + s_i·J_i(g)`, `J_i` summed from period 0.
+    fn leak(&self, i: usize, g: f64) -> f64 {
+        let j = if self.noise.leak_jitter == 0.0 {
+            g
+        } else {
+            let (x, y) = ((i % self.width) as u16, (i / self.width) as u16);
+            let m = g.floor() as u32;
+            let mut sum = 0.0;
+            for k in 0..m {
+                sum += self.drawn.leak_weight_of(x, y, k);
+            }
+            sum + self.drawn.leak_weight_of(x, y, m) * (g - f64::from(m))
+        };
+        self.phases[i] + self.scales[i] * j
+    }
+
     fn push(&mut self, stamp_ns: u64, rgb: &[u8]) -> Vec<Event> {
-        let lum = |i: usize| log_luminance(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
+        let key = |i: usize| luminance_key(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
+        let lum = |i: usize| self.drawn.log_intensity_of_key(key(i));
         let n = self.thresholds.len();
-        if self.l_init.is_empty() {
-            self.l_init = (0..n).map(lum).collect();
-            self.l_prev = self.l_init.clone();
+        if self.p_init.is_empty() {
+            self.p_init = (0..n).map(lum).collect();
+            self.p_prev = self.p_init.clone();
             (self.first_ns, self.last_ns) = (stamp_ns, stamp_ns);
             return Vec::new();
         }
         let (t0, dt) = (self.last_ns, stamp_ns - self.last_ns);
-        let g = |t: u64| self.leak_hz * ((t - self.first_ns) as f64 * 1e-9);
+        let g = |t: u64| self.noise.leak_hz * ((t - self.first_ns) as f64 * 1e-9);
         let mut crossings = Vec::new();
+        let mut p_next = Vec::with_capacity(n);
         for i in 0..n {
             let c = self.thresholds[i];
-            let d = |l: f64, t: u64| {
-                if self.leak_hz == 0.0 {
-                    l - self.l_init[i]
+            let l = lum(i);
+            let p = if self.noise.cutoff_hz == 0.0 {
+                l
+            } else {
+                let intensity = (f64::from(key(i)) / 1000.0 + 20.0) / 275.0;
+                let eps =
+                    (intensity * (dt as f64 * 1e-9) * std::f64::consts::TAU * self.noise.cutoff_hz)
+                        .min(1.0);
+                let next = (1.0 - eps) * self.p_prev[i] + eps * l;
+                if eps >= 1.0 || (l - next).abs() <= LOWPASS_SETTLED {
+                    l
                 } else {
-                    (l - self.l_init[i]) + c * (self.phases[i] + g(t))
+                    next
                 }
             };
-            let (d0, d1) = (d(self.l_prev[i], t0), d(lum(i), stamp_ns));
+            p_next.push(p);
+            let d = |p: f64, t: u64| {
+                if self.noise.leak_hz == 0.0 {
+                    p - self.p_init[i]
+                } else {
+                    (p - self.p_init[i]) + c * self.leak(i, g(t))
+                }
+            };
+            let (d0, d1) = (d(self.p_prev[i], t0), d(p, stamp_ns));
             let time_of = |level: i32| {
                 let frac = (f64::from(level) * c - d0) / (d1 - d0);
                 t0 + ((frac * dt as f64).ceil() as u64).clamp(1, dt)
@@ -322,15 +363,16 @@ impl Spec {
                 self.level[i] -= 1;
                 fired.push((time_of(self.level[i]), Polarity::Off));
             }
+            let refractory_ns = self.noise.refractory_ns;
             for (order, (t, polarity)) in fired.into_iter().enumerate() {
-                let ok = self.last_emit[i].is_none_or(|e| t - e >= self.refractory_ns);
-                if self.refractory_ns == 0 || ok {
+                let ok = self.last_emit[i].is_none_or(|e| t - e >= refractory_ns);
+                if refractory_ns == 0 || ok {
                     self.last_emit[i] = Some(t);
                     crossings.push((t, i, order, polarity));
                 }
             }
-            self.l_prev[i] = lum(i);
         }
+        self.p_prev = p_next;
         crossings.sort_by_key(|&(t, i, order, _)| (t, i, order));
         self.last_ns = stamp_ns;
         crossings
@@ -347,16 +389,32 @@ impl Spec {
 
 fn signal_noise() -> impl Strategy<Value = EventNoise> {
     (
-        prop_oneof![Just(0.0), 0.0f64..0.2],
-        prop_oneof![Just(0u64), 0u64..20_000_000],
-        prop_oneof![Just(0.0), 0.0f64..50.0],
+        (
+            prop_oneof![Just(0.0), 0.0f64..0.2],
+            prop_oneof![Just(0u64), 0u64..20_000_000],
+            prop_oneof![Just(0.0), 0.0f64..50.0],
+        ),
+        (
+            prop_oneof![Just(0.0), 0.0f64..0.5],
+            prop_oneof![Just(0.0), 0.0f64..0.5],
+            prop_oneof![Just(0.0), 0.1f64..60.0],
+            prop_oneof![Just(0.0), 1.0f64..60.0],
+        ),
         any::<u64>(),
     )
         .prop_map(
-            |(threshold_sigma, refractory_ns, leak_hz, seed)| EventNoise {
+            |(
+                (threshold_sigma, refractory_ns, leak_hz),
+                (leak_spread_decades, leak_jitter, cutoff_hz, linlog_dn),
+                seed,
+            )| EventNoise {
                 threshold_sigma,
                 refractory_ns,
                 leak_hz,
+                leak_spread_decades,
+                leak_jitter,
+                cutoff_hz,
+                linlog_dn,
                 seed,
                 ..EventNoise::default()
             },
@@ -575,6 +633,114 @@ fn leak_makes_static_pixels_emit_on_events_at_the_leak_rate() {
 }
 
 #[test]
+fn leak_spread_and_jitter_follow_their_definitions() {
+    let (w, h) = (32, 24);
+    let (rate, seconds) = (5.0, 40);
+    let noise = EventNoise {
+        leak_hz: rate,
+        leak_spread_decades: 0.2,
+        leak_jitter: 0.3,
+        seed: 29,
+        ..EventNoise::default()
+    };
+    let mut converter = noisy(w, h, &noise);
+    let events = convert(&mut converter, &static_frames(&gray(w, h, 90), seconds));
+    let mut log_scales = Vec::new();
+    let mut log_rates = Vec::new();
+    let mut interval_cv = Vec::new();
+    for ((x, y), list) in &by_pixel(&events) {
+        let scale = converter.leak_scale_of(*x, *y);
+        log_scales.push(scale.log10());
+        let times: Vec<f64> = list.iter().map(|e| e.t_ns as f64 * 1e-9).collect();
+        let span = times[times.len() - 1] - times[0];
+        log_rates.push(((times.len() - 1) as f64 / span / rate).log10());
+        // Each interval is one leak period at the rate drawn for it: relative σ ≈ j (the
+        // rate changes at the nominal period, so an interval straddles one or two draws).
+        let intervals: Vec<f64> = times.windows(2).map(|t| t[1] - t[0]).collect();
+        let (mean, std) = mean_and_std(&intervals);
+        interval_cv.push(std / mean);
+    }
+    // s_i = 10^(σ·z): log10 spread σ, and each pixel's measured rate follows its own s_i.
+    let (mean, std) = mean_and_std(&log_scales);
+    assert!(mean.abs() < 0.02 && (std - 0.2).abs() < 0.02, "{mean} {std}");
+    let (rmean, rstd) = mean_and_std(&log_rates);
+    assert!((rmean - mean).abs() < 0.02 && (rstd - std).abs() < 0.03, "{rmean} {rstd}");
+    let (cv, _) = mean_and_std(&interval_cv);
+    assert!((0.15..0.35).contains(&cv), "interval cv {cv}");
+    // Without jitter the intervals are regular (to a frame).
+    let steady = EventNoise {
+        leak_jitter: 0.0,
+        ..noise
+    };
+    let events = convert(&mut noisy(w, h, &steady), &static_frames(&gray(w, h, 90), 10));
+    for list in by_pixel(&events).values() {
+        let intervals: Vec<f64> = list.windows(2).map(|e| (e[1].t_ns - e[0].t_ns) as f64).collect();
+        let (mean, std) = mean_and_std(&intervals);
+        assert!(std / mean < 0.06, "{}", std / mean);
+    }
+}
+
+#[test]
+fn shot_noise_scales_with_threshold_and_falls_in_bright_pixels() {
+    let (w, h) = (64, 48);
+    let seconds = 20;
+    // Left half black, right half white.
+    let mut frame = gray(w, h, 0);
+    for y in 0..usize::from(h) {
+        for x in usize::from(w) / 2..usize::from(w) {
+            let i = 3 * (y * usize::from(w) + x);
+            frame[i..i + 3].copy_from_slice(&[255, 255, 255]);
+        }
+    }
+    let noise = EventNoise {
+        shot_noise_hz: 2.0,
+        shot_noise_bright_drop: 0.75,
+        threshold_sigma: 0.04,
+        seed: 31,
+        ..EventNoise::default()
+    };
+    let mut converter = noisy(w, h, &noise);
+    let events = convert(&mut converter, &static_frames(&frame, seconds));
+    let (mut dark, mut bright) = (0.0, 0.0);
+    // Expected counts: rate · C/C_i · (1 − b·I) · time, per half.
+    let (mut want_dark, mut want_bright) = (0.0, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            let weight = DEFAULT_THRESHOLD / converter.threshold_of(x, y);
+            if x < w / 2 {
+                want_dark += 2.0 * weight * (1.0 - 0.75 * 20.0 / 275.0) * seconds as f64;
+            } else {
+                want_bright += 2.0 * weight * 0.25 * seconds as f64;
+            }
+        }
+    }
+    for e in &events {
+        if e.x < w / 2 {
+            dark += 1.0;
+        } else {
+            bright += 1.0;
+        }
+    }
+    for (got, want) in [(dark, want_dark), (bright, want_bright)] {
+        assert!((got - want).abs() < 4.0 * want.sqrt(), "{got} vs {want}");
+    }
+    // Low-threshold pixels are noisier in proportion.
+    let (mut low, mut n_low, mut high, mut n_high) = (0.0, 0.0, 0.0, 0.0);
+    let counts = by_pixel(&events);
+    for y in 0..h {
+        for x in 0..w / 2 {
+            let n = counts.get(&(x, y)).map_or(0.0, |l| l.len() as f64);
+            if converter.threshold_of(x, y) < DEFAULT_THRESHOLD {
+                (low, n_low) = (low + n, n_low + 1.0);
+            } else {
+                (high, n_high) = (high + n, n_high + 1.0);
+            }
+        }
+    }
+    assert!(low / n_low > 1.2 * (high / n_high), "{} {}", low / n_low, high / n_high);
+}
+
+#[test]
 fn refractory_period_spaces_each_pixels_events() {
     let (w, h) = (16, 12);
     let refractory_ns = 3_000_000;
@@ -659,6 +825,11 @@ fn everything(seed: u64) -> EventNoise {
         shot_noise_hz: 1.0,
         hot_pixels: 6,
         hot_pixel_hz: 40.0,
+        leak_spread_decades: 0.1,
+        leak_jitter: 0.1,
+        shot_noise_bright_drop: 0.75,
+        cutoff_hz: 30.0,
+        linlog_dn: 20.0,
         seed,
     }
 }
@@ -751,10 +922,17 @@ type Setter = fn(&mut EventNoise, f64);
 #[test]
 fn validate_rejects_bad_values_naming_the_field() {
     let base = EventNoise::default();
-    let cases: [(&str, Setter); 4] = [
+    let cases: [(&str, Setter); 9] = [
         ("threshold_sigma", |n, v| n.threshold_sigma = v),
         ("leak_hz", |n, v| n.leak_hz = v),
+        ("leak_spread_decades", |n, v| n.leak_spread_decades = v),
+        ("leak_jitter", |n, v| n.leak_jitter = v),
         ("shot_noise_hz", |n, v| n.shot_noise_hz = v),
+        ("shot_noise_bright_drop", |n, v| {
+            n.shot_noise_bright_drop = v
+        }),
+        ("cutoff_hz", |n, v| n.cutoff_hz = v),
+        ("linlog_dn", |n, v| n.linlog_dn = v),
         ("hot_pixel_hz", |n, v| n.hot_pixel_hz = v),
     ];
     for (field, set) in cases {
@@ -783,9 +961,9 @@ fn validate_rejects_bad_values_naming_the_field() {
         }
         if field != "threshold_sigma" {
             let mut noise = base;
-            set(&mut noise, 2.0 * MAX_NOISE_RATE_HZ);
+            set(&mut noise, 1e7);
             let err = noise.validate().unwrap_err();
-            assert!(matches!(err, NoiseError::RateTooHigh { field: f, .. } if f == field));
+            assert!(matches!(err, NoiseError::TooLarge { field: f, .. } if f == field));
             assert!(err.to_string().contains(field), "{err}");
         }
     }

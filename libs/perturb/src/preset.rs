@@ -5,9 +5,10 @@
 //! The v2e presets carry v2e's own values (Y. Hu, S.-C. Liu, T. Delbruck, "v2e: From Video
 //! Frames to Realistic DVS Events", CVPRW 2021; SensorsINI/v2e at commit cac6384 (2025-10-17):
 //! `emulator.py`'s `set_dvs_params` for `--dvs_params clean` and `noisy`, `v2e_args.py`'s
-//! defaults when none is given). Where v2e models a term
-//! this crate does not yet, the preset says so in [`Preset::unmodelled`] and the term is left out
-//! rather than approximated silently.
+//! defaults when none is given, `emulator_utils.py` for the lin-log knee and the shot-noise
+//! intensity factor). Where v2e models a term this crate does not, the preset says so in
+//! [`Preset::unmodelled`] and the term is left out rather than approximated silently.
+//! `libs/event-camera/tests/v2e.rs` checks the model with these values against v2e's output.
 
 use crate::spec::{PerturbError, Perturbation, find_named};
 
@@ -27,38 +28,101 @@ pub struct Preset {
 /// `noisy` parameter sets turn the refractory period off (`emulator.py`, `set_dvs_params`).
 const V2E_REFRACTORY_MS: f64 = 0.5;
 
+/// v2e's terms that every parameter set keeps: the lin-log knee (`emulator_utils.lin_log`, 20
+/// DN), leak jitter and leak-rate spread (`leak_jitter_fraction` 0.1, `noise_rate_cov_decades`
+/// 0.1) and shot noise at 0.25× in white (`SHOT_NOISE_INTEN_FACTOR`).
+macro_rules! v2e_shape {
+    () => {
+        [
+            ("events.threshold", 0.2),
+            ("events.linlog_dn", 20.0),
+            ("events.leak_spread_decades", 0.1),
+            ("events.leak_jitter", 0.1),
+            ("events.shot_noise_bright_drop", 0.75),
+        ]
+    };
+}
+
+const V2E_CLEAN: [(&str, f64); 6] = {
+    let [a, b, c, d, e] = v2e_shape!();
+    [a, b, c, d, e, ("events.threshold_sigma", 0.02)]
+};
+
+const V2E_DEFAULT: [(&str, f64); 10] = {
+    let [a, b, c, d, e] = v2e_shape!();
+    [
+        a,
+        b,
+        c,
+        d,
+        e,
+        ("events.threshold_sigma", 0.03),
+        ("events.refractory_ms", V2E_REFRACTORY_MS),
+        ("events.cutoff_hz", 300.0),
+        ("events.leak_hz", 0.01),
+        ("events.shot_noise_hz", 0.001),
+    ]
+};
+
+const V2E_NOISY: [(&str, f64); 9] = {
+    let [a, b, c, d, e] = v2e_shape!();
+    [
+        a,
+        b,
+        c,
+        d,
+        e,
+        ("events.threshold_sigma", 0.05),
+        ("events.cutoff_hz", 30.0),
+        ("events.leak_hz", 0.1),
+        ("events.shot_noise_hz", 5.0),
+    ]
+};
+
+/// v2e-noisy's sensor with the background activity measured on a real sensor in dim light.
+const DVS_DIM: [(&str, f64); 9] = {
+    let [a, b, c, d, e] = v2e_shape!();
+    [
+        a,
+        b,
+        c,
+        d,
+        e,
+        ("events.threshold_sigma", 0.05),
+        ("events.cutoff_hz", 30.0),
+        ("events.leak_hz", 0.1),
+        ("events.shot_noise_hz", 10.0),
+    ]
+};
+
 /// Every preset, by name.
 pub const PRESETS: &[Preset] = &[
     Preset {
         name: "v2e-clean",
         source: "v2e --dvs_params clean (emulator.py set_dvs_params)",
-        terms: &[("events.threshold", 0.2), ("events.threshold_sigma", 0.02)],
-        unmodelled: "",
+        terms: &V2E_CLEAN,
+        unmodelled: "separate ON/OFF threshold mismatch",
     },
     Preset {
         name: "v2e-default",
         source: "v2e without --dvs_params (v2e_args.py defaults)",
-        terms: &[
-            ("events.threshold", 0.2),
-            ("events.threshold_sigma", 0.03),
-            ("events.refractory_ms", V2E_REFRACTORY_MS),
-            ("events.leak_hz", 0.01),
-            ("events.shot_noise_hz", 0.001),
-        ],
-        unmodelled: "photoreceptor cutoff 300 Hz, leak jitter 10 %, shot noise scaled by \
-                     intensity, leak-rate spread 0.1 decades, lin-log curve below 20 DN",
+        terms: &V2E_DEFAULT,
+        unmodelled: "separate ON/OFF threshold mismatch",
     },
     Preset {
         name: "v2e-noisy",
         source: "v2e --dvs_params noisy (emulator.py set_dvs_params)",
-        terms: &[
-            ("events.threshold", 0.2),
-            ("events.threshold_sigma", 0.05),
-            ("events.leak_hz", 0.1),
-            ("events.shot_noise_hz", 5.0),
-        ],
-        unmodelled: "photoreceptor cutoff 30 Hz, leak jitter 10 %, shot noise scaled by \
-                     intensity, leak-rate spread 0.1 decades, lin-log curve below 20 DN",
+        terms: &V2E_NOISY,
+        unmodelled: "separate ON/OFF threshold mismatch",
+    },
+    Preset {
+        name: "dvs-dim",
+        source: "v2e-noisy with 10 Hz per pixel of background activity: the dim-light figure \
+                 of a real DAVIS346 (Guo & Delbruck, IEEE TPAMI 2023, DND21 recordings), the \
+                 figure issue 27 quotes; no light level is modelled yet, so the photoreceptor \
+                 cutoff stays v2e-noisy's",
+        terms: &DVS_DIM,
+        unmodelled: "separate ON/OFF threshold mismatch; cutoff not derived from a light level",
     },
 ];
 
@@ -120,9 +184,25 @@ mod tests {
         assert_eq!(get("v2e-noisy", "events.leak_hz").unwrap().1, 0.1);
         assert_eq!(get("v2e-noisy", "events.threshold_sigma").unwrap().1, 0.05);
         assert!(get("v2e-clean", "events.shot_noise_hz").is_none());
-        for name in ["v2e-clean", "v2e-default", "v2e-noisy"] {
+        for name in ["v2e-clean", "v2e-default", "v2e-noisy", "dvs-dim"] {
             assert_eq!(get(name, "events.threshold").unwrap().1, 0.2, "{name}");
+            assert_eq!(get(name, "events.linlog_dn").unwrap().1, 20.0, "{name}");
+            assert_eq!(get(name, "events.leak_jitter").unwrap().1, 0.1, "{name}");
+            assert_eq!(
+                get(name, "events.leak_spread_decades").unwrap().1,
+                0.1,
+                "{name}"
+            );
+            assert_eq!(
+                get(name, "events.shot_noise_bright_drop").unwrap().1,
+                0.75,
+                "{name}"
+            );
         }
+        assert_eq!(get("v2e-default", "events.cutoff_hz").unwrap().1, 300.0);
+        assert_eq!(get("v2e-noisy", "events.cutoff_hz").unwrap().1, 30.0);
+        assert!(get("v2e-clean", "events.cutoff_hz").is_none());
+        assert_eq!(get("dvs-dim", "events.shot_noise_hz").unwrap().1, 10.0);
         // Only v2e's defaults have a refractory period; `clean` and `noisy` set it to 0.
         assert_eq!(get("v2e-default", "events.refractory_ms").unwrap().1, 0.5);
         assert!(get("v2e-clean", "events.refractory_ms").is_none());

@@ -1,163 +1,22 @@
-//! A seeded, v2e-style noisy sensor: [`EventNoise`] and the [`NoisyConverter`].
-//!
-//! The ideal converter ([`crate::Converter`]) models a perfect pixel. Real DVS pixels are not
-//! perfect; to study decoding under sensor noise this module adds the non-idealities of the v2e
-//! model (Y. Hu, S.-C. Liu, T. Delbruck, "v2e: From Video Frames to Realistic DVS Events",
-//! CVPRW 2021) in its spirit, on top of *exactly* the ideal model's rules (see the crate docs):
-//!
-//! | term | field | unit | effect |
-//! | --- | --- | --- | --- |
-//! | threshold mismatch | `threshold_sigma` | log intensity | pixel i has its own threshold `C_i = max(C + σ·z_i, MIN_THRESHOLD)`, `z_i ~ N(0, 1)`, drawn once |
-//! | refractory period | `refractory_ns` | ns | a crossing less than this after the pixel's previous *emitted* crossing is not emitted; the level still follows the input |
-//! | leak | `leak_hz` | Hz | the reference drifts down by `leak_hz·C_i` per second, so a static pixel emits ON events at `leak_hz` |
-//! | shot noise | `shot_noise_hz` | Hz per pixel | spurious events, a Poisson process per pixel, ON/OFF with equal probability; the reference does not move |
-//! | hot pixels | `hot_pixels`, `hot_pixel_hz` | count, Hz | that many distinct pixels each add ON events periodically at `hot_pixel_hz` |
-//!
-//! # Exact rules
-//!
-//! With `L`, `L_init`, the integer level `n`, the crossing test and the interpolated crossing
-//! time exactly those of the ideal converter, pixel i uses
-//!
-//! * `C_i` in place of `C` in every comparison and interpolation (`f64::from(n ± 1) * C_i`);
-//! * `d(t) = (L(t) − L_init) + C_i·(φ_i + g(t))` in place of `d = L − L_init`, with
-//!   `g(t) = leak_hz · ((t − t_first) as f64 · 1e-9)` (one value per frame, `t_first` the first
-//!   frame's stamp) and leak phase `φ_i ~ U[0, 1)`. The leak term is linear in t, so
-//!   interpolating `d` linearly between frames is still exact for a linearly interpolated `L`.
-//!   With `leak_hz = 0` there is no leak term at all (not even `φ_i`): `d = L − L_init`;
-//! * refractory filter: a crossing at `t` is emitted only if `t ≥ t_emit + refractory_ns`,
-//!   `t_emit` the time of the pixel's previous emitted crossing (always emitted if none);
-//!   filtered crossings still move the level;
-//! * shot noise: for each interval `(t0, t1]` a count `~ Poisson(shot_noise_hz · pixels ·
-//!   (t1 − t0)·1e-9)`, each event at a uniform pixel, a uniform integer time in `(t0, t1]` and
-//!   a fair polarity;
-//! * hot pixel j (distinct pixels chosen by the seed, phase `ψ_j ~ U[0, 1)`): ON events at
-//!   `t_first + max(1, ceil((k + ψ_j) · 1e9 / hot_pixel_hz))`, k = 0, 1, …, each in the
-//!   interval containing it.
-//!
-//! Events of one interval are sorted by (time, pixel index, order), where order is the crossing
-//! order for threshold crossings, which come before a hot pixel's event, which comes before
-//! shot events (OFF before ON, then draw order). Shot and hot-pixel events are not subject to
-//! the refractory period and never move a reference.
-//!
-//! # Simplifications against v2e
-//!
-//! No photoreceptor low-pass filter or intensity-dependent bandwidth, one threshold per pixel for
-//! both polarities (no separate ON/OFF mismatch), no threshold drift over time, shot noise
-//! independent of intensity, a leak rate common to all pixels (only its phase is random), and
-//! hot pixels that are periodic rather than random.
-//!
-//! # Seeds
-//!
-//! Every random draw comes from `ChaCha8Rng::seed_from_u64(seed)` with one stream per term
-//! (`set_stream`: 1 threshold map, 2 leak phases, 3 shot noise, 4 hot pixels), so changing one
-//! term never changes another's draws. The same seed, configuration and frames give the same
-//! events, byte for byte; the shot-noise stream advances interval by interval, so it also
-//! depends on the frame stamps.
-//!
-//! # Speed
-//!
-//! Without leak a pixel's input can only cross a level when its luminance key changes, so the
-//! converter keeps the ideal converter's per-pixel key bounds (with `C_i`) and its vectorised
-//! scan, and [`NoisyConverter::push_region`] skips unchanged pixels exactly. With leak every
-//! pixel's `d` grows every frame, but a pixel whose key did not change can only cross upward,
-//! at a leak value `g` known in advance: a schedule ordered by that value hands each frame the
-//! pixels due by then, besides the ones whose key changed (the region's, or every pixel's on a
-//! full push), and each is judged by the exact rule. The events are the same as judging every
-//! pixel every frame (the scalar reference in `tests/noise.rs` checks it); the cost is the
-//! changed pixels plus about one judgement per leak event.
+//! The noisy converter: the ideal converter's rules with [`EventNoise`]'s terms (see the
+//! module docs of [`super`]).
 
 use proto::PixelRect;
-use rand::{Rng, RngCore, SeedableRng};
+use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Poisson, StandardNormal};
 
+use super::leak::{JitterCache, LeakModel, LeakSchedule};
+use super::shot::{ShotDraws, ShotMap};
+use super::{
+    EventNoise, LOWPASS_SETTLED, MIN_PIXEL_THRESHOLD, STREAM_HOT, STREAM_SHOT, STREAM_THRESHOLD,
+    rng_stream,
+};
 use crate::converter::no_event_bounds;
-use crate::error::{ConvertError, MIN_THRESHOLD, NoiseError};
+use crate::error::{ConvertError, NoiseError};
 use crate::event::{Event, Polarity};
 use crate::kernel::{CHUNK, Isa, scan};
-use crate::luminance::{log_table, luminance_key};
-
-/// Largest accepted rate of any noise term (leak, shot noise, hot pixels), Hz per pixel: real
-/// sensors are well below; the bound catches unit slips before they fill memory with events.
-pub const MAX_NOISE_RATE_HZ: f64 = 1e4;
-
-/// Sensor non-idealities of the v2e model; all zero = the ideal sensor.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct EventNoise {
-    /// Per-pixel contrast-threshold mismatch: each pixel's threshold `C_i ~ N(C, σ²)`, σ in
-    /// log-intensity units (drawn once per pixel from the seed, clamped to ≥ `MIN_THRESHOLD`).
-    pub threshold_sigma: f64,
-    /// Refractory period, ns: after a pixel emits, its further crossings within this time still
-    /// move its reference level (it follows the input) but emit nothing.
-    pub refractory_ns: u64,
-    /// Leak rate, Hz: the reference drifts down by `leak_hz·C_i` per second, so a static pixel
-    /// emits ON events at ≈ `leak_hz` (random initial phase per pixel).
-    pub leak_hz: f64,
-    /// Shot noise, Hz per pixel: a Poisson process of spurious events per pixel, polarity ON/OFF
-    /// with equal probability, not changing the reference.
-    pub shot_noise_hz: f64,
-    /// Number of hot pixels (chosen by seed, distinct), each emitting ON events periodically at
-    /// `hot_pixel_hz` with a random phase.
-    pub hot_pixels: u32,
-    /// Rate of each hot pixel, Hz.
-    pub hot_pixel_hz: f64,
-    /// Seed of every random draw (threshold map, leak phases, shot noise, hot pixels).
-    pub seed: u64,
-}
-
-impl EventNoise {
-    /// True when no term is active (the seed is irrelevant then): the ideal sensor.
-    pub fn is_ideal(&self) -> bool {
-        self.threshold_sigma == 0.0
-            && self.refractory_ns == 0
-            && self.leak_hz == 0.0
-            && self.shot_noise_hz == 0.0
-            && self.hot_pixels == 0
-    }
-
-    /// Checks every field: finite and non-negative, rates at most [`MAX_NOISE_RATE_HZ`],
-    /// `hot_pixel_hz > 0` when there are hot pixels. The error names the field and its value.
-    /// (Whether the hot pixels fit the sensor is checked by [`NoisyConverter::new`].)
-    pub fn validate(&self) -> Result<(), NoiseError> {
-        let fields = [
-            ("threshold_sigma", self.threshold_sigma, false),
-            ("leak_hz", self.leak_hz, true),
-            ("shot_noise_hz", self.shot_noise_hz, true),
-            ("hot_pixel_hz", self.hot_pixel_hz, true),
-        ];
-        for (field, value, is_rate) in fields {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(NoiseError::NotFiniteNonNegative { field, value });
-            }
-            if is_rate && value > MAX_NOISE_RATE_HZ {
-                return Err(NoiseError::RateTooHigh {
-                    field,
-                    value,
-                    max: MAX_NOISE_RATE_HZ,
-                });
-            }
-        }
-        if self.hot_pixels > 0 && self.hot_pixel_hz <= 0.0 {
-            return Err(NoiseError::HotPixelRateNotPositive {
-                hot_pixels: self.hot_pixels,
-                value: self.hot_pixel_hz,
-            });
-        }
-        Ok(())
-    }
-}
-
-/// RNG stream of each term (see the module docs).
-const STREAM_THRESHOLD: u64 = 1;
-const STREAM_LEAK: u64 = 2;
-const STREAM_SHOT: u64 = 3;
-const STREAM_HOT: u64 = 4;
-
-fn rng_stream(seed: u64, stream: u64) -> ChaCha8Rng {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    rng.set_stream(stream);
-    rng
-}
+use crate::luminance::{luminance_key, table_for};
 
 /// Sort order of a hot pixel's event: after every threshold crossing of its pixel and time.
 const ORDER_HOT: u32 = 1 << 31;
@@ -192,6 +51,15 @@ struct State {
     ready_at: Vec<u64>,
     /// With leak: the pixels whose next upward leak crossing is due, see [`LeakSchedule`].
     leak: LeakSchedule,
+    /// With leak jitter: where each pixel's leak sum stands.
+    jitter: JitterCache,
+    /// With the low-pass: each pixel's low-passed log intensity `P`.
+    lp: Vec<f64>,
+    /// With the low-pass: the pixels whose `P` has not reached `L`, and a flag per pixel.
+    unsettled: Vec<u32>,
+    is_unsettled: Vec<bool>,
+    /// With the low-pass: the stamp of the frame that last judged each pixel.
+    judged_ns: Vec<u64>,
     flagged: Vec<u32>,
     crossings: Vec<Crossing>,
 }
@@ -263,9 +131,10 @@ pub struct NoisyConverter {
     table: &'static [f64],
     /// C_i of every pixel.
     thresholds: Vec<f64>,
-    /// φ_i of every pixel (empty without leak).
-    phases: Vec<f64>,
+    /// φ_i, s_i and the jitter of every pixel's leak (empty without leak).
+    leak: LeakModel,
     hot: Vec<HotPixel>,
+    shot_map: ShotMap,
     shot_rng: ChaCha8Rng,
     /// Scratch of the interval's shot events.
     shot: ShotDraws,
@@ -311,17 +180,11 @@ impl NoisyConverter {
             (0..n)
                 .map(|_| {
                     let z: f64 = rng.sample(StandardNormal);
-                    (threshold + noise.threshold_sigma * z).max(MIN_THRESHOLD)
+                    (threshold + noise.threshold_sigma * z).max(MIN_PIXEL_THRESHOLD.min(threshold))
                 })
                 .collect()
         } else {
             vec![threshold; n]
-        };
-        let phases = if noise.leak_hz > 0.0 {
-            let mut rng = rng_stream(noise.seed, STREAM_LEAK);
-            (0..n).map(|_| rng.r#gen::<f64>()).collect()
-        } else {
-            Vec::new()
         };
         let hot = if noise.hot_pixels > 0 {
             let mut rng = rng_stream(noise.seed, STREAM_HOT);
@@ -343,9 +206,10 @@ impl NoisyConverter {
             threshold,
             noise: *noise,
             isa: Isa::detect(),
-            table: log_table(),
+            table: table_for(noise.linlog_dn),
+            leak: LeakModel::new(noise, n),
+            shot_map: ShotMap::new(threshold, &thresholds, noise.shot_noise_bright_drop),
             thresholds,
-            phases,
             hot,
             shot_rng: rng_stream(noise.seed, STREAM_SHOT),
             shot: ShotDraws::default(),
@@ -402,7 +266,31 @@ impl NoisyConverter {
         if i >= self.thresholds.len() {
             return f64::NAN;
         }
-        self.phases.get(i).copied().unwrap_or(0.0)
+        self.leak.phases.get(i).copied().unwrap_or(0.0)
+    }
+
+    /// Leak rate of pixel (x, y) relative to `leak_hz` (`s_i`; 1 without spread, NaN outside).
+    pub fn leak_scale_of(&self, x: u16, y: u16) -> f64 {
+        let i = self.index(x, y);
+        if i >= self.thresholds.len() {
+            return f64::NAN;
+        }
+        self.leak.scale(i)
+    }
+
+    /// Slope of pixel (x, y)'s leak sum in leak period `m` (`w_{i,m}`; 1 without jitter).
+    pub fn leak_weight_of(&self, x: u16, y: u16, m: u32) -> f64 {
+        self.leak.weight(self.index(x, y), m)
+    }
+
+    /// The log intensity the pixels see: `L` of a luminance key (lin-log or log curve).
+    pub fn log_intensity_of_key(&self, key: u32) -> f64 {
+        self.table.get(key as usize).copied().unwrap_or(f64::NAN)
+    }
+
+    /// True when pixels must be judged one by one (leak or low-pass), not by key bounds.
+    fn judged(&self) -> bool {
+        self.noise.leak_hz > 0.0 || self.noise.cutoff_hz > 0.0
     }
 
     /// The hot pixels (x, y), in the order they were drawn.
@@ -429,14 +317,14 @@ impl NoisyConverter {
             return Ok(());
         }
         let at = self.interval(stamp_ns)?;
-        if self.noise.leak_hz > 0.0 {
+        if self.judged() {
             let full = PixelRect {
                 x: 0,
                 y: 0,
                 width: self.width,
                 height: self.height,
             };
-            self.convert_leaky(stamp_ns, rgb, Some(full), &at);
+            self.convert_judged(stamp_ns, rgb, Some(full), &at);
         } else {
             self.convert_scan(rgb, &at);
         }
@@ -461,8 +349,8 @@ impl NoisyConverter {
             return Err(ConvertError::RegionBeforeFirstFrame);
         }
         let at = self.interval(stamp_ns)?;
-        if self.noise.leak_hz > 0.0 {
-            self.convert_leaky(stamp_ns, rgb, region, &at);
+        if self.judged() {
+            self.convert_judged(stamp_ns, rgb, region, &at);
         } else if let Some(r) = region {
             self.convert_region(rgb, r, &at);
         } else if let Some(state) = self.state.as_mut() {
@@ -491,7 +379,8 @@ impl NoisyConverter {
             .collect();
         let l_init: Vec<f64> = keys.iter().map(|&k| self.table[k as usize]).collect();
         let (mut lo, mut span) = (Vec::new(), Vec::new());
-        if self.noise.leak_hz == 0.0 {
+        let judged = self.judged();
+        if !judged {
             (lo, span) = (vec![0; n], vec![0; n]);
             // Rendered backgrounds repeat keys along rows; with one threshold for all pixels
             // the last search is reused when they do.
@@ -520,7 +409,6 @@ impl NoisyConverter {
             },
             lo,
             span,
-            l_init,
             level: vec![0; n],
             ready_at: if self.noise.refractory_ns > 0 {
                 vec![0; n]
@@ -528,12 +416,29 @@ impl NoisyConverter {
                 Vec::new()
             },
             leak: if self.noise.leak_hz > 0.0 {
-                LeakSchedule::new(self.thresholds.iter().zip(&self.phases).map(|(_, &phase)| {
-                    // Level 0, d = C·(φ + g): the first crossing at g = 1 − φ.
-                    due_g(0, phase, 0.0, 1.0)
-                }))
+                let jitter = self.leak.cache();
+                // Level 0, d = C·Λ_i(g): the first crossing where Λ_i(g) = 1.
+                LeakSchedule::new((0..n).map(|i| self.leak.due(&jitter, i, 0, 0.0, 1.0)))
             } else {
                 LeakSchedule::default()
+            },
+            jitter: self.leak.cache(),
+            lp: if self.noise.cutoff_hz > 0.0 {
+                l_init.clone()
+            } else {
+                Vec::new()
+            },
+            l_init,
+            unsettled: Vec::new(),
+            is_unsettled: if self.noise.cutoff_hz > 0.0 {
+                vec![false; n]
+            } else {
+                Vec::new()
+            },
+            judged_ns: if self.noise.cutoff_hz > 0.0 {
+                vec![0; n]
+            } else {
+                Vec::new()
             },
             flagged: Vec::new(),
             crossings: Vec::new(),
@@ -582,12 +487,13 @@ impl NoisyConverter {
         }
     }
 
-    /// With leak: the pixels of `region` whose key changed, then every pixel whose leak
-    /// crossing is due by the frame's time, each judged exactly as the rule states (`d` at the
-    /// frame's time against its two firing levels). A pixel whose key did not change has a `d`
+    /// With leak or low-pass: the pixels of `region` whose key changed, the pixels whose
+    /// low-passed intensity is still settling, then every pixel whose leak crossing is due by
+    /// the frame's time, each judged once, exactly as the rule states (`d` at the frame's time
+    /// against its two firing levels). Any other pixel has an unchanged, settled input and a `d`
     /// that only grows with the leak, so it cannot cross before its due time (see
-    /// [`LeakSchedule`]): skipping it until then gives the same events as judging every pixel.
-    fn convert_leaky(
+    /// [`LeakSchedule`]): skipping it gives the same events as judging every pixel.
+    fn convert_judged(
         &mut self,
         stamp_ns: u64,
         rgb: &[u8],
@@ -602,12 +508,18 @@ impl NoisyConverter {
         let pixel = PixelJudge {
             table: self.table,
             thresholds: &self.thresholds,
-            phases: &self.phases,
+            leak: (self.noise.leak_hz > 0.0).then_some(&self.leak),
+            cutoff_hz: self.noise.cutoff_hz,
             g0,
             g1,
+            stamp_ns,
             at,
         };
         state.crossings.clear();
+        let settling = std::mem::take(&mut state.unsettled);
+        for &i in &settling {
+            state.is_unsettled[i as usize] = false;
+        }
         if let Some(r) = region {
             let width = usize::from(self.width);
             for y in usize::from(r.y)..usize::from(r.y) + usize::from(r.height) {
@@ -620,9 +532,18 @@ impl NoisyConverter {
                 }
             }
         }
-        while let Some(i) = state.leak.pop_due(g1) {
-            let key = state.prev_keys[i];
-            pixel.judge(state, i, key);
+        for &i in &settling {
+            let i = i as usize;
+            if state.judged_ns[i] != stamp_ns {
+                let key = state.prev_keys[i];
+                pixel.judge(state, i, key);
+            }
+        }
+        if pixel.leak.is_some() {
+            while let Some(i) = state.leak.pop_due(g1) {
+                let key = state.prev_keys[i];
+                pixel.judge(state, i, key);
+            }
         }
     }
 
@@ -652,12 +573,20 @@ impl NoisyConverter {
             .crossings
             .sort_unstable_by_key(|&(t_ns, i, order, _)| (t_ns, i, order));
         let n = state.level.len();
-        let lambda = self.noise.shot_noise_hz * n as f64 * (at.dt as f64 * 1e-9);
+        let lambda =
+            self.noise.shot_noise_hz * self.shot_map.mean_weight * n as f64 * (at.dt as f64 * 1e-9);
         let shot = &mut self.shot;
         shot.keys.clear();
         if let Ok(poisson) = Poisson::new(lambda) {
             let count = poisson.sample(&mut self.shot_rng) as u64;
-            shot.draw(&mut self.shot_rng, count, n as u32, at.dt);
+            shot.draw(
+                &mut self.shot_rng,
+                count,
+                n as u32,
+                at.dt,
+                &self.shot_map,
+                &state.prev_keys,
+            );
         }
         let w = u32::from(self.width);
         let event = |t_ns: u64, i: u32, polarity: Polarity| Event {
@@ -685,158 +614,75 @@ impl NoisyConverter {
     }
 }
 
-/// One interval's shot events as sortable keys `(t − t0, pixel, polarity)`, packed into a u64
-/// (`t − t0` highest), sorted by an LSD radix sort: linear in the count, where a comparison
-/// sort of the ≈ 15 000 events of a 10 ms interval at 5 Hz per pixel cost more than drawing
-/// them.
-#[derive(Clone, Default)]
-struct ShotDraws {
-    keys: Vec<u64>,
-    scratch: Vec<u64>,
-    /// Bits of the pixel index field.
-    pixel_bits: u32,
-}
-
-/// Radix digit width of the shot-event sort.
-const RADIX_BITS: u32 = 11;
-
-impl ShotDraws {
-    /// Draws `count` events, each at a uniform pixel of `pixels`, a uniform integer time offset
-    /// in `1..=dt` and a fair polarity, and sorts them by (time, pixel, polarity).
-    fn draw(&mut self, rng: &mut ChaCha8Rng, count: u64, pixels: u32, dt: u64) {
-        self.pixel_bits = 32 - pixels.saturating_sub(1).leading_zeros();
-        let time_bits = 64 - dt.leading_zeros();
-        let bits = time_bits + self.pixel_bits + 1;
-        for _ in 0..count {
-            let (a, b) = (rng.next_u64(), rng.next_u64());
-            // Multiply-shift: a uniform value below the bound from 32 random bits (bias below
-            // bound / 2³², negligible for a sensor's pixels); times beyond 32 bits draw exactly.
-            let pixel = ((a >> 32) * u64::from(pixels)) >> 32;
-            let offset = if dt <= u64::from(u32::MAX) {
-                1 + (((b >> 32) * dt) >> 32)
-            } else {
-                rng.gen_range(1..=dt)
-            };
-            self.keys
-                .push((offset << (self.pixel_bits + 1)) | (pixel << 1) | (b & 1));
-        }
-        self.sort(bits);
-    }
-
-    fn sort(&mut self, bits: u32) {
-        let radix = 1usize << RADIX_BITS;
-        let mut counts = vec![0usize; radix];
-        let mask = (radix - 1) as u64;
-        let mut shift = 0;
-        while shift < bits {
-            counts.fill(0);
-            for &k in &self.keys {
-                counts[((k >> shift) & mask) as usize] += 1;
-            }
-            let mut sum = 0;
-            for c in &mut counts {
-                (*c, sum) = (sum, sum + *c);
-            }
-            self.scratch.resize(self.keys.len(), 0);
-            for &k in &self.keys {
-                let d = ((k >> shift) & mask) as usize;
-                self.scratch[counts[d]] = k;
-                counts[d] += 1;
-            }
-            std::mem::swap(&mut self.keys, &mut self.scratch);
-            shift += RADIX_BITS;
-        }
-    }
-
-    /// (time, pixel index, polarity) of a key of the interval starting at `t0`.
-    fn unpack(&self, key: u64, t0: u64) -> (u64, u32, Polarity) {
-        let pixel = ((key >> 1) & ((1u64 << self.pixel_bits) - 1)) as u32;
-        let polarity = if key & 1 == 1 {
-            Polarity::On
-        } else {
-            Polarity::Off
-        };
-        (t0 + (key >> (self.pixel_bits + 1)), pixel, polarity)
-    }
-}
-
-/// How far below the exact due value a pixel is scheduled, relative to the magnitudes
-/// involved: far above f64 rounding (≈ 1e-16 relative), so a crossing is never judged late.
-const DUE_MARGIN: f64 = 1e-9;
-
-/// The leak value `g` at which a pixel at `level` with threshold `c`, leak phase `phase` and
-/// log change `delta = L − L_init` (its key unchanged) reaches its next upward level:
-/// `delta + c·(φ + g) ≥ (level + 1)·c` ⟺ `g ≥ level + 1 − φ − delta / c`, minus a margin.
-fn due_g(level: i32, phase: f64, delta: f64, c: f64) -> f64 {
-    let exact = f64::from(level) + 1.0 - phase - delta / c;
-    exact - DUE_MARGIN * (1.0 + exact.abs() + (delta / c).abs())
-}
-
-/// With leak, the pixels ordered by the leak value `g` at which each may next cross upward with
-/// its key unchanged. `g` grows with time (it is `leak_hz` times the time since the first
-/// frame), so a frame at `g1` need judge only the pixels due by `g1` and those whose key
-/// changed. Entries are never removed early: a pixel judged for another reason gets a new entry
-/// and its old one is skipped as stale (its due value no longer matches).
-#[derive(Clone, Default)]
-struct LeakSchedule {
-    /// Due value of each pixel's live entry.
-    due: Vec<f64>,
-    /// (due value's bits, pixel): non-negative f64 order as their bits do.
-    heap: std::collections::BinaryHeap<std::cmp::Reverse<(u64, u32)>>,
-}
-
-impl LeakSchedule {
-    fn new(due: impl Iterator<Item = f64>) -> Self {
-        let due: Vec<f64> = due.collect();
-        let heap = due
-            .iter()
-            .enumerate()
-            .map(|(i, &g)| std::cmp::Reverse((g.max(0.0).to_bits(), i as u32)))
-            .collect();
-        Self { due, heap }
-    }
-
-    fn set(&mut self, i: usize, g: f64) {
-        let g = g.max(0.0);
-        self.due[i] = g;
-        self.heap.push(std::cmp::Reverse((g.to_bits(), i as u32)));
-    }
-
-    /// The next pixel due by `g1` (its entry removed), skipping stale entries.
-    fn pop_due(&mut self, g1: f64) -> Option<usize> {
-        while let Some(&std::cmp::Reverse((bits, i))) = self.heap.peek() {
-            if f64::from_bits(bits) > g1 {
-                return None;
-            }
-            self.heap.pop();
-            if self.due[i as usize].to_bits() == bits {
-                return Some(i as usize);
-            }
-        }
-        None
-    }
-}
-
-/// One leaky frame's constants: judges a pixel exactly as the rule states.
+/// One judged frame's constants: judges a pixel exactly as the rule states.
 struct PixelJudge<'a> {
     table: &'a [f64],
     thresholds: &'a [f64],
-    phases: &'a [f64],
+    /// The leak terms (None without leak).
+    leak: Option<&'a LeakModel>,
+    /// 0: no low-pass.
+    cutoff_hz: f64,
     g0: f64,
     g1: f64,
+    stamp_ns: u64,
     at: &'a Interval,
 }
 
 impl PixelJudge<'_> {
+    /// `P` after a frame: `p` moved towards `l` (the new frame's log intensity, luminance
+    /// key `key`) by `ε = min(I·dt·2π·f_c, 1)`, snapped to `l` once within
+    /// [`LOWPASS_SETTLED`].
+    fn low_pass(&self, p: f64, l: f64, key: u32) -> f64 {
+        let intensity = (f64::from(key) / 1000.0 + 20.0) / 275.0;
+        let dt_s = self.at.dt as f64 * 1e-9;
+        let eps = (intensity * dt_s * std::f64::consts::TAU * self.cutoff_hz).min(1.0);
+        if eps >= 1.0 {
+            return l;
+        }
+        let next = (1.0 - eps) * p + eps * l;
+        if (l - next).abs() <= LOWPASS_SETTLED {
+            l
+        } else {
+            next
+        }
+    }
+
     /// Pixel `i` has key `key` at the frame (its previous key still in `prev_keys`): records its
-    /// crossings, its new level and key, and reschedules it.
+    /// crossings, its new level, key and `P`, and reschedules it.
     fn judge(&self, state: &mut State, i: usize, key: u32) {
-        let (c, phase, l_init) = (self.thresholds[i], self.phases[i], state.l_init[i]);
-        let delta = self.table[key as usize] - l_init;
-        let d1 = delta + c * (phase + self.g1);
+        let (c, l_init) = (self.thresholds[i], state.l_init[i]);
+        let (p0, p1) = if self.cutoff_hz > 0.0 {
+            state.judged_ns[i] = self.stamp_ns;
+            let p0 = state.lp[i];
+            let p1 = self.low_pass(p0, self.table[key as usize], key);
+            state.lp[i] = p1;
+            if p1 != self.table[key as usize] && !state.is_unsettled[i] {
+                state.is_unsettled[i] = true;
+                state.unsettled.push(i as u32);
+            }
+            (p0, p1)
+        } else {
+            (
+                self.table[state.prev_keys[i] as usize],
+                self.table[key as usize],
+            )
+        };
+        let delta = p1 - l_init;
+        // Λ_i at both frames, the earlier first: the jitter cache only moves forwards.
+        let leak_at = self.leak.map(|leak| {
+            let before = leak.at(&mut state.jitter, i, self.g0, true);
+            (before, leak.at(&mut state.jitter, i, self.g1, true))
+        });
+        let d1 = match leak_at {
+            Some((_, after)) => delta + c * after,
+            None => delta,
+        };
         let mut level = state.level[i];
         if d1 >= f64::from(level + 1) * c || d1 <= f64::from(level - 1) * c {
-            let d0 = (self.table[state.prev_keys[i] as usize] - l_init) + c * (phase + self.g0);
+            let d0 = match leak_at {
+                Some((before, _)) => (p0 - l_init) + c * before,
+                None => p0 - l_init,
+            };
             level = self.at.cross(
                 i,
                 d0,
@@ -849,14 +695,16 @@ impl PixelJudge<'_> {
             state.level[i] = level;
         }
         state.prev_keys[i] = key;
-        let due = due_g(level, phase, delta, c);
-        // Judged early (inside the margin) without crossing: due again at the next frame.
-        let due = if due <= self.g1 {
-            self.g1.next_up()
-        } else {
-            due
-        };
-        state.leak.set(i, due);
+        if let Some(leak) = self.leak {
+            let due = leak.due(&state.jitter, i, level, delta, c);
+            // Judged early (inside the margin) without crossing: due again at the next frame.
+            let due = if due <= self.g1 {
+                self.g1.next_up()
+            } else {
+                due
+            };
+            state.leak.set(i, due);
+        }
     }
 }
 
@@ -882,68 +730,5 @@ impl State {
         );
         self.level[i] = level;
         (self.lo[i], self.span[i]) = no_event_bounds(table, l_init, level, c);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn default_is_ideal_and_valid() {
-        let noise = EventNoise::default();
-        assert!(noise.is_ideal());
-        assert_eq!(noise.validate(), Ok(()));
-        let seeded = EventNoise {
-            seed: 99,
-            hot_pixel_hz: 5.0,
-            ..EventNoise::default()
-        };
-        assert!(
-            seeded.is_ideal(),
-            "seed and an unused hot-pixel rate are not terms"
-        );
-    }
-
-    #[test]
-    fn each_term_alone_is_not_ideal() {
-        let base = EventNoise::default();
-        for noise in [
-            EventNoise {
-                threshold_sigma: 0.01,
-                ..base
-            },
-            EventNoise {
-                refractory_ns: 1,
-                ..base
-            },
-            EventNoise {
-                leak_hz: 0.1,
-                ..base
-            },
-            EventNoise {
-                shot_noise_hz: 0.1,
-                ..base
-            },
-            EventNoise {
-                hot_pixels: 1,
-                hot_pixel_hz: 1.0,
-                ..base
-            },
-        ] {
-            assert!(!noise.is_ideal(), "{noise:?}");
-            assert_eq!(noise.validate(), Ok(()), "{noise:?}");
-        }
-    }
-
-    #[test]
-    fn streams_are_independent_and_seeded() {
-        let a: u64 = rng_stream(1, STREAM_SHOT).r#gen();
-        let b: u64 = rng_stream(1, STREAM_HOT).r#gen();
-        let c: u64 = rng_stream(2, STREAM_SHOT).r#gen();
-        let again: u64 = rng_stream(1, STREAM_SHOT).r#gen();
-        assert_ne!(a, b);
-        assert_ne!(a, c);
-        assert_eq!(a, again);
     }
 }
