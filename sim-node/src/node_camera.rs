@@ -44,7 +44,60 @@ pub struct CameraArgs {
     #[arg(long, value_enum, default_value_t)]
     render: RenderPath,
     #[command(flatten)]
+    sensor: SensorArgs,
+    #[command(flatten)]
     node: NodeArgs,
+}
+
+/// The event sensor's model beyond the paper's ideal one (`waggle run --sensor-preset NAME
+/// --perturb events.KEY=VALUE --seed S` hands these on): the same preset and terms, re-parsed
+/// here by `perturb`, so a camera process and `waggle mission` build identical sensors.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct SensorArgs {
+    /// A named sensor preset (`v2e-clean`, `v2e-default`, `v2e-noisy`): its `events.*` terms.
+    #[arg(long = "sensor-preset", value_name = "NAME")]
+    sensor_preset: Option<String>,
+    /// An `events.*` term KEY=VALUE over the preset's (repeatable, later ones win).
+    #[arg(long = "perturb", value_name = "KEY=VALUE")]
+    perturb: Vec<String>,
+    /// The run's seed: this observer's sensor noise draws from
+    /// `stream_seed(seed, EventSensor, observer index)`, as in `waggle mission`.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+impl SensorArgs {
+    /// The event sensor of observer `index` carrying `modality`, or `None` for the paper's ideal
+    /// sensor (no preset, no term: the camera is built exactly as before). Refuses terms of
+    /// another group than `events` and any term on an RGB camera, naming them.
+    pub fn model(
+        &self,
+        modality: Modality,
+        index: usize,
+    ) -> Result<Option<event_camera::EventSensorModel>> {
+        if self.sensor_preset.is_none() && self.perturb.is_empty() {
+            return Ok(None);
+        }
+        let p = perturb::Perturbation::with_preset(self.sensor_preset.as_deref(), &self.perturb)
+            .context("the camera's sensor model (--sensor-preset/--perturb)")?;
+        for a in &self.perturb {
+            let key = a.split_once('=').map_or(a.as_str(), |(k, _)| k).trim();
+            if !key.starts_with("events.") {
+                bail!(
+                    "--perturb {a}: a camera process takes only events.* terms (the event \
+                     sensor's model), not {key}"
+                );
+            }
+        }
+        if modality != Modality::Events {
+            bail!(
+                "--sensor-preset/--perturb set an event sensor; this camera is {}",
+                modality.as_str()
+            );
+        }
+        let seed = perturb::seed::stream_seed(self.seed, perturb::seed::Stream::EventSensor, index);
+        Ok(Some(p.event_sensor(seed)))
+    }
 }
 
 /// Folds `bytes` into the running digest `h` (8-byte words, multiply–rotate): cheap enough for
@@ -223,7 +276,13 @@ pub fn run(args: CameraArgs) -> Result<()> {
     let mut renderer =
         CameraRenderer::new(&world, args.render).context("creating the offscreen renderer")?;
     let kind = args.modality;
-    let mut sensor = ObserverSensor::new(kind, index, false)?;
+    let mut sensor = match args.sensor.model(kind, index)? {
+        None => ObserverSensor::new(kind, index, false)?,
+        Some(model) => {
+            tracing::info!(observer = %args.observer, ?model, "event sensor model");
+            ObserverSensor::with_event_sensor(kind, index, false, model)?
+        }
+    };
     let period_ns = sensor.render_period_ns();
     let names: Vec<String> = world.drone_names().to_vec();
 
@@ -332,8 +391,74 @@ pub fn run(args: CameraArgs) -> Result<()> {
 
 #[cfg(test)]
 mod tests {
-    use super::{digest, rgb_wire, throttle_drops};
-    use proto::{FrameChange, PixelRect, RgbFrame, RgbReassembler, RgbUpdate};
+    use super::{CameraArgs, digest, rgb_wire, throttle_drops};
+    use clap::Parser;
+    use perturb::Perturbation;
+    use perturb::seed::{Stream, stream_seed};
+    use proto::{FrameChange, Modality, PixelRect, RgbFrame, RgbReassembler, RgbUpdate};
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        camera: CameraArgs,
+    }
+
+    fn camera(extra: &[&str]) -> Result<CameraArgs, clap::Error> {
+        let base = ["camera", "--observer", "O2", "--modality", "events"];
+        let node = ["--session", "s1", "--observers", "3"];
+        Cli::try_parse_from(base.iter().chain(extra).chain(&node)).map(|c| c.camera)
+    }
+
+    #[test]
+    fn the_sensor_arguments_build_the_missions_sensor_for_this_observer() {
+        let args = camera(&[
+            "--sensor-preset",
+            "v2e-default",
+            "--perturb",
+            "events.leak_hz=0.2",
+            "--seed",
+            "7",
+        ])
+        .unwrap();
+        let want = Perturbation::with_preset(Some("v2e-default"), &["events.leak_hz=0.2"])
+            .unwrap()
+            .event_sensor(stream_seed(7, Stream::EventSensor, 1));
+        let got = args.sensor.model(Modality::Events, 1).unwrap();
+        assert_eq!(got, Some(want));
+        // Another observer draws from its own stream.
+        assert_ne!(args.sensor.model(Modality::Events, 2).unwrap(), Some(want));
+        // Without a preset or a term the camera is built as before.
+        assert_eq!(
+            camera(&[])
+                .unwrap()
+                .sensor
+                .model(Modality::Events, 1)
+                .unwrap(),
+            None
+        );
+    }
+
+    #[test]
+    fn the_sensor_arguments_refuse_unknown_presets_other_groups_and_rgb_cameras() {
+        for (extra, needle) in [
+            (&["--sensor-preset", "v2e-loud"][..], "v2e-loud"),
+            (&["--sensor-preset", "v2e-loud"][..], "v2e-default"),
+            (
+                &["--perturb", "rgb.read_noise_grey=4"][..],
+                "rgb.read_noise_grey",
+            ),
+            (&["--perturb", "events.nope=1"][..], "events.nope"),
+        ] {
+            let err = camera(extra)
+                .unwrap()
+                .sensor
+                .model(Modality::Events, 0)
+                .unwrap_err();
+            assert!(format!("{err:#}").contains(needle), "{extra:?}: {err:#}");
+        }
+        let rgb = camera(&["--sensor-preset", "v2e-clean"]).unwrap();
+        assert!(rgb.sensor.model(Modality::Rgb, 0).is_err());
+    }
 
     #[test]
     fn rgb_updates_rebuild_every_frame_and_key_frames_come_when_due() {

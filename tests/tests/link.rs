@@ -2,7 +2,8 @@
 //!
 //! Proves the ideal receiver releases the nominal offers for every observer in order with the
 //! performer tracking its path, that a blacked-out observer leaves the others unaffected, and that
-//! malformed payloads and unknown observers are rejected with a message.
+//! malformed payloads and unknown observers are rejected with a message, as are unknown sensor
+//! presets; and that event cameras under v2e's default sensor model still decode an offer.
 
 mod common;
 use common::{link, payloads};
@@ -50,6 +51,22 @@ fn link_rejects_malformed_payloads_and_unknown_observers_with_a_message() {
             vec!["--payload", "011010", "--black", "O9"],
             "no such observer",
         ),
+        (
+            vec!["--modality", "events", "--sensor-preset", "v2e-loud"],
+            "v2e-loud",
+        ),
+        (
+            vec!["--modality", "events", "--sensor-preset", "v2e-loud"],
+            "v2e-default",
+        ),
+        (
+            vec!["--modality", "events", "--perturb", "link.drop_rate=0.1"],
+            "link.drop_rate",
+        ),
+        (
+            vec!["--modality", "rgb", "--sensor-preset", "v2e-clean"],
+            "rgb",
+        ),
     ] {
         let out = waggle_tests::waggle()
             .arg("link")
@@ -60,4 +77,30 @@ fn link_rejects_malformed_payloads_and_unknown_observers_with_a_message() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains(needle), "{args:?}: {err}");
     }
+}
+
+#[test]
+fn an_event_link_under_the_v2e_default_sensor_preset_decodes_and_records_it() {
+    // ≈ 7 s on 2 cores: one observer, one offer, every render through the noisy sensor.
+    let v = link(&[
+        "--observers",
+        "1",
+        "--modality",
+        "events",
+        "--payload",
+        "011010",
+        "--sensor-preset",
+        "v2e-default",
+        "--seed",
+        "2",
+    ]);
+    assert_eq!(v["sensor"]["preset"], "v2e-default");
+    assert_eq!(v["sensor"]["seed"], 2);
+    assert!(
+        v["sensor"]["perturb"]["events.shot_noise_hz"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
+    assert_eq!(payloads(&v, "O1"), ["011010"]);
 }

@@ -24,9 +24,14 @@ use serde_json::Value;
 use waggle_tests::{spawn_background_run, waggle, waggle_with_nodes};
 
 fn out_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("waggle-run-test-{}-{name}", std::process::id()));
+    let dir = out_dir_path(name);
     let _ = std::fs::remove_dir_all(&dir);
     dir
+}
+
+/// Where [`out_dir`] puts run `name`.
+fn out_dir_path(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("waggle-run-test-{}-{name}", std::process::id()))
 }
 
 struct Run {
@@ -130,6 +135,66 @@ fn no_broadcast_runs_as_separate_processes_in_lockstep() {
         assert!(r.summary.processes[p].cpu_s > 0.0, "{p}");
     }
     assert!(r.observers["O1"].tokens.is_empty());
+}
+
+#[test]
+fn a_sensor_preset_reaches_the_camera_processes_and_the_summary_records_it() {
+    let r = run(
+        "no-broadcast",
+        "events",
+        "sensor-preset",
+        &[
+            "--sensor-preset",
+            "v2e-default",
+            "--perturb",
+            "events.shot_noise_hz=0.01",
+            "--seed",
+            "3",
+        ],
+    );
+    r.assert_pass();
+    r.every_process_exited_cleanly();
+    let sensor = r
+        .summary
+        .sensor
+        .as_ref()
+        .expect("summary.json records the sensor model");
+    assert_eq!(sensor.preset.as_deref(), Some("v2e-default"));
+    assert_eq!(sensor.terms, ["events.shot_noise_hz=0.01"]);
+    assert_eq!(sensor.perturb["events.shot_noise_hz"], 0.01);
+    assert_eq!(sensor.seed, 3);
+    let text = std::fs::read_to_string(out_dir_path("sensor-preset").join("summary.json")).unwrap();
+    assert!(text.contains("\"sensor\""), "{text}");
+    // Each camera built its sensor from the preset (its log names the model it runs).
+    let log = std::fs::read_to_string(out_dir_path("sensor-preset").join("logs/camera-O2.log"))
+        .unwrap_or_default();
+    assert!(log.contains("event sensor model"), "{log}");
+}
+
+#[test]
+fn run_refuses_an_unknown_sensor_preset_and_other_groups_naming_them() {
+    for (args, needles) in [
+        (
+            vec!["--sensor-preset", "v2e-loud"],
+            vec!["v2e-loud", "v2e-default"],
+        ),
+        (
+            vec!["--perturb", "rgb.read_noise_grey=4"],
+            vec!["rgb.read_noise_grey"],
+        ),
+    ] {
+        let out = waggle()
+            .args(["run", "only-a", "--quiet"])
+            .args(&args)
+            .stdin(Stdio::null())
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{args:?} accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        for n in needles {
+            assert!(err.contains(n), "{args:?}: {err}");
+        }
+    }
 }
 
 #[test]

@@ -3,14 +3,29 @@
 //! One process steps physics, flies the broadcast, renders each observer's camera at its
 //! modality's rate and feeds each observer's receiver only its own sensor data. It is the fast
 //! bench on which receivers are developed and tested without Zenoh.
+//!
+//! With `--sensor-preset`/`--perturb events.*` the event sensors are not the paper's ideal
+//! ones: see [`fly_link_with_sensors`].
 
-use anyhow::Result;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
 use clap::Args;
-use proto::scene::Placement;
-use proto::{Receiver, Rectification};
+use event_camera::{CameraConfig, EventCamera};
+use perception::perception::{Perception, SensorInput};
+use perturb::Perturbation;
+use perturb::seed::{Stream, stream_seed};
+use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, Placement, observer_name};
+use proto::{GestureConfig, Modality, Receiver, Rectification, broadcast};
+use sim::sensor::EVENT_RENDER_PERIOD_NS;
 
-use crate::harness::link::{LinkOptions, fly_link, print_table};
+use crate::compose::sensor::SensorSpec;
+use crate::harness::link::{
+    LEAD_IN_NS, LinkOptions, LinkOut, TAIL_NS, fly_link, observer_out, print_table,
+};
 pub use crate::harness::link::{parse_bits6, parse_viewpoint};
+use crate::harness::rendered_flight::{FlightSpec, fly_rendered};
+use crate::run_dir::SensorRecord;
 
 #[derive(Debug, Args)]
 pub struct LinkArgs {
@@ -43,13 +58,46 @@ pub struct LinkArgs {
     rectify: Rectification,
     #[command(flatten)]
     render: super::RenderArg,
+    /// The event sensors' model: a preset and `events.*` terms (events modality only; other
+    /// groups are modelled by `waggle trials`).
+    #[command(flatten)]
+    perturb: super::PerturbArgs,
+    /// Seed of the event sensors' noise draws (with --sensor-preset/--perturb): observer i
+    /// draws from stream i of it, as in `waggle mission --seed`.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
     /// Print machine-readable JSON instead of the table.
     #[arg(long)]
     json: bool,
 }
 
+/// The sensor model of `args`, checked: `None` for the paper's ideal sensors.
+fn sensor(args: &LinkArgs) -> Result<Option<(Perturbation, SensorRecord)>> {
+    let spec = SensorSpec {
+        preset: args.perturb.sensor_preset.clone(),
+        perturb: args.perturb.perturb.clone(),
+        seed: args.seed,
+    };
+    let Some(record) = spec.record()? else {
+        return Ok(None);
+    };
+    if args.modality != Receiver::Events {
+        bail!(
+            "--sensor-preset/--perturb set the event sensors' model; --modality is {} (use \
+             --modality events)",
+            format!("{:?}", args.modality).to_lowercase()
+        );
+    }
+    let p = spec.perturbation()?;
+    if !p.is_none() && !args.black.is_empty() {
+        bail!("--black cannot be combined with --sensor-preset/--perturb in `waggle link` yet");
+    }
+    Ok(Some((p, record)))
+}
+
 pub fn run(args: LinkArgs) -> Result<()> {
-    let out = fly_link(&LinkOptions {
+    let sensor = sensor(&args)?;
+    let opts = LinkOptions {
         observers: args.observers,
         modality: args.modality,
         payloads: args.payloads,
@@ -59,11 +107,184 @@ pub fn run(args: LinkArgs) -> Result<()> {
         render: args.render.path,
         viewpoints: args.viewpoints,
         rectification: args.rectify,
-    })?;
+    };
+    let out = match &sensor {
+        // Terms at their defaults are the ideal sensor: the live link, unchanged.
+        Some((p, record)) if !p.is_none() => fly_link_with_sensors(&opts, p, record.seed)?,
+        _ => fly_link(&opts)?,
+    };
+    let record = sensor.map(|(_, r)| r);
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        let text = match &record {
+            None => serde_json::to_string_pretty(&out)?,
+            Some(r) => {
+                let mut v = serde_json::to_value(&out)?;
+                v["sensor"] = serde_json::to_value(r)?;
+                serde_json::to_string_pretty(&v)?
+            }
+        };
+        println!("{text}");
     } else {
         print_table(&out);
+        if let Some(r) = &record {
+            let terms: Vec<String> = r.perturb.iter().map(|(k, v)| format!("{k}={v}")).collect();
+            println!(
+                "event sensors: preset {} · {} · seed {}",
+                r.preset.as_deref().unwrap_or("none"),
+                terms.join(" "),
+                r.seed
+            );
+        }
     }
     Ok(())
+}
+
+/// `waggle link` with event sensors that are not the paper's ideal ones. The broadcast is flown
+/// and rendered once ([`fly_rendered`], the render cache `waggle trials` replays; an
+/// unperturbed replay decodes exactly as the live link, ARCHITECTURE.md "Seeded trials") and
+/// each observer's renders go through its own sensor — `perturbation`'s model seeded with
+/// `stream_seed(seed, EventSensor, i)`, the sensor `waggle mission --seed` and `waggle run`'s
+/// camera processes build — into its receiver.
+///
+/// It belongs beside [`fly_link`] in `harness::link` (as an option of [`LinkOptions`]); it is
+/// here because that module was outside this change's scope.
+fn fly_link_with_sensors(opts: &LinkOptions, p: &Perturbation, seed: u64) -> Result<LinkOut> {
+    let formation = opts.formation()?;
+    if !(opts.hover_s.is_finite() && opts.hover_s >= 0.0) {
+        bail!("--hover-s {} must be a non-negative number", opts.hover_s);
+    }
+    let started = Instant::now();
+    let acquisition = !opts.no_acquisition && !opts.payloads.is_empty();
+    let schedule = broadcast(
+        LEAD_IN_NS,
+        &opts.payloads,
+        acquisition,
+        &GestureConfig::default(),
+    )
+    .context("building the broadcast schedule")?;
+    let hover_ns = if opts.payloads.is_empty() {
+        (opts.hover_s * 1e9).round() as u64
+    } else {
+        0
+    };
+    let end_ns = schedule.end_ns().max(LEAD_IN_NS + hover_ns) + TAIL_NS;
+    let flight = fly_rendered(FlightSpec {
+        formation,
+        schedule,
+        end_ns,
+        render_period_ns: EVENT_RENDER_PERIOD_NS,
+        render: opts.render,
+        rectification: opts.rectification,
+        gusts: None,
+    })?;
+    let names: Vec<String> = (0..flight.spec.formation.len())
+        .map(observer_name)
+        .collect();
+    let mut outs = Vec::new();
+    for (i, placement) in flight.spec.formation.placements().iter().enumerate() {
+        let mut perception =
+            Perception::for_camera(Modality::Events, placement.camera(), opts.rectification)?;
+        let config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX)
+            .with_model(p.event_sensor(stream_seed(seed, Stream::EventSensor, i)));
+        let mut camera = EventCamera::new(config).context("event camera")?;
+        let (mut tokens, mut frames) = (Vec::new(), Vec::new());
+        flight.tracks[i].replay(|t, rgb, change| {
+            for packet in camera.push_frame_change(t, rgb, change)? {
+                let step = perception.push(SensorInput::Events(&packet))?;
+                tokens.extend(step.tokens);
+                frames.extend(step.frames);
+            }
+            Ok(true)
+        })?;
+        outs.push(observer_out(&tokens, &frames));
+    }
+    let ideal = flight
+        .ideal
+        .get(&Modality::Events)
+        .cloned()
+        .unwrap_or_default();
+    Ok(LinkOut {
+        modality: "events".into(),
+        observers: names.iter().cloned().zip(outs).collect(),
+        sim_seconds: flight.sim_ns as f64 * 1e-9,
+        wall_seconds: started.elapsed().as_secs_f64(),
+        performer_max_tracking_error_m: flight.performer_max_tracking_error_m,
+        ideal: Some(names.into_iter().zip(ideal).collect()),
+        contact_steps: flight.contact_steps,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        link: super::LinkArgs,
+    }
+
+    fn sensor(
+        args: &[&str],
+    ) -> anyhow::Result<Option<(perturb::Perturbation, super::SensorRecord)>> {
+        let cli = Cli::try_parse_from(std::iter::once("waggle-link").chain(args.iter().copied()))?;
+        super::sensor(&cli.link)
+    }
+
+    #[test]
+    fn an_unknown_sensor_preset_is_refused_naming_it_and_the_known_ones() {
+        let e = format!(
+            "{:#}",
+            sensor(&["--modality", "events", "--sensor-preset", "v2e-loud"]).unwrap_err()
+        );
+        assert!(e.contains("v2e-loud") && e.contains("v2e-default"), "{e}");
+        let e = format!(
+            "{:#}",
+            sensor(&["--modality", "events", "--perturb", "rgb.exposure_scale=2"]).unwrap_err()
+        );
+        assert!(e.contains("rgb.exposure_scale"), "{e}");
+        for modality in ["ideal", "rgb"] {
+            let e = format!(
+                "{:#}",
+                sensor(&["--modality", modality, "--sensor-preset", "v2e-clean"]).unwrap_err()
+            );
+            assert!(e.contains(modality), "{e}");
+        }
+        let e = format!(
+            "{:#}",
+            sensor(&[
+                "--modality",
+                "events",
+                "--sensor-preset",
+                "v2e-clean",
+                "--black",
+                "O2"
+            ])
+            .unwrap_err()
+        );
+        assert!(e.contains("--black"), "{e}");
+    }
+
+    #[test]
+    fn the_sensor_model_is_recorded_and_none_without_a_preset_or_term() {
+        assert!(sensor(&["--modality", "events"]).unwrap().is_none());
+        let (p, record) = sensor(&[
+            "--modality",
+            "events",
+            "--sensor-preset",
+            "v2e-default",
+            "--seed",
+            "5",
+        ])
+        .unwrap()
+        .unwrap();
+        assert_eq!(record.preset.as_deref(), Some("v2e-default"));
+        assert_eq!(record.seed, 5);
+        assert_eq!(record.perturb, p.recorded());
+        // A term at its default is the ideal sensor: the live link runs.
+        let (p, _) = sensor(&["--modality", "events", "--perturb", "events.leak_hz=0"])
+            .unwrap()
+            .unwrap();
+        assert!(p.is_none());
+    }
 }

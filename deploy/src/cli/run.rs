@@ -8,6 +8,7 @@ use clap::Args;
 use proto::Modality;
 
 use crate::case::Case;
+use crate::compose::sensor::SensorSpec;
 use crate::eval::summary::print_summary;
 use crate::launch::fault::{BlackSpec, ExtraFaults, KillSpec, ThrottleSpec};
 use crate::launch::{RunOptions, run_case, run_modality};
@@ -28,6 +29,14 @@ pub struct SessionArgs {
     pub render: super::RenderArg,
     #[command(flatten)]
     pub flights: super::FlightsArg,
+    /// The event cameras' sensor model: a preset and `events.*` terms (other groups are
+    /// modelled by `waggle trials` and `waggle mission` only).
+    #[command(flatten)]
+    pub perturb: super::PerturbArgs,
+    /// Seed of the event sensors' noise draws (with --sensor-preset/--perturb): observer i draws
+    /// from stream i of it, as in `waggle mission --seed`, so both build the same sensors.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
     /// Session id (default: `run-<pid>-<unix ms>`); every key lives under `waggle/<session>/`.
     #[arg(long)]
     pub session: Option<String>,
@@ -69,6 +78,12 @@ impl SessionArgs {
     pub fn options(self) -> Result<(Case, Modality, RunOptions)> {
         let case = self.flights.apply(Case::load(&self.case)?);
         let modality = run_modality(&case, self.modality)?;
+        let sensor = SensorSpec {
+            preset: self.perturb.sensor_preset,
+            perturb: self.perturb.perturb,
+            seed: self.seed,
+        };
+        sensor.check(modality)?;
         let opts = RunOptions {
             case_arg: self.case,
             out: None,
@@ -88,6 +103,7 @@ impl SessionArgs {
             endpoints: Endpoints::default(),
             render: self.render.path,
             live: None,
+            sensor,
         };
         Ok((case, modality, opts))
     }
@@ -190,6 +206,19 @@ fn print_run_figures(s: &RunSummary) {
             renders.join(" · ")
         );
     }
+    if let Some(sensor) = &s.sensor {
+        let terms: Vec<String> = sensor
+            .perturb
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect();
+        println!(
+            "event sensors: preset {} · {} · seed {}",
+            sensor.preset.as_deref().unwrap_or("none"),
+            terms.join(" "),
+            sensor.seed
+        );
+    }
     for f in &s.faults {
         println!("  fault: {f}");
     }
@@ -197,4 +226,69 @@ fn print_run_figures(s: &RunSummary) {
         println!("  fault seen on the bus: {f}");
     }
     println!("{}", crate::eval::summary::rejects_line(&s.rejects));
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        run: super::RunArgs,
+    }
+
+    fn options(args: &[&str]) -> anyhow::Result<super::RunOptions> {
+        let cli = Cli::try_parse_from(std::iter::once("waggle-run").chain(args.iter().copied()))?;
+        Ok(cli.run.session.options()?.2)
+    }
+
+    #[test]
+    fn an_unknown_sensor_preset_is_refused_naming_it_and_the_known_ones() {
+        let e = format!(
+            "{:#}",
+            options(&["only-a", "--sensor-preset", "v2e-loud"]).unwrap_err()
+        );
+        assert!(e.contains("v2e-loud") && e.contains("v2e-default"), "{e}");
+        let e = format!(
+            "{:#}",
+            options(&["only-a", "--perturb", "link.drop_rate=0.1"]).unwrap_err()
+        );
+        assert!(e.contains("link.drop_rate"), "{e}");
+        let e = format!(
+            "{:#}",
+            options(&[
+                "only-a",
+                "--modality",
+                "rgb",
+                "--sensor-preset",
+                "v2e-clean"
+            ])
+            .unwrap_err()
+        );
+        assert!(e.contains("rgb"), "{e}");
+    }
+
+    #[test]
+    fn the_preset_terms_and_seed_reach_the_cameras_arguments() {
+        let opts = options(&[
+            "only-a",
+            "--sensor-preset",
+            "v2e-noisy",
+            "--perturb",
+            "events.refractory_ms=1",
+            "--seed",
+            "3",
+        ])
+        .unwrap();
+        assert_eq!(opts.sensor.preset.as_deref(), Some("v2e-noisy"));
+        assert_eq!(opts.sensor.perturb, ["events.refractory_ms=1"]);
+        assert_eq!(opts.sensor.seed, 3);
+        assert!(
+            options(&["only-a", "--seed", "3"])
+                .unwrap()
+                .sensor
+                .is_none()
+        );
+    }
 }

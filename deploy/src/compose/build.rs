@@ -4,6 +4,7 @@ use anyhow::Result;
 use proto::{Modality, ObserverId, RenderPath, Role};
 
 use super::place::{Placement, place};
+use super::sensor::SensorSpec;
 use super::{COMPOSE_VERSION, Compose, Faults, Node, Router};
 use crate::case::Case;
 use crate::launch::fault::{ExtraFaults, Injected, injected_faults};
@@ -35,6 +36,8 @@ pub struct ComposeOptions {
     /// Record a view image of every RGB frame.
     pub record_all_rgb: bool,
     pub render: RenderPath,
+    /// The event cameras' sensor model (none: the paper's ideal sensors, no argument).
+    pub sensor: SensorSpec,
     /// Router listeners (default [`LOOPBACK_ROUTER`]) and connect endpoints.
     pub router_listen: Vec<String>,
     pub router_connect: Vec<String>,
@@ -44,6 +47,7 @@ pub struct ComposeOptions {
 
 /// The compose file of `case` with `opts`.
 pub fn compose(case: &Case, opts: &ComposeOptions) -> Result<Compose> {
+    opts.sensor.check(opts.modality)?;
     let injected = injected_faults(case, &opts.extra_faults)?;
     let observers: Vec<ObserverId> = (0..case.observers).map(ObserverId::from_index).collect();
     let keys = proto::Keys::new(&opts.session)?;
@@ -124,6 +128,7 @@ impl NodeArgs<'_> {
                 camera_args.push("--dropout-ns".into());
                 camera_args.push(at_ns.to_string());
             }
+            camera_args.extend(self.opts.sensor.camera_args());
             out.push(node(&format!("camera-{o}"), "sim-node", camera_args));
             out.push(node(
                 &format!("observer-{o}"),

@@ -11,6 +11,7 @@
 
 pub mod build;
 pub mod place;
+pub mod sensor;
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -247,6 +248,30 @@ impl Compose {
             .collect()
     }
 
+    /// The event cameras' sensor model, from the cameras' own arguments (every camera must
+    /// carry the same one).
+    pub fn sensor(&self) -> Result<sensor::SensorSpec> {
+        let mut cameras = self.nodes.iter().filter(|n| n.role.starts_with("camera-"));
+        let Some(first) = cameras.next() else {
+            return Ok(sensor::SensorSpec::default());
+        };
+        let spec = sensor::SensorSpec::from_camera_args(&first.args)
+            .with_context(|| format!("node {}", first.role))?;
+        for n in cameras {
+            let other = sensor::SensorSpec::from_camera_args(&n.args)
+                .with_context(|| format!("node {}", n.role))?;
+            if other != spec {
+                bail!(
+                    "nodes {} and {} carry different sensor models (--sensor-preset, --perturb, \
+                     --seed): every camera of a session carries the same",
+                    first.role,
+                    n.role
+                );
+            }
+        }
+        Ok(spec)
+    }
+
     /// The process names this session must list: the mission's processes, and the recorder
     /// when one takes part.
     fn expected_roles(&self, observers: usize) -> Vec<String> {
@@ -297,6 +322,7 @@ impl Compose {
         crate::launch::run_modality(&case, Some(self.modality))?;
         self.injected(&case)?;
         self.check_nodes(&case)?;
+        self.sensor()?.check(self.modality)?;
         self.check_router()?;
         if self.auth {
             if self.secrets.is_none() {

@@ -24,6 +24,7 @@ fn options(case: &str, placements: &[&str], router: &[&str]) -> (Case, ComposeOp
         record: true,
         record_all_rgb: false,
         render: proto::RenderPath::Damage,
+        sensor: super::sensor::SensorSpec::default(),
         router_listen: router.iter().map(|s| s.to_string()).collect(),
         router_connect: Vec::new(),
         placements: placements.iter().map(|p| p.parse().unwrap()).collect(),
@@ -170,4 +171,123 @@ fn a_placement_that_matches_nothing_is_an_error() {
     let placed = compose(&c, &o).unwrap();
     assert_eq!(placed.router.host, "r");
     assert_eq!(placed.hosts(), ["local", "r"]);
+}
+
+fn noisy() -> super::sensor::SensorSpec {
+    super::sensor::SensorSpec {
+        preset: Some("v2e-default".into()),
+        perturb: vec![
+            "events.leak_hz=0.2".into(),
+            "events.shot_noise_hz=0.5".into(),
+        ],
+        seed: 7,
+    }
+}
+
+#[test]
+fn a_sensor_model_rides_on_every_camera_and_round_trips_through_the_file() {
+    let (c, mut o) = options("nominal-3", &["camera-O2=b"], &["tcp/10.1.0.1:7447"]);
+    o.sensor = noisy();
+    let mut composed = compose(&c, &o).unwrap();
+    composed.secrets = Some("s1.secrets".into());
+    composed.check().unwrap();
+    let want = [
+        "--sensor-preset",
+        "v2e-default",
+        "--perturb",
+        "events.leak_hz=0.2",
+        "--perturb",
+        "events.shot_noise_hz=0.5",
+        "--seed",
+        "7",
+    ];
+    for n in composed
+        .nodes
+        .iter()
+        .filter(|n| n.role.starts_with("camera-"))
+    {
+        assert!(
+            n.args.ends_with(&want.map(String::from)),
+            "{}: {:?}",
+            n.role,
+            n.args
+        );
+    }
+    // Only the cameras carry it.
+    for n in composed
+        .nodes
+        .iter()
+        .filter(|n| !n.role.starts_with("camera-"))
+    {
+        assert!(!n.args.iter().any(|a| a == "--sensor-preset"), "{}", n.role);
+    }
+    let back: Compose = toml::from_str(&composed.to_toml().unwrap()).unwrap();
+    assert_eq!(back, composed);
+    assert_eq!(back.sensor().unwrap(), noisy());
+    let record = back.sensor().unwrap().record().unwrap().unwrap();
+    assert_eq!(record.preset.as_deref(), Some("v2e-default"));
+    assert_eq!(record.seed, 7);
+    // The preset's terms with the explicit ones over them, sorted by key.
+    let keys: Vec<&str> = record.perturb.keys().map(String::as_str).collect();
+    let mut sorted = keys.clone();
+    sorted.sort_unstable();
+    assert_eq!(keys, sorted);
+    assert_eq!(record.perturb["events.leak_hz"], 0.2);
+    assert_eq!(record.perturb["events.shot_noise_hz"], 0.5);
+    let same = perturb::Perturbation::with_preset(Some("v2e-default"), &noisy().perturb).unwrap();
+    assert_eq!(record.perturb, same.recorded());
+
+    // Cameras that disagree are refused.
+    let mut c2 = back.clone();
+    let cam = c2.nodes.iter_mut().find(|n| n.role == "camera-O3").unwrap();
+    let seed = cam.args.len() - 1;
+    cam.args[seed] = "8".into();
+    assert!(
+        check_err(&c2).contains("different sensor models"),
+        "{}",
+        check_err(&c2)
+    );
+}
+
+#[test]
+fn without_a_sensor_model_the_cameras_arguments_are_unchanged() {
+    let c = composed("one-observer", &[], &[]);
+    let cam = c.nodes.iter().find(|n| n.role == "camera-O1").unwrap();
+    assert_eq!(
+        cam.args,
+        [
+            "camera",
+            "--observer",
+            "O1",
+            "--modality",
+            "events",
+            "--render",
+            "damage"
+        ]
+    );
+    assert!(c.sensor().unwrap().is_none());
+    assert_eq!(c.sensor().unwrap().record().unwrap(), None);
+}
+
+#[test]
+fn unknown_presets_other_groups_and_rgb_cameras_are_refused_naming_them() {
+    use super::sensor::SensorSpec;
+    let err = |s: SensorSpec, m: Modality| format!("{:#}", s.check(m).unwrap_err());
+    let unknown = SensorSpec {
+        preset: Some("v2e-loud".into()),
+        ..SensorSpec::default()
+    };
+    let e = err(unknown.clone(), Modality::Events);
+    assert!(e.contains("v2e-loud") && e.contains("v2e-default"), "{e}");
+    let rgb_term = SensorSpec {
+        perturb: vec!["rgb.read_noise_grey=4".into()],
+        ..SensorSpec::default()
+    };
+    assert!(err(rgb_term, Modality::Events).contains("rgb.read_noise_grey"));
+    assert!(err(noisy(), Modality::Rgb).contains("rgb"));
+    // compose refuses it before writing anything.
+    let (c, mut o) = options("one-observer", &[], &[]);
+    o.sensor = unknown;
+    let e = format!("{:#}", compose(&c, &o).unwrap_err());
+    assert!(e.contains("v2e-loud"), "{e}");
 }

@@ -149,6 +149,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                     endpoints: Endpoints::default(),
                     render,
                     live: None,
+                    sensor: crate::compose::sensor::SensorSpec::default(),
                 },
             )?;
             if done.summary.interrupted {

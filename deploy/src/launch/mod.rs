@@ -34,6 +34,7 @@ use bus::{Endpoints, SessionSecrets};
 use proto::{Modality, Receiver, RenderPath};
 
 use crate::case::{Case, case_source};
+use crate::compose::sensor::SensorSpec;
 use crate::compose::{self, build::ComposeOptions};
 use crate::run_dir::lock::RunLock;
 use crate::run_dir::{LOG_DIR, RunSummary};
@@ -72,6 +73,8 @@ pub struct RunOptions {
     pub render: RenderPath,
     /// Serve the view channels live over a Foxglove WebSocket on this loopback port.
     pub live: Option<u16>,
+    /// The event cameras' sensor model (default: the paper's ideal sensors).
+    pub sensor: SensorSpec,
 }
 
 /// The modality to run `case` in: `asked`, or events when the case applies to it (else RGB);
@@ -162,6 +165,7 @@ impl RunOptions {
             record: !self.no_record,
             record_all_rgb: self.record_all_rgb,
             render: self.render,
+            sensor: self.sensor.clone(),
             router_listen: self.endpoints.listen.clone(),
             router_connect: self.endpoints.connect.clone(),
             placements: Vec::new(),

@@ -28,6 +28,8 @@ pub struct RunInfo<'a> {
     pub case: &'a Case,
     pub modality: Modality,
     pub render: RenderPath,
+    /// The event cameras' sensor model (`None`: ideal).
+    pub sensor: Option<crate::run_dir::SensorRecord>,
     pub session: &'a str,
     /// When the launcher started.
     pub started: Instant,
@@ -105,6 +107,7 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
             sensor_digests,
             render: info.render,
             camera_renders,
+            sensor: info.sensor.clone(),
             processes,
             faults: fault_log,
             faults_seen,

@@ -111,6 +111,9 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
     }
     let case = compose.case()?;
     let injected = compose.injected(&case)?;
+    let sensor = compose.sensor()?;
+    sensor.check(compose.modality)?;
+    let sensor = sensor.record()?;
     if let Some(port) = opts.live {
         check_live(&compose, &share, port)?;
     }
@@ -197,6 +200,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
         case: &case,
         modality: compose.modality,
         render: render_path(&compose),
+        sensor,
         session: &compose.session,
         started,
         injected: &injected,

@@ -159,6 +159,10 @@ pub struct RunSummary {
     /// How many of each camera's renders took each route.
     #[serde(default)]
     pub camera_renders: BTreeMap<String, CameraRenders>,
+    /// The event cameras' sensor model when it is not the paper's ideal one (`--sensor-preset`,
+    /// `--perturb events.*`); absent for ideal sensors.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor: Option<SensorRecord>,
     pub processes: BTreeMap<String, ProcessFigures>,
     /// Injected faults with the sim time they took effect.
     pub faults: Vec<String>,
@@ -171,6 +175,21 @@ pub struct RunSummary {
     #[serde(default)]
     pub rejects: BTreeMap<String, Vec<proto::RejectCount>>,
     pub interrupted: bool,
+}
+
+/// The event cameras' sensor model of a run, as `summary.json` records it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SensorRecord {
+    /// The named preset, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preset: Option<String>,
+    /// The `--perturb` terms over it, in the order given (later ones win).
+    #[serde(default)]
+    pub terms: Vec<String>,
+    /// Every term the sensors ran with that differs from its default, sorted by key.
+    pub perturb: BTreeMap<String, f64>,
+    /// The run's seed: observer i's sensor draws from `stream_seed(seed, EventSensor, i)`.
+    pub seed: u64,
 }
 
 impl RunSummary {
