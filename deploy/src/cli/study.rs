@@ -15,7 +15,7 @@ use crate::run_dir::lock::RunLock;
 
 #[derive(Debug, Args)]
 pub struct StudyArgs {
-    /// A study file (TOML) or a built-in study: event-noise, rgb-noise, viewing-angle,
+    /// A study file (TOML) or a built-in study: event-noise, rgb-noise, light, viewing-angle,
     /// distance, baselines (`--print` shows one to copy and edit).
     study: String,
     /// Output directory: one subdirectory per point (trials.json, cost.json), study.json,

@@ -221,6 +221,15 @@ impl MissionOptions {
                 );
             }
         }
+        if self.perturbation.rgb().blur_renders > 1 {
+            bail!(
+                "light.lux = {} lx needs a {} ms RGB exposure (motion blur), modelled in link \
+                 trials (--link) only, not in whole missions: blur needs 100 Hz renders of RGB \
+                 cameras",
+                self.perturbation.lux(),
+                10 * self.perturbation.rgb().blur_renders
+            );
+        }
         Ok(())
     }
 }

@@ -50,6 +50,7 @@ pub const BUILT_IN: &[(&str, &str)] = &[
     ),
     ("distance", include_str!("../../studies/distance.toml")),
     ("baselines", include_str!("../../studies/baselines.toml")),
+    ("light", include_str!("../../studies/light.toml")),
 ];
 
 /// A study of either kind: seeded link trials over levels, or whole-mission baselines.
@@ -157,6 +158,29 @@ pub struct PointResult {
     pub success_rate: Option<f64>,
     pub ci95: [f64; 2],
     pub dir: String,
+    /// Messages released over every trial and observer (decoded).
+    pub decoded_messages: u64,
+    /// Sensor messages (frames or event packets, one per 40 ms) over every trial and observer.
+    pub sensor_messages: u64,
+    /// Events received over every trial and observer (0 for RGB).
+    pub events: u64,
+}
+
+/// What a point cost to compute: the process's CPU time over its trials (all threads), which
+/// is what `report.md` divides by trials and decoded messages. Kept out of `study.json`, which
+/// holds no measured time (same seed, same file).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PointCost {
+    pub trials_cpu_s: f64,
+}
+
+/// The process's CPU time so far (user + system, every thread), s.
+fn cpu_s() -> f64 {
+    use nix::sys::resource::{UsageWho, getrusage};
+    getrusage(UsageWho::RUSAGE_SELF).map_or(0.0, |u| {
+        let t = |tv: nix::sys::time::TimeVal| tv.tv_sec() as f64 + tv.tv_usec() as f64 * 1e-6;
+        t(u.user_time()) + t(u.system_time())
+    })
 }
 
 impl PointResult {
@@ -307,6 +331,7 @@ pub fn run_study(
     let points = study.points(render, jobs)?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut results = Vec::new();
+    let mut costs = Vec::new();
     // Points of one level share a formation and a broadcast: one flight serves every modality
     // (kept only while its level runs).
     let mut flight: Option<((String, f64), RenderedFlight)> = None;
@@ -335,9 +360,13 @@ pub fn run_study(
             }
             flight.as_ref().map(|(_, f)| f)
         };
+        let cpu_before = cpu_s();
         let (trials, cost) = run_trials(&point.options, shared, stop, |done, _| {
             progress(k, points.len(), done, point.options.trials);
         })?;
+        costs.push(PointCost {
+            trials_cpu_s: cpu_s() - cpu_before,
+        });
         write_json(&dir.join("trials.json"), &trials)?;
         write_json(&dir.join("cost.json"), &cost)?;
         results.push(point_result(point, &trials));
@@ -348,7 +377,7 @@ pub fn run_study(
         std::fs::write(&path, figure(study, vary, &results)?)
             .with_context(|| format!("writing {}", path.display()))?;
     }
-    std::fs::write(out.join("report.md"), report(study, &results))
+    std::fs::write(out.join("report.md"), report(study, &results, &costs))
         .with_context(|| format!("writing {}", out.join("report.md").display()))?;
     Ok(results)
 }
@@ -368,11 +397,22 @@ fn point_result(point: &Point, t: &TrialsOut) -> PointResult {
         success_rate: t.tally.success_rate,
         ci95: t.tally.ci95,
         dir: point.dir.clone(),
+        decoded_messages: observer_sum(t, |o| o.released.len() as u64),
+        sensor_messages: observer_sum(t, |o| o.messages),
+        events: observer_sum(t, |o| o.events_received.unwrap_or(0)),
     }
 }
 
+fn observer_sum(t: &TrialsOut, f: impl Fn(&crate::harness::trials::ObserverTrial) -> u64) -> u64 {
+    t.per_trial
+        .iter()
+        .flat_map(|r| r.observers.values())
+        .map(f)
+        .sum()
+}
+
 /// `report.md`: the study's definition and one table per modality.
-pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
+pub fn report(study: &StudyFile, results: &[PointResult], costs: &[PointCost]) -> String {
     let mut s = format!("# Study: {}\n\n", study.name);
     s.push_str(&format!(
         "Broadcast {}; {}; {} trials per point, seed {}; criterion: every observer releases \
@@ -426,6 +466,50 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
                 ));
             }
         }
+        if !costs.is_empty() {
+            s.push_str(&cost_table(key, results, costs));
+        }
+    }
+    s
+}
+
+/// Computation and sensor traffic per point: CPU time per trial and per decoded message (the
+/// machine's, all threads of the study process), sensor messages and events per second of sim
+/// time (each message covers 40 ms).
+fn cost_table(key: &str, results: &[PointResult], costs: &[PointCost]) -> String {
+    let mut s = format!(
+        "\n### Cost and sensor traffic\n\n| modality | {key} | core-s per trial | core-s per decoded \
+         message | messages/s | events/s |\n| --- | ---: | ---: | ---: | ---: | ---: |\n"
+    );
+    for (r, c) in results.iter().zip(costs).filter(|(r, _)| r.key == key) {
+        let sim_s = r.sensor_messages as f64 * 0.04;
+        let per = |n: u64| {
+            if n == 0 {
+                "—".to_owned()
+            } else {
+                format!("{:.3}", c.trials_cpu_s / n as f64)
+            }
+        };
+        let rate = |n: u64| {
+            if sim_s > 0.0 {
+                format!("{:.0}", n as f64 / sim_s)
+            } else {
+                "—".to_owned()
+            }
+        };
+        s.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} |\n",
+            r.modality,
+            r.level,
+            per(r.trials),
+            per(r.decoded_messages),
+            rate(r.sensor_messages),
+            if r.modality == "events" {
+                rate(r.events)
+            } else {
+                "—".to_owned()
+            },
+        ));
     }
     s
 }
@@ -591,6 +675,41 @@ levels = [0.0, 0.5]
         let e = parse(&GOOD.replace("trials = 10", "trials = 10\nsensor_preset = \"v2e-loud\""))
             .unwrap_err();
         assert!(format!("{e:#}").contains("v2e-loud"), "{e:#}");
+        let dark = GOOD
+            .replace("events.shot_noise_hz\"", "light.lux\"")
+            .replace("[0.0, 0.5]", "[500.0, 200000.0]");
+        let e = parse(&dark).unwrap_err();
+        assert!(
+            format!("{e:#}").contains("light.lux") && format!("{e:#}").contains("200000"),
+            "{e:#}"
+        );
+    }
+
+    #[test]
+    fn the_light_study_darkens_both_cameras_together() {
+        let Study::Link(study) = Study::load("light").unwrap() else {
+            panic!("light is a link study");
+        };
+        let pts = study.points(RenderPath::default(), 1).unwrap();
+        let mut last: Option<(f64, u32, f64, f64)> = None;
+        for p in pts.iter().filter(|p| p.modality == Modality::Events) {
+            let lux = p.options.perturbation.lux();
+            let rgb = pts
+                .iter()
+                .find(|q| q.modality == Modality::Rgb && q.level == p.level)
+                .unwrap()
+                .options
+                .perturbation
+                .rgb();
+            assert_eq!(rgb.lux, lux);
+            let noise = p.options.perturbation.event_noise(1);
+            if let Some((prev_lux, blur, cutoff, shot)) = last {
+                assert!(lux < prev_lux);
+                assert!(rgb.blur_renders >= blur);
+                assert!(noise.cutoff_hz < cutoff && noise.shot_noise_hz > shot);
+            }
+            last = Some((lux, rgb.blur_renders, noise.cutoff_hz, noise.shot_noise_hz));
+        }
     }
 
     #[test]

@@ -662,9 +662,15 @@ fn leak_spread_and_jitter_follow_their_definitions() {
     }
     // s_i = 10^(σ·z): log10 spread σ, and each pixel's measured rate follows its own s_i.
     let (mean, std) = mean_and_std(&log_scales);
-    assert!(mean.abs() < 0.02 && (std - 0.2).abs() < 0.02, "{mean} {std}");
+    assert!(
+        mean.abs() < 0.02 && (std - 0.2).abs() < 0.02,
+        "{mean} {std}"
+    );
     let (rmean, rstd) = mean_and_std(&log_rates);
-    assert!((rmean - mean).abs() < 0.02 && (rstd - std).abs() < 0.03, "{rmean} {rstd}");
+    assert!(
+        (rmean - mean).abs() < 0.02 && (rstd - std).abs() < 0.03,
+        "{rmean} {rstd}"
+    );
     let (cv, _) = mean_and_std(&interval_cv);
     assert!((0.15..0.35).contains(&cv), "interval cv {cv}");
     // Without jitter the intervals are regular (to a frame).
@@ -672,9 +678,15 @@ fn leak_spread_and_jitter_follow_their_definitions() {
         leak_jitter: 0.0,
         ..noise
     };
-    let events = convert(&mut noisy(w, h, &steady), &static_frames(&gray(w, h, 90), 10));
+    let events = convert(
+        &mut noisy(w, h, &steady),
+        &static_frames(&gray(w, h, 90), 10),
+    );
     for list in by_pixel(&events).values() {
-        let intervals: Vec<f64> = list.windows(2).map(|e| (e[1].t_ns - e[0].t_ns) as f64).collect();
+        let intervals: Vec<f64> = list
+            .windows(2)
+            .map(|e| (e[1].t_ns - e[0].t_ns) as f64)
+            .collect();
         let (mean, std) = mean_and_std(&intervals);
         assert!(std / mean < 0.06, "{}", std / mean);
     }
@@ -737,7 +749,12 @@ fn shot_noise_scales_with_threshold_and_falls_in_bright_pixels() {
             }
         }
     }
-    assert!(low / n_low > 1.2 * (high / n_high), "{} {}", low / n_low, high / n_high);
+    assert!(
+        low / n_low > 1.2 * (high / n_high),
+        "{} {}",
+        low / n_low,
+        high / n_high
+    );
 }
 
 #[test]

@@ -4,6 +4,8 @@
 //! * [`spec`] — the parameter set ([`Perturbation`]): `events.*` (the event sensor's v2e terms,
 //!   applied by [`event_camera::NoisyConverter`]), `rgb.*` ([`rgb::RgbNoise`]), `geometry.*` and
 //!   `flight.*` (placement jitter and gusts: a re-flown trial) and `link.*` ([`link::LinkNoise`]).
+//! * [`light`] — one illuminance (`light.lux`) from which both cameras' exposure, noise,
+//!   blur, bandwidth and background activity follow.
 //! * [`preset`] — named sensor presets (v2e's `clean`, default and `noisy` values), cited.
 //! * [`seed`] — one trial seed → independent, reproducible streams per term and observer.
 //! * [`stats`] — the Wilson score interval for success rates.
@@ -11,6 +13,7 @@
 //! Pure code: no I/O, no clock; the same seed gives the same realisation on every machine
 //! (ChaCha8 streams, integer seeds).
 
+pub mod light;
 pub mod link;
 pub mod preset;
 pub mod rgb;

@@ -4,6 +4,12 @@
 //! exposure integrates), illumination/exposure (a gain on every value) and read noise (an
 //! Gaussian per pixel and channel, σ in grey levels, added in whole grey levels), then clamping
 //! to 0–255. With the defaults the frame is passed through byte for byte.
+//!
+//! Under a modelled light level (`lux > 0`, see [`crate::light`]) the exposed value then goes
+//! through the photon model: each value is drawn from the distribution of
+//! `gain · (Poisson(electrons) + N(0, read noise))`, rounded and clamped, by a per-value
+//! quantile table (1 024 quantiles: probabilities resolved to 1/1 024) indexed by a pool of
+//! uniform draws, as the read-noise pool does.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -18,6 +24,8 @@ pub struct RgbNoise {
     pub exposure_scale: f64,
     /// Renders averaged into one frame (1 = no blur; each render spans 10 ms).
     pub blur_renders: u32,
+    /// Scene illuminance, lx (0: light not modelled; see [`crate::light`]).
+    pub lux: f64,
 }
 
 impl Default for RgbNoise {
@@ -26,6 +34,7 @@ impl Default for RgbNoise {
             read_noise_grey: 0.0,
             exposure_scale: 1.0,
             blur_renders: 1,
+            lux: 0.0,
         }
     }
 }
@@ -46,7 +55,113 @@ impl RgbNoise {
             pool: Vec::new(),
             rng: ChaCha8Rng::seed_from_u64(rng.r#gen()),
             luts: Vec::new(),
+            photon: (self.lux > 0.0).then(|| PhotonTable::new(self.lux)),
+            uniform_pool: Vec::new(),
         }
+    }
+}
+
+/// Quantiles per value of the grey level the photon model delivers.
+const QUANTILES: usize = 1024;
+
+/// `quantiles[v][j]`: the grey level at probability `(j + 0.5) / QUANTILES` for exposed value v.
+#[derive(Debug, Clone)]
+struct PhotonTable {
+    quantiles: Vec<[u8; QUANTILES]>,
+}
+
+impl PhotonTable {
+    fn new(lux: f64) -> Self {
+        let camera = crate::light::RGB_CAMERA;
+        let exposure = camera.exposure(lux);
+        let k = exposure.gain_grey_per_e;
+        let sigma = camera.read_noise_e * k;
+        let quantiles = (0..=255u32)
+            .map(|v| {
+                let lambda = exposure.white_e * f64::from(v) / 255.0;
+                let pmf = grey_pmf(lambda, k, sigma);
+                let mut q = [0u8; QUANTILES];
+                let (mut g, mut cdf) = (0usize, pmf[0]);
+                for (j, slot) in q.iter_mut().enumerate() {
+                    let p = (j as f64 + 0.5) / QUANTILES as f64;
+                    while cdf < p && g < 255 {
+                        g += 1;
+                        cdf += pmf[g];
+                    }
+                    *slot = g as u8;
+                }
+                q
+            })
+            .collect();
+        Self { quantiles }
+    }
+}
+
+/// Distribution over grey levels 0–255 of `round(k·(n + r))`, n ~ Poisson(λ), r ~ N(0, σ/k),
+/// clamped (σ is the read noise in grey levels).
+fn grey_pmf(lambda: f64, k: f64, sigma: f64) -> [f64; 256] {
+    let mut pmf = [0.0; 256];
+    let spread = 10.0 * lambda.sqrt() + 10.0;
+    let (lo, hi) = (
+        (lambda - spread).max(0.0).floor() as u64,
+        (lambda + spread).ceil() as u64,
+    );
+    for n in lo..=hi {
+        let p_n = poisson_pmf(lambda, n);
+        if p_n < 1e-12 {
+            continue;
+        }
+        let mean = k * n as f64;
+        if sigma <= 0.0 {
+            pmf[mean.round().clamp(0.0, 255.0) as usize] += p_n;
+            continue;
+        }
+        let below = |g: f64| normal_cdf((g - mean) / sigma);
+        let g_lo = (mean - 8.0 * sigma).floor().max(0.0) as usize;
+        let g_hi = ((mean + 8.0 * sigma).ceil() as usize).min(255);
+        for g in g_lo..=g_hi {
+            let lower = if g == 0 { 0.0 } else { below(g as f64 - 0.5) };
+            let upper = if g == 255 { 1.0 } else { below(g as f64 + 0.5) };
+            pmf[g] += p_n * (upper - lower);
+        }
+        if g_lo > 0 {
+            pmf[0] += p_n * below(g_lo as f64 - 0.5);
+        }
+        if g_hi < 255 {
+            pmf[255] += p_n * (1.0 - below(g_hi as f64 + 0.5));
+        }
+    }
+    pmf
+}
+
+/// Poisson(λ) probability of n, through `ln n!` (exact below 20, Stirling's series above).
+fn poisson_pmf(lambda: f64, n: u64) -> f64 {
+    if lambda == 0.0 {
+        return if n == 0 { 1.0 } else { 0.0 };
+    }
+    let ln_fact = if n < 20 {
+        (1..=n).map(|i| (i as f64).ln()).sum::<f64>()
+    } else {
+        let m = n as f64;
+        m * m.ln() - m + 0.5 * (std::f64::consts::TAU * m).ln() + 1.0 / (12.0 * m)
+            - 1.0 / (360.0 * m * m * m)
+    };
+    (n as f64 * lambda.ln() - lambda - ln_fact).exp()
+}
+
+/// Standard normal CDF (Abramowitz & Stegun 7.1.26 for erf, |error| < 1.5e-7).
+fn normal_cdf(z: f64) -> f64 {
+    let x = z.abs() / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.327_591_1 * x);
+    let poly = t
+        * (0.254_829_592
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    let erf = 1.0 - poly * (-x * x).exp();
+    if z >= 0.0 {
+        0.5 * (1.0 + erf)
+    } else {
+        0.5 * (1.0 - erf)
     }
 }
 
@@ -67,6 +182,10 @@ pub struct RgbSensor {
     rng: ChaCha8Rng,
     /// `luts[k-1][sum]`: the exposed value of the sum of `k` renders.
     luts: Vec<Vec<u8>>,
+    /// Under a modelled light level: the photon model's quantiles.
+    photon: Option<PhotonTable>,
+    /// Quantile indices, `POOL_FRAMES` frames' worth.
+    uniform_pool: Vec<u16>,
 }
 
 impl RgbSensor {
@@ -98,6 +217,19 @@ impl RgbSensor {
                 .map(|i| lut[used.iter().map(|r| usize::from(r[i])).sum::<usize>()])
                 .collect()
         };
+        if let Some(photon) = &self.photon {
+            let len = out.len();
+            if self.uniform_pool.len() != POOL_FRAMES * len {
+                let rng = &mut self.rng;
+                self.uniform_pool = (0..POOL_FRAMES * len)
+                    .map(|_| rng.gen_range(0..QUANTILES as u16))
+                    .collect();
+            }
+            let start = self.rng.gen_range(0..=(POOL_FRAMES - 1) * len);
+            for (v, &j) in out.iter_mut().zip(&self.uniform_pool[start..start + len]) {
+                *v = photon.quantiles[usize::from(*v)][usize::from(j)];
+            }
+        }
         if let Some(normal) = self.normal {
             let len = out.len();
             if self.pool.len() != POOL_FRAMES * len {
@@ -196,6 +328,52 @@ mod tests {
             bright.sensor(&mut rng(1)).apply(&[&f]),
             vec![0, 20, 200, 255]
         );
+    }
+
+    #[test]
+    fn the_photon_model_has_the_mean_and_variance_of_its_electrons() {
+        for lux in [500.0, 20.0, 5.0] {
+            let camera = crate::light::RGB_CAMERA;
+            let e = camera.exposure(lux);
+            let noise = RgbNoise {
+                lux,
+                ..RgbNoise::default()
+            };
+            let flat = vec![128u8; 200_000];
+            let out = noise.sensor(&mut rng(3)).apply(&[&flat]);
+            let n = out.len() as f64;
+            let mean = out.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+            let var = out
+                .iter()
+                .map(|&v| (f64::from(v) - mean).powi(2))
+                .sum::<f64>()
+                / (n - 1.0);
+            let electrons = e.white_e * 128.0 / 255.0;
+            let k = e.gain_grey_per_e;
+            let want_mean = k * electrons;
+            // Poisson + read noise, then rounding (1/12 grey²).
+            let want_var = k * k * (electrons + camera.read_noise_e.powi(2)) + 1.0 / 12.0;
+            assert!(
+                (mean - want_mean).abs() < 0.05 + 0.01 * want_mean,
+                "{lux}: {mean}"
+            );
+            assert!(
+                (var / want_var - 1.0).abs() < 0.1,
+                "{lux}: {var} vs {want_var}"
+            );
+        }
+    }
+
+    #[test]
+    fn poisson_and_normal_helpers_are_right() {
+        let total: f64 = (0..200).map(|n| poisson_pmf(30.0, n)).sum();
+        assert!((total - 1.0).abs() < 1e-9, "{total}");
+        assert!((poisson_pmf(2.0, 3) - 8.0 / 6.0 * (-2f64).exp()).abs() < 1e-12);
+        let big: f64 = (0..20_000).map(|n| poisson_pmf(8000.0, n)).sum();
+        assert!((big - 1.0).abs() < 1e-6, "{big}");
+        assert!((normal_cdf(0.0) - 0.5).abs() < 1e-7);
+        assert!((normal_cdf(1.959_964) - 0.975).abs() < 1e-6);
+        assert!((normal_cdf(-1.0) - 0.158_655_25).abs() < 1e-6);
     }
 
     #[test]

@@ -184,6 +184,16 @@ pub const PARAMETERS: &[Parameter] = &[
         "motion blur: each frame is the mean of this many 10 ms renders (1 = none)",
     ),
     p(
+        "light.lux",
+        "lx",
+        0.0,
+        0.0,
+        100_000.0,
+        false,
+        "scene illuminance for both cameras: RGB exposure, photon and read noise, blur; event \
+         bandwidth and background (0 = light not modelled)",
+    ),
+    p(
         "geometry.position_sigma_m",
         "m",
         0.0,
@@ -382,9 +392,9 @@ impl Perturbation {
             leak_hz: self.get("events.leak_hz"),
             leak_spread_decades: self.get("events.leak_spread_decades"),
             leak_jitter: self.get("events.leak_jitter"),
-            shot_noise_hz: self.get("events.shot_noise_hz"),
+            shot_noise_hz: self.event_shot_noise_hz(),
             shot_noise_bright_drop: self.get("events.shot_noise_bright_drop"),
-            cutoff_hz: self.get("events.cutoff_hz"),
+            cutoff_hz: self.event_cutoff_hz(),
             linlog_dn: self.get("events.linlog_dn"),
             hot_pixels,
             hot_pixel_hz: if hot_pixels > 0 {
@@ -396,12 +406,44 @@ impl Perturbation {
         }
     }
 
-    /// The RGB sensor's terms.
+    /// Scene illuminance, lx (0: not modelled).
+    pub fn lux(&self) -> f64 {
+        self.get("light.lux")
+    }
+
+    /// The event sensor's cutoff: its own, or under a modelled light level its own (or v2e's
+    /// default) at office light scaled by the light ([`crate::light`]).
+    fn event_cutoff_hz(&self) -> f64 {
+        let own = self.get("events.cutoff_hz");
+        match self.lux() {
+            lux if lux > 0.0 => crate::light::event_cutoff_hz(lux, own),
+            _ => own,
+        }
+    }
+
+    /// The event sensor's shot noise: its own, plus darkness's under a modelled light level.
+    fn event_shot_noise_hz(&self) -> f64 {
+        let own = self.get("events.shot_noise_hz");
+        match self.lux() {
+            lux if lux > 0.0 => crate::light::event_shot_noise_hz(lux, own),
+            _ => own,
+        }
+    }
+
+    /// The RGB sensor's terms; under a modelled light level the blur is at least the
+    /// exposure's.
     pub fn rgb(&self) -> RgbNoise {
+        let lux = self.lux();
+        let own_blur = self.get("rgb.blur_renders") as u32;
         RgbNoise {
             read_noise_grey: self.get("rgb.read_noise_grey"),
             exposure_scale: self.get("rgb.exposure_scale"),
-            blur_renders: self.get("rgb.blur_renders") as u32,
+            blur_renders: if lux > 0.0 {
+                own_blur.max(crate::light::RGB_CAMERA.blur_renders(lux))
+            } else {
+                own_blur
+            },
+            lux,
         }
     }
 
