@@ -260,7 +260,7 @@ impl LeakSchedule {
                 return None;
             }
             self.cursor += 1;
-            if self.cursor % (BUCKETS / 2) == 0 && !self.far.is_empty() {
+            if self.cursor.is_multiple_of(BUCKETS / 2) && !self.far.is_empty() {
                 for i in std::mem::take(&mut self.far) {
                     let d = self.due[i as usize];
                     if d.is_finite() && bucket_of(d) <= self.cursor + BUCKETS / 2 {
@@ -342,7 +342,7 @@ mod tests {
             }
             // Nothing due is left behind.
             assert!(now.iter().all(|&d| d > g), "at {g}");
-            if (g * 100.0) as u64 % 37 == 0 {
+            if ((g * 100.0) as u64).is_multiple_of(37) {
                 let i = (g * 1000.0) as usize % n;
                 if now[i].is_finite() {
                     now[i] += 0.5; // a pixel judged for another reason gets a later due
