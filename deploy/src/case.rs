@@ -7,6 +7,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
+use proto::Modality;
 use serde::Deserialize;
 
 /// Built-in cases (name, TOML text), in the paper's table order.
@@ -289,6 +290,25 @@ impl Case {
             .iter()
             .any(|f| f.observer == observer && f.kind == FaultKind::Black)
     }
+}
+
+/// The modality to run `case` in: `asked`, or events when the case applies to it (else RGB);
+/// an error when the case does not apply to it.
+pub fn run_modality(case: &Case, asked: Option<Modality>) -> Result<Modality> {
+    let modality = match asked {
+        Some(m) => m,
+        None if case.modalities.contains(&Receiver::Events) => Modality::Events,
+        None => Modality::Rgb,
+    };
+    if !case.modalities.contains(&Receiver::from(modality)) {
+        bail!(
+            "case {} does not apply to the {} modality (it lists {:?})",
+            case.name,
+            modality.as_str(),
+            case.modalities
+        );
+    }
+    Ok(modality)
 }
 
 #[cfg(test)]

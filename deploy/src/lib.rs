@@ -17,6 +17,7 @@ pub mod case;
 pub mod cli;
 pub mod compose;
 pub mod eval;
+pub mod fault;
 pub mod harness;
 pub mod launch;
 pub mod run_dir;

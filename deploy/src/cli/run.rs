@@ -10,7 +10,7 @@ use proto::Modality;
 use crate::case::Case;
 use crate::compose::sensor::SensorSpec;
 use crate::eval::summary::print_summary;
-use crate::launch::fault::{BlackSpec, ExtraFaults, KillSpec, ThrottleSpec};
+use crate::fault::{BlackSpec, ExtraFaults, KillSpec, ThrottleSpec};
 use crate::launch::{RunOptions, run_case, run_modality};
 use crate::run_dir::RunSummary;
 

@@ -7,7 +7,7 @@ use super::place::{Placement, place};
 use super::sensor::SensorSpec;
 use super::{COMPOSE_VERSION, Compose, Faults, Node, Router};
 use crate::case::Case;
-use crate::launch::fault::{ExtraFaults, Injected, injected_faults};
+use crate::fault::{ExtraFaults, Injected, injected_faults};
 
 /// The host every node runs on unless placed elsewhere.
 pub const DEFAULT_HOST: &str = "local";

@@ -21,7 +21,7 @@ use proto::{Modality, ObserverId, Role};
 use serde::{Deserialize, Serialize};
 
 use crate::case::Case;
-use crate::launch::fault::{BlackSpec, ExtraFaults, Injected, KillSpec, ThrottleSpec};
+use crate::fault::{BlackSpec, ExtraFaults, Injected, KillSpec, ThrottleSpec};
 
 /// The compose format this build reads and writes.
 pub const COMPOSE_VERSION: u32 = 1;
@@ -198,7 +198,7 @@ impl Compose {
 
     /// The faults the launcher injects: the case's and the file's.
     pub fn injected(&self, case: &Case) -> Result<Vec<Injected>> {
-        crate::launch::fault::injected_faults(case, &self.faults.to_extra()?)
+        crate::fault::injected_faults(case, &self.faults.to_extra()?)
     }
 
     /// A recorder takes part.
@@ -319,7 +319,7 @@ impl Compose {
         }
         proto::Keys::new(&self.session).with_context(|| format!("session {:?}", self.session))?;
         let case = self.case()?;
-        crate::launch::run_modality(&case, Some(self.modality))?;
+        crate::case::run_modality(&case, Some(self.modality))?;
         self.injected(&case)?;
         self.check_nodes(&case)?;
         self.sensor()?.check(self.modality)?;

@@ -1,7 +1,7 @@
 use super::build::{ComposeOptions, compose};
 use super::place::Placement;
 use super::*;
-use crate::launch::fault::KillSpec;
+use crate::fault::KillSpec;
 
 fn options(case: &str, placements: &[&str], router: &[&str]) -> (Case, ComposeOptions) {
     let case_value = Case::load(case).unwrap();

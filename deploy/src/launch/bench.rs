@@ -11,9 +11,9 @@ use bus::Endpoints;
 use proto::{Modality, RenderPath};
 use serde::{Deserialize, Serialize};
 
-use super::fault::ExtraFaults;
 use super::{RunOptions, run_case, run_modality};
 use crate::case::Case;
+use crate::fault::ExtraFaults;
 use crate::run_dir::{CameraRenders, RunSummary};
 
 /// What to measure.

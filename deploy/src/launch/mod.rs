@@ -17,7 +17,6 @@
 //! [`sweep`] runs many cases, each as its own `waggle run`.
 
 pub mod bench;
-pub mod fault;
 pub mod gather;
 pub mod own_log;
 pub mod process;
@@ -31,14 +30,15 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use bus::{Endpoints, SessionSecrets};
-use proto::{Modality, Receiver, RenderPath};
+use proto::{Modality, RenderPath};
 
+pub use crate::case::run_modality;
 use crate::case::{Case, case_source};
 use crate::compose::sensor::SensorSpec;
 use crate::compose::{self, build::ComposeOptions};
+use crate::fault::ExtraFaults;
 use crate::run_dir::lock::RunLock;
 use crate::run_dir::{LOG_DIR, RunSummary};
-use fault::ExtraFaults;
 use process::Proc;
 use up::{UpDone, UpOptions};
 
@@ -75,25 +75,6 @@ pub struct RunOptions {
     pub live: Option<u16>,
     /// The event cameras' sensor model (default: the paper's ideal sensors).
     pub sensor: SensorSpec,
-}
-
-/// The modality to run `case` in: `asked`, or events when the case applies to it (else RGB);
-/// an error when the case does not apply to it.
-pub fn run_modality(case: &Case, asked: Option<Modality>) -> Result<Modality> {
-    let modality = match asked {
-        Some(m) => m,
-        None if case.modalities.contains(&Receiver::Events) => Modality::Events,
-        None => Modality::Rgb,
-    };
-    if !case.modalities.contains(&Receiver::from(modality)) {
-        bail!(
-            "case {} does not apply to the {} modality (it lists {:?})",
-            case.name,
-            modality.as_str(),
-            case.modalities
-        );
-    }
-    Ok(modality)
 }
 
 /// Where one run lives.

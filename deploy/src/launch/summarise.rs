@@ -7,12 +7,12 @@ use std::time::Instant;
 use proto::scene::{distance_m, observer_home_m, observer_name};
 use proto::{MissionReport, Modality, ObserverId, RenderPath};
 
-use super::fault::Injected;
 use super::gather::{Gathered, SeenFault};
 use super::process::Proc;
 use super::supervise::Supervised;
 use crate::case::Case;
 use crate::eval::summary::{check_expected, ns_s, provenance_violations};
+use crate::fault::Injected;
 use crate::run_dir::session::SessionRecord;
 use crate::run_dir::{MissionSummary, ObserverRecord, ObserverSummary, ProcessFigures, RunSummary};
 

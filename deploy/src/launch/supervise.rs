@@ -13,11 +13,11 @@ use indicatif::{ProgressBar, ProgressStyle};
 use proto::scene::{observer_home_m, observer_name};
 use proto::{Keys, ObserverId, Role};
 
-use super::fault::Injected;
 use super::gather::Gathered;
 use super::process::Proc;
 use crate::case::Case;
 use crate::eval::summary::ns_s;
+use crate::fault::Injected;
 
 /// How long every process gets to start and join the handshake.
 const STARTUP_TIMEOUT: Duration = Duration::from_secs(180);

@@ -12,7 +12,7 @@ use std::io::{Read, Write};
 use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 
-use crate::bus::BusError;
+use crate::error::BusError;
 
 /// One process's user name and password.
 #[derive(Clone, PartialEq, Eq)]

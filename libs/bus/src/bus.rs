@@ -4,7 +4,7 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use proto::{DecodeError, KeyError, Keys, Validate};
+use proto::{Keys, Validate};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use zenoh::Wait;
@@ -13,32 +13,8 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
 use zenoh::sample::{Sample, SampleKind};
 
-use crate::auth::Credentials;
-use crate::cli::NodeArgs;
-use crate::endpoints::{Endpoints, client_config, config, deny_on_every_link, open_client_config};
-
-/// Why a bus operation failed.
-#[derive(Debug, thiserror::Error)]
-pub enum BusError {
-    #[error("invalid Zenoh configuration: {0}")]
-    Config(String),
-    /// A credentials file or the session's secrets directory is missing, malformed or not
-    /// private.
-    #[error("credentials: {0}")]
-    Credentials(String),
-    #[error("zenoh: {what}: {message}")]
-    Zenoh { what: String, message: String },
-    #[error(transparent)]
-    Key(#[from] KeyError),
-    #[error("message on {key}: {source}")]
-    Decode {
-        key: String,
-        #[source]
-        source: DecodeError,
-    },
-    #[error("timed out after {waited_s:.1} s waiting for {what}")]
-    Timeout { what: String, waited_s: f64 },
-}
+use crate::endpoints::{Endpoints, config};
+use crate::error::BusError;
 
 fn zenoh_err(what: impl Into<String>, e: impl std::fmt::Display) -> BusError {
     BusError::Zenoh {
@@ -77,19 +53,6 @@ impl Bus {
     /// Opens a session for Waggle session id `session` with the given endpoints.
     pub fn open(session: &str, endpoints: &Endpoints) -> Result<Self, BusError> {
         Self::open_with_acl(session, endpoints, &[])
-    }
-
-    /// Opens the session of a node process from its command-line options: a client of the
-    /// session's router (authenticated with `--credentials` when given), or a peer with its
-    /// `--deny` access-control list.
-    pub fn open_node(node: &NodeArgs) -> Result<Self, BusError> {
-        let mut config = match &node.credentials {
-            Some(path) => client_config(&node.endpoints, &Credentials::read(path)?)?,
-            None if node.client => open_client_config(&node.endpoints)?,
-            None => return Self::open_with_acl(&node.session, &node.endpoints, &node.deny),
-        };
-        deny_on_every_link(&mut config, &node.deny)?;
-        Self::open_config(&node.session, config)
     }
 
     /// Opens a session whose links deny the key expressions in `deny` (see [`config`]).

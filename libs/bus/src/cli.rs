@@ -2,8 +2,11 @@
 
 use std::time::Duration;
 
-use crate::bus::{Bus, BusError};
+use crate::auth::Credentials;
+use crate::bus::Bus;
 use crate::endpoints::Endpoints;
+use crate::endpoints::{client_config, deny_on_every_link, open_client_config};
+use crate::error::BusError;
 use crate::handshake::{self, Process, mission_processes};
 
 /// Options of every node process.
@@ -37,6 +40,21 @@ pub struct NodeArgs {
     pub credentials: Option<std::path::PathBuf>,
     #[command(flatten)]
     pub endpoints: Endpoints,
+}
+
+impl Bus {
+    /// Opens the session of a node process from its command-line options: a client of the
+    /// session's router (authenticated with `--credentials` when given), or a peer with its
+    /// `--deny` access-control list.
+    pub fn open_node(node: &NodeArgs) -> Result<Self, BusError> {
+        let mut config = match &node.credentials {
+            Some(path) => client_config(&node.endpoints, &Credentials::read(path)?)?,
+            None if node.client => open_client_config(&node.endpoints)?,
+            None => return Self::open_with_acl(&node.session, &node.endpoints, &node.deny),
+        };
+        deny_on_every_link(&mut config, &node.deny)?;
+        Self::open_config(&node.session, config)
+    }
 }
 
 impl NodeArgs {

@@ -1,7 +1,7 @@
 //! Where a process's Zenoh session listens and what it connects to.
 
 use crate::auth::Credentials;
-use crate::bus::BusError;
+use crate::error::BusError;
 
 /// The endpoint options shared by every Waggle binary.
 #[derive(Debug, Clone, Default, PartialEq, Eq, clap::Args)]

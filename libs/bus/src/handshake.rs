@@ -16,7 +16,8 @@ use std::time::Duration;
 
 use proto::{Keys, Role, scene::observer_name};
 
-use crate::bus::{Bus, BusError};
+use crate::bus::Bus;
+use crate::error::BusError;
 
 /// One process of a session: its role and id (`O1` for cameras and observers, the role name
 /// otherwise).

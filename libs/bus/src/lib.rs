@@ -24,17 +24,19 @@ pub mod auth;
 mod bus;
 pub mod cli;
 mod endpoints;
+mod error;
 pub mod handshake;
 mod rejects;
 mod stop;
 
 pub use auth::{Credentials, SessionSecrets};
-pub use bus::{Bus, BusError, Inbound, decode};
+pub use bus::{Bus, Inbound, decode};
 pub use cli::NodeArgs;
 pub use endpoints::{
     Endpoints, client_config, config, is_loopback_endpoint, open_client_config, open_router_config,
     router_config,
 };
+pub use error::BusError;
 pub use handshake::{Process, mission_processes};
 pub use rejects::{LOGGED_REJECTS, Rejects};
 pub use stop::on_stop_signal;

@@ -14,6 +14,7 @@
 //! drones) is allowed as long as it never gets closer than its nearer endpoint already is, so
 //! the planner can always leave a tight spot.
 
+pub use crate::trajectory::planar_distance_m;
 use proto::scene::PERFORMER_HOVER_M;
 
 use crate::config::FlightLimits;
@@ -60,11 +61,6 @@ pub fn segment_distance_m(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
         0.0
     };
     planar_distance_m(p, [a[0] + s * dx, a[1] + s * dy, 0.0])
-}
-
-/// Horizontal distance between two points.
-pub fn planar_distance_m(a: [f64; 3], b: [f64; 3]) -> f64 {
-    (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
 /// Least clearance (distance minus required clearance) of a polyline against the obstacles;

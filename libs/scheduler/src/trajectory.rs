@@ -8,7 +8,6 @@ use proto::{Kinematics, TICK_NS};
 
 use crate::config::FlightLimits;
 use crate::error::NavError;
-use crate::navigation::planar_distance_m;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Segment {
@@ -121,6 +120,11 @@ impl Leg {
             acc_mps2: std::array::from_fn(|k| d[k] * a / (dt_s * dt_s)),
         }
     }
+}
+
+/// Horizontal distance between two points.
+pub fn planar_distance_m(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
 #[cfg(test)]
