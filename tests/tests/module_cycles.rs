@@ -8,6 +8,8 @@
 //! `super::x`; comments, `#[cfg(test)]` sections and edges to a module's own ancestors (a child
 //! using its parent's items) are left out. Tarjan's strongly connected components find every
 //! cycle; the failure lists each with the edges that close it.
+//!
+//! A second check keeps files small: no source file holds more than 600 lines of non-test code.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -260,4 +262,48 @@ fn the_cycle_finder_finds_a_planted_cycle_and_no_other() {
     assert!(cycles(&edges).is_empty());
     let code = code_of("use crate::x::y; // crate::z\n#[cfg(test)]\nuse crate::w;");
     assert_eq!(idents_after(&code, "crate::"), vec![vec!["x", "y"]]);
+}
+
+/// Most non-test lines one source file may hold: a file longer than this mixes
+/// responsibilities (issue 29); split it by what it owns.
+const MAX_CODE_LINES: usize = 600;
+
+#[test]
+fn no_source_file_is_over_600_lines_of_code() {
+    let root = workspace_root();
+    let mut files = Vec::new();
+    for dir in ["proto", "deploy", "tests", "libs", "tools"] {
+        rust_files(&root.join(dir), &mut files);
+    }
+    for e in std::fs::read_dir(&root).expect("root").flatten() {
+        if e.file_name().to_string_lossy().ends_with("-node") {
+            rust_files(&e.path(), &mut files);
+        }
+    }
+    let mut long = Vec::new();
+    for file in files {
+        let rel = file.strip_prefix(&root).unwrap_or(&file).to_path_buf();
+        // Integration tests and benches are test code throughout.
+        let is_test = rel
+            .components()
+            .any(|c| matches!(c.as_os_str().to_str(), Some("tests" | "benches")));
+        if is_test || rel.starts_with("target") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&file).expect("read source");
+        let code = text
+            .split("#[cfg(test)]")
+            .next()
+            .unwrap_or("")
+            .lines()
+            .count();
+        if code > MAX_CODE_LINES {
+            long.push(format!("{} ({code} lines)", rel.display()));
+        }
+    }
+    assert!(
+        long.is_empty(),
+        "source files over {MAX_CODE_LINES} lines of non-test code:\n{}",
+        long.join("\n")
+    );
 }

@@ -11,15 +11,14 @@
 //! by the agent's reception window, so this harness does not go through the process runtime's
 //! per-tick assembly (`perception::tick`); `waggle replay` and `observer-node` do.
 
+pub use crate::harness::mission_options::MissionOptions;
 use std::collections::{BTreeMap, BTreeSet};
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use perception::agent::{AgentFrame, FrameOutcome, ObserverAgent};
 use perception::perception::SensorInput;
-use perturb::Perturbation;
 use perturb::link::LinkNoise;
 use perturb::rgb::RgbSensor;
 use perturb::seed::{Stream, rng, stream_seed};
@@ -191,47 +190,6 @@ pub fn fly_case(case: &Case, modality: Receiver, render: RenderPath) -> Result<M
     Ok(fly_case_with(case, modality, &opts)?
         .context("the mission was interrupted")?
         .0)
-}
-
-/// How a mission is flown beyond its case: allocation policy, perturbation and its seed.
-#[derive(Debug, Clone, Default)]
-pub struct MissionOptions {
-    pub render: RenderPath,
-    pub policy: Policy,
-    pub perturbation: Perturbation,
-    pub seed: u64,
-    /// Raised to abandon the mission (Ctrl-C during trials): checked every tick.
-    pub stop: Option<Arc<AtomicBool>>,
-}
-
-impl MissionOptions {
-    /// Refuses perturbation terms a whole mission does not model (yet), naming them.
-    pub fn check(&self) -> Result<()> {
-        for key in [
-            "geometry.position_sigma_m",
-            "geometry.yaw_sigma_deg",
-            "link.delay_ms",
-            "rgb.blur_renders",
-        ] {
-            if self.perturbation.non_default().contains_key(key) {
-                bail!(
-                    "{key} is modelled in link trials (--link) only, not in whole missions: \
-                     placement jitter would move the scheduler's homes, a delay the lockstep, and \
-                     blur needs 100 Hz renders of RGB cameras"
-                );
-            }
-        }
-        if self.perturbation.rgb().blur_renders > 1 {
-            bail!(
-                "light.lux = {} lx needs a {} ms RGB exposure (motion blur), modelled in link \
-                 trials (--link) only, not in whole missions: blur needs 100 Hz renders of RGB \
-                 cameras",
-                self.perturbation.lux(),
-                10 * self.perturbation.rgb().blur_renders
-            );
-        }
-        Ok(())
-    }
 }
 
 /// [`fly_case`] under `opts`; also the mission's outcome measures. `None` when `opts.stop`

@@ -7,6 +7,9 @@
 //! payloads, in order. Everything a trial records is a function of the condition and its seed
 //! (no wall-clock value), so the same seed gives identical records whatever `--jobs`.
 
+pub use crate::harness::trials_out::{
+    ObserverTrial, PlacementOut, TokenTiming, TrialRecord, TrialsCost, TrialsOut, TrialsSummary,
+};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -20,11 +23,10 @@ use proto::scene::{
 };
 use proto::{GestureConfig, Modality, Rectification, RenderPath, RgbFrame, broadcast};
 use rand_distr::{Distribution, Normal};
-use serde::Serialize;
 use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
 use crate::harness::link::{LEAD_IN_NS, ObserverOut, TAIL_NS, bits6, observer_out};
-use crate::harness::pool::{Outcome, Tally, run_pool};
+use crate::harness::pool::{Tally, run_pool};
 use crate::harness::rendered_flight::{FlightSpec, Gusts, RenderedFlight, fly_rendered};
 
 /// One condition and how many times to try it.
@@ -48,115 +50,12 @@ pub struct TrialsOptions {
     pub acquisition: Option<bool>,
 }
 
-/// How one observer's token stamps compare with the ideal receiver's on the same flight.
-#[derive(Debug, Clone, Serialize, PartialEq)]
-pub struct TokenTiming {
-    /// Ideal tokens matched by a token of the same kind within ±1 s.
-    pub matched: usize,
-    /// Ideal tokens without a match.
-    pub missed: usize,
-    /// Tokens that matched no ideal token.
-    pub extra: usize,
-    pub mean_abs_error_ms: Option<f64>,
-    pub max_abs_error_ms: Option<f64>,
-}
-
-/// One observer in one trial.
-#[derive(Debug, Clone, Serialize, PartialEq)]
-pub struct ObserverTrial {
-    /// Released payloads, six-bit strings, in release order.
-    pub released: Vec<String>,
-    pub success: bool,
-    /// Per released frame: when its final NULL was confirmed (plus any link delay), sim s.
-    pub release_s: Vec<f64>,
-    pub tokens: usize,
-    pub token_timing: TokenTiming,
-    /// Per released frame: its release (final NULL confirmed, plus any link delay) after the
-    /// start of that offer's final NULL in the schedule, s.
-    pub latency_s: Vec<f64>,
-    /// Per released frame: its release after the ideal receiver's release of the same offer, s
-    /// (`null` when the ideal receiver did not release it).
-    pub vs_ideal_s: Vec<Option<f64>>,
-    /// Sensor messages (frames or packets) the camera produced, and how many the link lost.
-    pub messages: u64,
-    pub messages_lost: u64,
-    /// Event cameras: events the receiver got, and how many its noise front end removed.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub events_received: Option<u64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub events_removed: Option<u64>,
-}
-
 /// What one observer's receiver made of a trial's sensor stream.
 struct Observed {
     out: ObserverOut,
     messages: u64,
     lost: u64,
     denoise: Option<perception::events::DenoiseCounts>,
-}
-
-/// One trial.
-#[derive(Debug, Clone, Serialize, PartialEq)]
-pub struct TrialRecord {
-    pub index: u64,
-    pub seed: u64,
-    pub success: bool,
-    pub observers: BTreeMap<String, ObserverTrial>,
-}
-
-impl Outcome for TrialRecord {
-    fn index(&self) -> u64 {
-        self.index
-    }
-    fn success(&self) -> bool {
-        self.success
-    }
-}
-
-/// Means over the finished trials.
-#[derive(Debug, Clone, Serialize, PartialEq)]
-pub struct TrialsSummary {
-    pub mean_token_error_ms: Option<f64>,
-    pub mean_latency_s: Option<f64>,
-    pub messages_lost: u64,
-}
-
-/// What `trials.json` holds (no wall-clock value: same seed, same file).
-#[derive(Debug, Clone, Serialize, PartialEq)]
-pub struct TrialsOut {
-    pub criterion: String,
-    pub link: Vec<String>,
-    pub observers: usize,
-    /// Each observer's nominal placement.
-    pub placements: BTreeMap<String, PlacementOut>,
-    pub modality: String,
-    pub perturb: BTreeMap<String, f64>,
-    /// `shared` (one rendered flight for every trial) or `per trial` (re-flown).
-    pub flight: String,
-    pub seed: u64,
-    #[serde(flatten)]
-    pub tally: Tally,
-    pub summary: TrialsSummary,
-    /// The ideal receiver's releases on the unperturbed flight (the reference).
-    pub ideal_released: BTreeMap<String, Vec<String>>,
-    pub per_trial: Vec<TrialRecord>,
-}
-
-/// An observer's placement as `trials.json` records it.
-#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
-pub struct PlacementOut {
-    pub home_m: [f64; 3],
-    pub yaw_deg: f64,
-    pub camera_pitch_deg: f64,
-}
-
-/// Wall-clock figures of a run, reported beside (never inside) `trials.json`.
-#[derive(Debug, Clone, Copy, Serialize)]
-pub struct TrialsCost {
-    pub flights: u64,
-    pub fly_and_render_s: f64,
-    pub trials_s: f64,
-    pub render_cache_mb: f64,
 }
 
 impl TrialsOptions {

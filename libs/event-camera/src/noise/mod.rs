@@ -80,6 +80,7 @@
 mod converter;
 pub mod leak;
 mod shot;
+mod state;
 
 pub use converter::NoisyConverter;
 
