@@ -108,6 +108,10 @@ js="$root/tests/js"
 MCAP_PY_VERSION="1.6.0"
 ZSTANDARD_VERSION="0.25.0"
 LZ4_VERSION="4.4.5" # mcap's other hard dependency, pinned too so the venv is reproducible
+# An independent EVT 3.0 decoder (Prophesee .raw) for the event-formats cross-check, and numpy,
+# which it returns its arrays in.
+EVT3_VERSION="0.4.1"
+NUMPY_VERSION="2.4.6"
 
 command -v node >/dev/null || die "node (Node.js >= 20) is needed for the tests in tests/js: apt-get install nodejs npm"
 command -v npm >/dev/null || die "npm is needed to install tests/js: apt-get install npm"
@@ -119,23 +123,25 @@ fi
 
 venv="$js/.venv"
 venv_ok() {
-  "$venv/bin/python" - "$MCAP_PY_VERSION" "$ZSTANDARD_VERSION" "$LZ4_VERSION" <<'PY' 2>/dev/null
+  "$venv/bin/python" - "$MCAP_PY_VERSION" "$ZSTANDARD_VERSION" "$LZ4_VERSION" "$EVT3_VERSION" "$NUMPY_VERSION" <<'PY' 2>/dev/null
 import sys
 from importlib.metadata import version
 import mcap.reader, zstandard, lz4.frame  # what read_mcap.py needs for our zstd (and lz4) chunks
-sys.exit([version("mcap"), version("zstandard"), version("lz4")] != sys.argv[1:])
+import evt3, numpy
+sys.exit([version(p) for p in ("mcap", "zstandard", "lz4", "evt3", "numpy")] != sys.argv[1:])
 PY
 }
 if ! venv_ok; then
-  say "installing Python test reader (mcap $MCAP_PY_VERSION) into tests/js/.venv"
+  say "installing Python test readers (mcap $MCAP_PY_VERSION, evt3 $EVT3_VERSION) into tests/js/.venv"
   command -v python3 >/dev/null || die "python3 is needed for tests/js/.venv"
   # A venv whose interpreter is gone (e.g. python upgraded) cannot be repaired in place.
   "$venv/bin/python" -c '' 2>/dev/null || rm -rf "$venv"
   [ -x "$venv/bin/python" ] || python3 -m venv "$venv" || die "could not create $venv (Debian: apt-get install python3-venv)"
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
     "mcap==$MCAP_PY_VERSION" "zstandard==$ZSTANDARD_VERSION" "lz4==$LZ4_VERSION" \
-    || die "could not install mcap/zstandard/lz4 into $venv from PyPI"
-  venv_ok || die "$venv still lacks mcap $MCAP_PY_VERSION / zstandard $ZSTANDARD_VERSION / lz4 $LZ4_VERSION"
+    "evt3==$EVT3_VERSION" "numpy==$NUMPY_VERSION" \
+    || die "could not install mcap/zstandard/lz4/evt3/numpy into $venv from PyPI"
+  venv_ok || die "$venv still lacks mcap $MCAP_PY_VERSION / zstandard $ZSTANDARD_VERSION / lz4 $LZ4_VERSION / evt3 $EVT3_VERSION / numpy $NUMPY_VERSION"
 fi
 
 say "ready: MuJoCo $MUJOCO_VERSION and Crazyflie meshes in $tp"

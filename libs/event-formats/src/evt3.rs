@@ -1,0 +1,381 @@
+//! Prophesee EVT 3.0 (`.raw`): an ASCII header of `% key value` lines ending with `% end`, then
+//! little-endian 16-bit words whose top four bits give their type (Prophesee's "EVT 3.0 format"
+//! documentation, Metavision SDK):
+//!
+//! | type | word | payload |
+//! | --- | --- | --- |
+//! | 0x0 | `EVT_ADDR_Y` | y (11 bits), system type (bit 11) |
+//! | 0x2 | `EVT_ADDR_X` | x (11 bits), polarity (bit 11): one event at (x, y, t) |
+//! | 0x3 | `VECT_BASE_X` | base x (11 bits), polarity (bit 11) of the vectors that follow |
+//! | 0x4 | `VECT_12` | 12-bit mask: events at base x + i; base x += 12 |
+//! | 0x5 | `VECT_8` | 8-bit mask: events at base x + i; base x += 8 |
+//! | 0x6 | `EVT_TIME_LOW` | low 12 bits of the 24-bit µs time |
+//! | 0x8 | `EVT_TIME_HIGH` | high 12 bits of the 24-bit µs time |
+//! | 0xA | `EXT_TRIGGER` | value (bit 0), channel (bits 8–11) |
+//! | 0xE, 0xF | `OTHERS`, `CONTINUED` | skipped |
+//!
+//! The 24-bit time wraps every 16.78 s; the reader extends it to 64 bits by counting wraps (a
+//! high part smaller than the last one), as every EVT 3.0 decoder does. Times are microseconds:
+//! Waggle's nanosecond events are written at `t_ns / 1000` (floor), and read back at
+//! `t_us · 1000`.
+//!
+//! The writer emits `TIME_HIGH`, `TIME_LOW` and `ADDR_Y` only when they change, then one
+//! `ADDR_X` per event (no vectors: simple, and still ≈ 2 bytes per event in a dense stream); the
+//! reader accepts vectors too, as cameras write them.
+
+use std::io::Write;
+
+use event_camera::{Event, Polarity};
+
+/// Largest coordinate EVT 3.0 can carry (11 bits).
+pub const MAX_COORD: u16 = 2047;
+
+/// Why an EVT 3.0 stream could not be written or read; reading errors name the byte offset.
+#[derive(Debug, thiserror::Error)]
+pub enum Evt3Error {
+    #[error("writing EVT 3.0: {0}")]
+    Io(#[from] std::io::Error),
+    #[error("event at ({x}, {y}) is outside the {width}×{height} sensor")]
+    Outside {
+        x: u16,
+        y: u16,
+        width: u16,
+        height: u16,
+    },
+    #[error("sensor {width}×{height}: EVT 3.0 carries at most 2048×2048")]
+    SensorTooLarge { width: u16, height: u16 },
+    #[error("events must be in time order: {t_ns} ns after {previous_ns} ns")]
+    NotSorted { t_ns: u64, previous_ns: u64 },
+    #[error("header: {0}")]
+    Header(String),
+    #[error("byte {offset}: {what}")]
+    Data { offset: usize, what: String },
+}
+
+/// What a `.raw` file says about its sensor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Geometry {
+    pub width: u16,
+    pub height: u16,
+}
+
+/// An external trigger edge.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Trigger {
+    pub t_us: u64,
+    pub channel: u8,
+    pub rising: bool,
+}
+
+/// A decoded `.raw` stream.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Decoded {
+    pub geometry: Option<Geometry>,
+    pub events: Vec<Event>,
+    pub triggers: Vec<Trigger>,
+}
+
+const ADDR_Y: u16 = 0x0;
+const ADDR_X: u16 = 0x2;
+const VECT_BASE_X: u16 = 0x3;
+const VECT_12: u16 = 0x4;
+const VECT_8: u16 = 0x5;
+const TIME_LOW: u16 = 0x6;
+const TIME_HIGH: u16 = 0x8;
+const EXT_TRIGGER: u16 = 0xA;
+
+fn word(kind: u16, payload: u16) -> [u8; 2] {
+    ((kind << 12) | (payload & 0x0FFF)).to_le_bytes()
+}
+
+/// Writes `events` (sorted by time) of a `width`×`height` sensor as an EVT 3.0 `.raw` stream
+/// with its header.
+pub fn write(
+    out: &mut impl Write,
+    width: u16,
+    height: u16,
+    events: &[Event],
+) -> Result<(), Evt3Error> {
+    if width == 0 || height == 0 || width > MAX_COORD + 1 || height > MAX_COORD + 1 {
+        return Err(Evt3Error::SensorTooLarge { width, height });
+    }
+    write!(
+        out,
+        "% camera_integrator_name Waggle\n% evt 3.0\n% format EVT3;height={height};width={width}\n\
+         % geometry {width}x{height}\n% end\n"
+    )?;
+    let mut buf = Vec::with_capacity(events.len() * 2 + 16);
+    let (mut high, mut low, mut y_last): (Option<u64>, Option<u16>, Option<u16>) =
+        (None, None, None);
+    let mut previous_ns = 0u64;
+    for e in events {
+        if e.x >= width || e.y >= height {
+            return Err(Evt3Error::Outside {
+                x: e.x,
+                y: e.y,
+                width,
+                height,
+            });
+        }
+        if e.t_ns < previous_ns {
+            return Err(Evt3Error::NotSorted {
+                t_ns: e.t_ns,
+                previous_ns,
+            });
+        }
+        previous_ns = e.t_ns;
+        let t_us = e.t_ns / 1000;
+        // The high part as a monotone count (wraps every 2^24 µs are implied by it decreasing).
+        let h = t_us >> 12;
+        // Each wrap of the 24-bit time crossed since the last event is written as a visible
+        // decrease of the high part, so a reader counting decreases cannot miss one, however
+        // long the silence.
+        // The stream starts at wrap 0 (readers start counting there).
+        if high.is_none() && h >> 12 > 0 {
+            buf.extend_from_slice(&word(TIME_HIGH, 0));
+        }
+        for _ in (high.unwrap_or(0) >> 12)..(h >> 12) {
+            buf.extend_from_slice(&word(TIME_HIGH, 0xFFF));
+            buf.extend_from_slice(&word(TIME_HIGH, 0));
+        }
+        if high != Some(h) {
+            buf.extend_from_slice(&word(TIME_HIGH, (h & 0xFFF) as u16));
+            high = Some(h);
+            low = None;
+        }
+        let l = (t_us & 0xFFF) as u16;
+        if low != Some(l) {
+            buf.extend_from_slice(&word(TIME_LOW, l));
+            low = Some(l);
+        }
+        if y_last != Some(e.y) {
+            buf.extend_from_slice(&word(ADDR_Y, e.y));
+            y_last = Some(e.y);
+        }
+        let p = u16::from(e.polarity == Polarity::On) << 11;
+        buf.extend_from_slice(&word(ADDR_X, e.x | p));
+    }
+    out.write_all(&buf)?;
+    Ok(())
+}
+
+/// The header's geometry and where the data starts. A header is optional (raw word streams
+/// start at byte 0); one that starts must end with `% end`.
+fn header(bytes: &[u8]) -> Result<(Option<Geometry>, usize), Evt3Error> {
+    let mut pos = 0;
+    let mut geometry = None;
+    let mut evt3 = None;
+    while bytes.get(pos) == Some(&b'%') {
+        let end = bytes[pos..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map(|n| pos + n)
+            .ok_or_else(|| Evt3Error::Header(format!("line at byte {pos} has no end")))?;
+        let line = std::str::from_utf8(&bytes[pos + 1..end])
+            .map_err(|_| Evt3Error::Header(format!("line at byte {pos} is not text")))?
+            .trim();
+        pos = end + 1;
+        if line == "end" {
+            if evt3 == Some(false) {
+                return Err(Evt3Error::Header("not an EVT 3.0 stream (`% evt`)".into()));
+            }
+            return Ok((geometry, pos));
+        }
+        let (key, value) = line.split_once(' ').unwrap_or((line, ""));
+        match key {
+            "evt" => evt3 = Some(value.trim() == "3.0"),
+            "format" => {
+                evt3 = Some(value.starts_with("EVT3"));
+                let field = |name: &str| {
+                    value.split(';').find_map(|f| {
+                        f.strip_prefix(name)
+                            .and_then(|v| v.strip_prefix('='))
+                            .and_then(|v| v.parse::<u16>().ok())
+                    })
+                };
+                if let (Some(width), Some(height)) = (field("width"), field("height")) {
+                    geometry = Some(Geometry { width, height });
+                }
+            }
+            "geometry" if geometry.is_none() => {
+                if let Some((Ok(width), Ok(height))) = value
+                    .trim()
+                    .split_once('x')
+                    .map(|(w, h)| (w.parse(), h.parse()))
+                {
+                    geometry = Some(Geometry { width, height });
+                }
+            }
+            _ => {}
+        }
+    }
+    if pos > 0 {
+        return Err(Evt3Error::Header("no `% end` line".into()));
+    }
+    Ok((None, 0))
+}
+
+/// Reads an EVT 3.0 stream (header optional). Events before the first `TIME_HIGH` and the first
+/// `ADDR_Y` have no time or row: they are an error, as is a trailing odd byte.
+pub fn read(bytes: &[u8]) -> Result<Decoded, Evt3Error> {
+    let (geometry, start) = header(bytes)?;
+    let data = &bytes[start..];
+    if !data.len().is_multiple_of(2) {
+        return Err(Evt3Error::Data {
+            offset: start + data.len() - 1,
+            what: "truncated: a 16-bit word is cut in half".into(),
+        });
+    }
+    let mut out = Decoded {
+        geometry,
+        ..Decoded::default()
+    };
+    let (mut high, mut wraps, mut low): (Option<u64>, u64, u64) = (None, 0, 0);
+    let mut y: Option<u16> = None;
+    let (mut base_x, mut vect_on) = (0u16, false);
+    for (k, pair) in data.chunks_exact(2).enumerate() {
+        let offset = start + 2 * k;
+        let w = u16::from_le_bytes([pair[0], pair[1]]);
+        let (kind, payload) = (w >> 12, w & 0x0FFF);
+        let time = |high: Option<u64>| {
+            high.map(|h| (wraps << 24) | (h << 12) | low)
+                .ok_or_else(|| Evt3Error::Data {
+                    offset,
+                    what: "event before the first EVT_TIME_HIGH".into(),
+                })
+        };
+        let row = |y: Option<u16>| {
+            y.ok_or_else(|| Evt3Error::Data {
+                offset,
+                what: "event before the first EVT_ADDR_Y".into(),
+            })
+        };
+        match kind {
+            ADDR_Y => y = Some(payload & 0x7FF),
+            ADDR_X => {
+                let t_us = time(high)?;
+                out.events.push(Event {
+                    t_ns: t_us * 1000,
+                    x: payload & 0x7FF,
+                    y: row(y)?,
+                    polarity: if payload & 0x800 != 0 {
+                        Polarity::On
+                    } else {
+                        Polarity::Off
+                    },
+                });
+            }
+            VECT_BASE_X => {
+                base_x = payload & 0x7FF;
+                vect_on = payload & 0x800 != 0;
+            }
+            VECT_12 | VECT_8 => {
+                let n = if kind == VECT_12 { 12 } else { 8 };
+                let (t_us, yy) = (time(high)?, row(y)?);
+                for i in 0..n {
+                    if payload & (1 << i) != 0 {
+                        out.events.push(Event {
+                            t_ns: t_us * 1000,
+                            x: base_x + i,
+                            y: yy,
+                            polarity: if vect_on { Polarity::On } else { Polarity::Off },
+                        });
+                    }
+                }
+                base_x += n;
+            }
+            TIME_LOW => low = u64::from(payload),
+            TIME_HIGH => {
+                let h = u64::from(payload);
+                if high.is_some_and(|last| h < last) {
+                    wraps += 1;
+                }
+                high = Some(h);
+            }
+            EXT_TRIGGER => out.triggers.push(Trigger {
+                t_us: time(high)?,
+                channel: ((payload >> 8) & 0xF) as u8,
+                rising: payload & 1 != 0,
+            }),
+            _ => {}
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ev(t_ns: u64, x: u16, y: u16, on: bool) -> Event {
+        Event {
+            t_ns,
+            x,
+            y,
+            polarity: if on { Polarity::On } else { Polarity::Off },
+        }
+    }
+
+    #[test]
+    fn vectors_and_triggers_decode_as_the_format_says() {
+        let mut raw = b"% evt 3.0\n% geometry 640x480\n% end\n".to_vec();
+        for w in [
+            word(TIME_HIGH, 1),
+            word(TIME_LOW, 5),
+            word(ADDR_Y, 7),
+            word(VECT_BASE_X, 100 | 0x800),
+            word(VECT_12, 0b1000_0000_0101),
+            word(VECT_8, 0b1000_0001),
+            word(EXT_TRIGGER, 0x301),
+        ] {
+            raw.extend_from_slice(&w);
+        }
+        let d = read(&raw).unwrap();
+        let t = ((1 << 12) | 5) * 1000;
+        assert_eq!(
+            d.geometry,
+            Some(Geometry {
+                width: 640,
+                height: 480
+            })
+        );
+        assert_eq!(
+            d.events,
+            vec![
+                ev(t, 100, 7, true),
+                ev(t, 102, 7, true),
+                ev(t, 111, 7, true),
+                ev(t, 112, 7, true),
+                ev(t, 119, 7, true)
+            ]
+        );
+        assert_eq!(
+            d.triggers,
+            vec![Trigger {
+                t_us: (1 << 12) | 5,
+                channel: 3,
+                rising: true
+            }]
+        );
+    }
+
+    #[test]
+    fn bad_streams_name_the_offset() {
+        let e = read(b"% evt 3.0\n% end\n\x05").unwrap_err();
+        assert!(e.to_string().contains("byte 16"), "{e}");
+        let mut raw = b"% end\n".to_vec();
+        raw.extend_from_slice(&word(ADDR_X, 3));
+        let e = read(&raw).unwrap_err();
+        assert!(
+            e.to_string().contains("byte 6") && e.to_string().contains("TIME_HIGH"),
+            "{e}"
+        );
+        assert!(read(b"% evt 2.0\n% end\n").is_err());
+        assert!(read(b"% evt 3.0\n").is_err());
+        let mut out = Vec::new();
+        let e = write(&mut out, 640, 480, &[ev(0, 640, 0, true)]).unwrap_err();
+        assert!(matches!(e, Evt3Error::Outside { x: 640, .. }), "{e}");
+        let e = write(&mut out, 640, 480, &[ev(5, 1, 0, true), ev(4, 1, 0, true)]).unwrap_err();
+        assert!(matches!(e, Evt3Error::NotSorted { .. }), "{e}");
+    }
+}
