@@ -36,6 +36,9 @@ enum Cli {
     /// Run a case once per camera render path (full, damage) in one invocation and print
     /// wall/sim, camera CPU per simulated second and their ratio side by side.
     Bench(cli::bench::BenchArgs),
+    /// Decode an event camera's recording (EVT 3.0 `.raw`) with one observer's event receiver:
+    /// tokens, frames and payloads.
+    Decode(cli::decode::DecodeArgs),
     /// Synthetic event camera tools (convert PNG frames into events).
     Events(cli::events::EventsArgs),
     /// Run every case × modality (`waggle run` each), audit each and write DIR/report.md with
@@ -71,6 +74,7 @@ fn main() -> anyhow::Result<()> {
         Cli::Router(args) => cli::router::run(args),
         Cli::Bundle(args) => cli::bundle::run(args),
         Cli::Events(args) => cli::events::run(args),
+        Cli::Decode(args) => cli::decode::run(args),
         Cli::Bench(args) => cli::bench::run(args),
         Cli::Replay(args) => cli::replay::run(args),
         Cli::Audit(args) => cli::audit::run(args),

@@ -66,6 +66,10 @@ pub struct LinkArgs {
     /// draws from stream i of it, as in `waggle mission --seed`.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Events modality: write each observer's events to DIR/<observer>.raw (Prophesee EVT
+    /// 3.0, readable by Metavision tools and `waggle decode --events`).
+    #[arg(long, value_name = "DIR")]
+    events_raw: Option<std::path::PathBuf>,
     /// Print machine-readable JSON instead of the table.
     #[arg(long)]
     json: bool,
@@ -107,7 +111,11 @@ pub fn run(args: LinkArgs) -> Result<()> {
         render: args.render.path,
         viewpoints: args.viewpoints,
         rectification: args.rectify,
+        events_raw: args.events_raw,
     };
+    if opts.events_raw.is_some() && opts.modality != Receiver::Events {
+        bail!("--events-raw writes event cameras' events: use --modality events");
+    }
     let out = match &sensor {
         // Terms at their defaults are the ideal sensor: the live link, unchanged.
         Some((p, record)) if !p.is_none() => fly_link_with_sensors(&opts, p, record.seed)?,
@@ -188,8 +196,12 @@ fn fly_link_with_sensors(opts: &LinkOptions, p: &Perturbation, seed: u64) -> Res
             .with_model(p.event_sensor(stream_seed(seed, Stream::EventSensor, i)));
         let mut camera = EventCamera::new(config).context("event camera")?;
         let (mut tokens, mut frames) = (Vec::new(), Vec::new());
+        let mut events = Vec::new();
         flight.tracks[i].replay(|t, rgb, change| {
             for packet in camera.push_frame_change(t, rgb, change)? {
+                if opts.events_raw.is_some() {
+                    crate::harness::raw::packet_events(&packet, &mut events);
+                }
                 let step = perception.push(SensorInput::Events(&packet))?;
                 tokens.extend(step.tokens);
                 frames.extend(step.frames);
@@ -197,6 +209,9 @@ fn fly_link_with_sensors(opts: &LinkOptions, p: &Perturbation, seed: u64) -> Res
             Ok(true)
         })?;
         outs.push(observer_out(&tokens, &frames));
+        if let Some(dir) = &opts.events_raw {
+            crate::harness::link::write_raws(dir, &names[i..=i], std::iter::once(&events[..]))?;
+        }
     }
     let ideal = flight
         .ideal

@@ -6,6 +6,7 @@ pub mod audit;
 pub mod bench;
 pub mod bundle;
 pub mod compose;
+pub mod decode;
 pub mod events;
 pub mod link;
 pub mod mission;

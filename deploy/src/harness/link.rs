@@ -42,6 +42,8 @@ pub struct LinkOptions {
     pub viewpoints: Vec<Placement>,
     /// Receivers' (and the ideal receiver's) viewpoint rectification.
     pub rectification: Rectification,
+    /// Events modality: write each observer's events to `DIR/<observer>.raw` (EVT 3.0).
+    pub events_raw: Option<std::path::PathBuf>,
 }
 
 impl LinkOptions {
@@ -155,6 +157,8 @@ struct Chain {
     perception: Perception,
     tokens: Vec<SegmentToken>,
     frames: Vec<ReleasedFrame>,
+    /// With `--events-raw`: every event this observer's camera produced.
+    events: Option<Vec<event_camera::Event>>,
 }
 
 fn ns_to_s(ns: u64) -> f64 {
@@ -232,9 +236,23 @@ fn chains(args: &LinkOptions, formation: &Formation, black: &[bool]) -> Result<V
                 perception: Perception::for_camera(kind, p.camera(), args.rectification)?,
                 tokens: Vec::new(),
                 frames: Vec::new(),
+                events: args.events_raw.as_ref().map(|_| Vec::new()),
             })
         })
         .collect()
+}
+
+/// Writes each observer's events to `dir/<name>.raw` (EVT 3.0).
+pub(crate) fn write_raws<'a>(
+    dir: &std::path::Path,
+    names: &[String],
+    events: impl Iterator<Item = &'a [event_camera::Event]>,
+) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    for (name, events) in names.iter().zip(events) {
+        crate::harness::raw::write_raw(&dir.join(format!("{name}.raw")), events)?;
+    }
+    Ok(())
 }
 
 /// Flies the broadcast and decodes it with every observer's receiver (and the ideal one).
@@ -292,6 +310,13 @@ pub fn fly_link(args: &LinkOptions) -> Result<LinkOut> {
         }
         Ok(())
     })?;
+    if let Some(dir) = &args.events_raw {
+        write_raws(
+            dir,
+            &names,
+            chains.iter().filter_map(|c| c.events.as_deref()),
+        )?;
+    }
     let ideal_outs: Vec<ObserverOut> = ideal
         .outputs()
         .iter()
@@ -323,7 +348,12 @@ impl Chain {
         for output in self.sensor.capture(world, renderer)? {
             let step = match &output {
                 SensorOutput::Rgb(f) => self.perception.push(SensorInput::Rgb(f))?,
-                SensorOutput::Events(p) => self.perception.push(SensorInput::Events(p))?,
+                SensorOutput::Events(p) => {
+                    if let Some(events) = self.events.as_mut() {
+                        crate::harness::raw::packet_events(p, events);
+                    }
+                    self.perception.push(SensorInput::Events(p))?
+                }
             };
             self.tokens.extend(step.tokens);
             self.frames.extend(step.frames);

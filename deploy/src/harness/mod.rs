@@ -6,6 +6,7 @@
 
 pub mod baselines;
 pub mod convert;
+pub mod decode;
 pub mod link;
 pub mod mission;
 pub mod mission_metrics;
@@ -13,6 +14,7 @@ pub mod mission_options;
 pub mod mission_trials;
 pub mod performer_flight;
 pub mod pool;
+pub mod raw;
 pub mod rendered_flight;
 pub mod study;
 pub mod trials;

@@ -72,6 +72,7 @@ pub fn measure(
     let mut results = Vec::new();
     for (k, (receiver, rectification, distance_m, azimuths)) in flights.into_iter().enumerate() {
         let out = fly_link(&LinkOptions {
+            events_raw: None,
             observers: azimuths.len(),
             modality: receiver,
             payloads: opts.payloads.clone(),

@@ -1,0 +1,115 @@
+//! `waggle decode --events FILE.raw`: an event recording decoded by one observer's receiver.
+//!
+//! Round trip: `waggle link --events-raw` writes each observer's events as Prophesee EVT 3.0;
+//! decoding the file from the same viewpoint gives exactly the live link's tokens, frames and
+//! payloads (a viewpoint and payload no other test uses). Bad input is refused naming it.
+
+mod common;
+use common::{link, payloads};
+
+fn decode(args: &[&str]) -> serde_json::Value {
+    let out = waggle_tests::succeed(
+        waggle_tests::waggle()
+            .arg("decode")
+            .args(args)
+            .arg("--json"),
+        &format!("waggle decode {args:?}"),
+    );
+    serde_json::from_slice(&out.stdout).expect("JSON output")
+}
+
+fn round_trip(extra: &[&str]) {
+    let dir = std::env::temp_dir().join(format!(
+        "waggle-decode-{}-{}",
+        std::process::id(),
+        extra.len()
+    ));
+    let dir_s = dir.to_str().unwrap().to_owned();
+    // `=`: the value starts with a minus sign.
+    let viewpoint = "--viewpoint=-25,8,1.7";
+    let mut args = vec![
+        "--modality",
+        "events",
+        viewpoint,
+        "--payload",
+        "110010",
+        "--events-raw",
+        &dir_s,
+    ];
+    args.extend_from_slice(extra);
+    let live = link(&args);
+    let file = dir.join("O1.raw");
+    let decoded = decode(&["--events", file.to_str().unwrap(), viewpoint]);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(payloads(&live, "O1"), ["110010"], "{live}");
+    assert_eq!(
+        decoded["decoded"]["payloads"],
+        live["observers"]["O1"]["payloads"]
+    );
+    assert_eq!(
+        decoded["decoded"]["frames"],
+        live["observers"]["O1"]["frames"]
+    );
+    assert_eq!(
+        decoded["decoded"]["tokens"],
+        live["observers"]["O1"]["tokens"]
+    );
+    assert!(decoded["events"].as_u64().unwrap() > 100_000, "{decoded}");
+}
+
+#[test]
+fn a_written_recording_decodes_exactly_as_the_live_link() {
+    round_trip(&[]);
+}
+
+#[test]
+#[ignore = "long: a noisy sensor (≈ 25 s); runs with deploy/test.sh --full"]
+fn a_noisy_written_recording_decodes_exactly_as_the_live_link() {
+    round_trip(&["--sensor-preset", "v2e-default", "--seed", "3"]);
+}
+
+#[test]
+fn bad_recordings_and_viewpoints_are_refused_naming_them() {
+    let dir = std::env::temp_dir().join(format!("waggle-decode-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("cut.raw");
+    std::fs::write(&file, b"% evt 3.0\n% geometry 640x480\n% end\n\x01\x80\x05").unwrap();
+    let out = waggle_tests::waggle()
+        .args([
+            "decode",
+            "--events",
+            file.to_str().unwrap(),
+            "--observer",
+            "O1",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("byte 37"), "{err}");
+    std::fs::write(&file, b"% evt 3.0\n% geometry 320x240\n% end\n").unwrap();
+    let out = waggle_tests::waggle()
+        .args([
+            "decode",
+            "--events",
+            file.to_str().unwrap(),
+            "--observer",
+            "O1",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("320×240"), "{err}");
+    let out = waggle_tests::waggle()
+        .args([
+            "decode",
+            "--events",
+            file.to_str().unwrap(),
+            "--observer",
+            "O9",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("O9"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
