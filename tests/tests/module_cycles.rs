@@ -307,3 +307,86 @@ fn no_source_file_is_over_600_lines_of_code() {
         long.join("\n")
     );
 }
+
+/// Public type names still defined in two places (issue 29: one name per concept). The list may
+/// only shrink: a new duplicate fails, and so does an entry that is no longer duplicated.
+const KNOWN_DUPLICATE_NAMES: &[&str] = &[
+    "FaultKind",
+    "FrameOutcome",
+    "InterruptCause",
+    "Phase",
+    "Placement",
+    "ReceiverStatus",
+    "RejectReason",
+    "RunArgs",
+    "SymbolTrajectory",
+    "TickInput",
+    "TrackerConfig",
+    "Trip",
+];
+
+#[test]
+fn public_type_names_are_not_reused_beyond_the_known_list() {
+    let root = workspace_root();
+    let mut files = Vec::new();
+    for dir in ["proto", "deploy", "libs"] {
+        rust_files(&root.join(dir), &mut files);
+    }
+    for e in std::fs::read_dir(&root).expect("root").flatten() {
+        if e.file_name().to_string_lossy().ends_with("-node") {
+            rust_files(&e.path(), &mut files);
+        }
+    }
+    let mut defined: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for file in files {
+        let rel = file
+            .strip_prefix(&root)
+            .unwrap_or(&file)
+            .display()
+            .to_string();
+        if rel.contains("/tests/") || rel.contains("/benches/") {
+            continue;
+        }
+        let code = code_of(&std::fs::read_to_string(&file).expect("read source"));
+        for line in code.lines() {
+            let line = line.trim_start();
+            let Some(rest) = line.strip_prefix("pub ").or_else(|| {
+                line.strip_prefix("pub(crate) ")
+                    .or_else(|| line.strip_prefix("pub(super) "))
+            }) else {
+                continue;
+            };
+            for kind in ["struct ", "enum ", "trait ", "type "] {
+                if let Some(name) = rest.strip_prefix(kind) {
+                    let name: String = name
+                        .chars()
+                        .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                        .collect();
+                    defined.entry(name).or_default().insert(rel.clone());
+                }
+            }
+        }
+    }
+    let duplicated: BTreeMap<&String, &BTreeSet<String>> = defined
+        .iter()
+        .filter(|(_, files)| files.len() > 1)
+        .collect();
+    let new: Vec<String> = duplicated
+        .iter()
+        .filter(|(name, _)| !KNOWN_DUPLICATE_NAMES.contains(&name.as_str()))
+        .map(|(name, files)| format!("{name}: {files:?}"))
+        .collect();
+    let gone: Vec<&&str> = KNOWN_DUPLICATE_NAMES
+        .iter()
+        .filter(|n| !duplicated.keys().any(|d| d.as_str() == **n))
+        .collect();
+    assert!(
+        new.is_empty(),
+        "public type names defined twice (name the concept once):\n{}",
+        new.join("\n")
+    );
+    assert!(
+        gone.is_empty(),
+        "no longer duplicated, remove from KNOWN_DUPLICATE_NAMES: {gone:?}"
+    );
+}

@@ -19,7 +19,9 @@ fn stream() -> Vec<Event> {
     // A fixed LCG: uniform pixels, ≈ 590 ns apart on average.
     let mut state = 0x2545_F491_4F6C_DD1Du64;
     let mut next = || {
-        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1);
         state >> 33
     };
     let mut t = 0u64;

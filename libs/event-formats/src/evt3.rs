@@ -69,7 +69,7 @@ pub struct Trigger {
 
 /// A decoded `.raw` stream.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct Decoded {
+pub struct RawRecording {
     pub geometry: Option<Geometry>,
     pub events: Vec<Event>,
     pub triggers: Vec<Trigger>,
@@ -217,7 +217,7 @@ fn header(bytes: &[u8]) -> Result<(Option<Geometry>, usize), Evt3Error> {
 
 /// Reads an EVT 3.0 stream (header optional). Events before the first `TIME_HIGH` and the first
 /// `ADDR_Y` have no time or row: they are an error, as is a trailing odd byte.
-pub fn read(bytes: &[u8]) -> Result<Decoded, Evt3Error> {
+pub fn read(bytes: &[u8]) -> Result<RawRecording, Evt3Error> {
     let (geometry, start) = header(bytes)?;
     let data = &bytes[start..];
     if !data.len().is_multiple_of(2) {
@@ -226,9 +226,9 @@ pub fn read(bytes: &[u8]) -> Result<Decoded, Evt3Error> {
             what: "truncated: a 16-bit word is cut in half".into(),
         });
     }
-    let mut out = Decoded {
+    let mut out = RawRecording {
         geometry,
-        ..Decoded::default()
+        ..RawRecording::default()
     };
     let (mut high, mut wraps, mut low): (Option<u64>, u64, u64) = (None, 0, 0);
     let mut y: Option<u16> = None;

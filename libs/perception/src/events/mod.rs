@@ -26,8 +26,8 @@ pub use denoise::{Adaptive, DenoiseConfig, DenoiseCounts, NoiseFilter};
 pub use error::EventReceiverError;
 pub use health::{Delivery, DeliveryMonitor, Discontinuity, PacketRejection};
 pub use receiver::{
-    EventReceiver, EventReceiverConfig, InterruptCause, PacketOutcome, ReceiverStatus,
-    SymbolTrajectory, TrackSample,
+    EventReceiver, EventReceiverConfig, EventTrackStep, InterruptCause, PacketOutcome,
+    ReceiverStatus, SymbolTrajectory,
 };
 pub use support::{Evidence, SupportScratch, Window, gather};
 pub use tracker::{

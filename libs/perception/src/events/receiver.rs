@@ -126,7 +126,7 @@ impl From<TrackFault> for InterruptCause {
 
 /// One receiver step of a trajectory.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TrackSample {
+pub struct EventTrackStep {
     pub stamp_ns: u64,
     /// The estimate fed to the segmenter.
     pub point_px: [f64; 2],
@@ -143,7 +143,7 @@ pub struct SymbolTrajectory {
     pub cause: TokenCause,
     /// Confirmation stamp of the token.
     pub stamp_ns: u64,
-    pub samples: Vec<TrackSample>,
+    pub samples: Vec<EventTrackStep>,
 }
 
 /// What one packet did.
@@ -194,7 +194,7 @@ pub struct EventReceiver {
     tokens: Vec<SegmentToken>,
     frames: Vec<ReleasedFrame>,
     trajectories: Vec<SymbolTrajectory>,
-    recent: Vec<TrackSample>,
+    recent: Vec<EventTrackStep>,
     interruptions: BTreeMap<InterruptCause, u64>,
     acquisition_events: Vec<AcquisitionEvent>,
     /// Segmenter refusals; zero unless the stamp bookkeeping above it is wrong.
@@ -399,7 +399,7 @@ impl EventReceiver {
         if self.recent.len() >= MAX_RECENT_SAMPLES {
             self.recent.drain(..MAX_RECENT_SAMPLES / 2);
         }
-        self.recent.push(TrackSample {
+        self.recent.push(EventTrackStep {
             stamp_ns,
             point_px,
             supported,

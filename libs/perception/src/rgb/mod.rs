@@ -17,6 +17,6 @@ pub mod tracker;
 pub use error::RgbReceiverError;
 pub use receiver::{
     FrameOutcome, FrameRejection, InterruptCause, ReceiverStatus, RgbReceiver, RgbReceiverConfig,
-    SymbolTrajectory, TrackSample,
+    RgbTrackStep, SymbolTrajectory,
 };
 pub use tracker::{LossReason, TargetTracker, TrackEvent, TrackStep, TrackerConfig};

@@ -106,7 +106,7 @@ pub enum InterruptCause {
 
 /// One frame of a trajectory.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TrackSample {
+pub struct RgbTrackStep {
     pub stamp_ns: u64,
     pub seq: u64,
     /// Trajectory point, if a target was held.
@@ -125,7 +125,7 @@ pub struct SymbolTrajectory {
     pub cause: TokenCause,
     /// Confirmation stamp of the token.
     pub stamp_ns: u64,
-    pub samples: Vec<TrackSample>,
+    pub samples: Vec<RgbTrackStep>,
 }
 
 /// What one frame did.
@@ -166,7 +166,7 @@ pub struct RgbReceiver {
     tokens: Vec<SegmentToken>,
     frames: Vec<ReleasedFrame>,
     trajectories: Vec<SymbolTrajectory>,
-    recent: VecDeque<TrackSample>,
+    recent: VecDeque<RgbTrackStep>,
     interruptions: BTreeMap<InterruptCause, u64>,
     segmenter_errors: u64,
     frames_seen: u64,
@@ -219,7 +219,7 @@ impl RgbReceiver {
 
     /// The frames since the last NULL confirmation (the symbol in progress), oldest first;
     /// at most the last 60 s.
-    pub fn current_trajectory(&self) -> impl Iterator<Item = &TrackSample> {
+    pub fn current_trajectory(&self) -> impl Iterator<Item = &RgbTrackStep> {
         self.recent.iter()
     }
 
@@ -387,7 +387,7 @@ impl RgbReceiver {
         if self.recent.len() == MAX_RECENT_SAMPLES {
             self.recent.pop_front();
         }
-        self.recent.push_back(TrackSample {
+        self.recent.push_back(RgbTrackStep {
             stamp_ns: frame.stamp_ns,
             seq: frame.seq,
             point_px: track.and_then(|t| t.point_px),
