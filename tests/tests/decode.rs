@@ -68,48 +68,38 @@ fn a_noisy_written_recording_decodes_exactly_as_the_live_link() {
     round_trip(&["--sensor-preset", "v2e-default", "--seed", "3"]);
 }
 
+/// `waggle decode --events FILE --observer OBSERVER`'s error output; the command must fail.
+fn refusal(file: &std::path::Path, observer: &str) -> String {
+    let out = waggle_tests::waggle()
+        .args([
+            "decode",
+            "--events",
+            file.to_str().unwrap(),
+            "--observer",
+            observer,
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        !out.status.success(),
+        "decode of {} succeeded",
+        file.display()
+    );
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 #[test]
 fn bad_recordings_and_viewpoints_are_refused_naming_them() {
     let dir = std::env::temp_dir().join(format!("waggle-decode-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("cut.raw");
     std::fs::write(&file, b"% evt 3.0\n% geometry 640x480\n% end\n\x01\x80\x05").unwrap();
-    let out = waggle_tests::waggle()
-        .args([
-            "decode",
-            "--events",
-            file.to_str().unwrap(),
-            "--observer",
-            "O1",
-        ])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("byte 37"), "{err}");
+    let err = refusal(&file, "O1");
+    assert!(err.contains("byte 37"), "{err}");
     std::fs::write(&file, b"% evt 3.0\n% geometry 320x240\n% end\n").unwrap();
-    let out = waggle_tests::waggle()
-        .args([
-            "decode",
-            "--events",
-            file.to_str().unwrap(),
-            "--observer",
-            "O1",
-        ])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("320×240"), "{err}");
-    let out = waggle_tests::waggle()
-        .args([
-            "decode",
-            "--events",
-            file.to_str().unwrap(),
-            "--observer",
-            "O9",
-        ])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("O9"), "{err}");
+    let err = refusal(&file, "O1");
+    assert!(err.contains("320×240"), "{err}");
+    let err = refusal(&file, "O9");
+    assert!(err.contains("O9"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -16,13 +16,11 @@ use perception::perception::{Perception, SensorInput};
 use perturb::Perturbation;
 use perturb::seed::{Stream, stream_seed};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, Placement, observer_name};
-use proto::{GestureConfig, Modality, Receiver, Rectification, broadcast};
+use proto::{Modality, Receiver, Rectification};
 use sim::sensor::EVENT_RENDER_PERIOD_NS;
 
 use crate::compose::sensor::SensorSpec;
-use crate::harness::link::{
-    LEAD_IN_NS, LinkOptions, LinkOut, TAIL_NS, fly_link, observer_out, print_table,
-};
+use crate::harness::link::{LinkOptions, LinkOut, fly_link, observer_out, print_table};
 pub use crate::harness::link::{parse_bits6, parse_viewpoint};
 use crate::harness::rendered_flight::{FlightSpec, fly_rendered};
 use crate::run_dir::SensorRecord;
@@ -162,20 +160,8 @@ fn fly_link_with_sensors(opts: &LinkOptions, p: &Perturbation, seed: u64) -> Res
         bail!("--hover-s {} must be a non-negative number", opts.hover_s);
     }
     let started = Instant::now();
-    let acquisition = !opts.no_acquisition && !opts.payloads.is_empty();
-    let schedule = broadcast(
-        LEAD_IN_NS,
-        &opts.payloads,
-        acquisition,
-        &GestureConfig::default(),
-    )
-    .context("building the broadcast schedule")?;
-    let hover_ns = if opts.payloads.is_empty() {
-        (opts.hover_s * 1e9).round() as u64
-    } else {
-        0
-    };
-    let end_ns = schedule.end_ns().max(LEAD_IN_NS + hover_ns) + TAIL_NS;
+    // Events modality only here (checked by `sensor`), so the sweep follows as in `fly_link`.
+    let (schedule, end_ns) = opts.schedule()?;
     let flight = fly_rendered(FlightSpec {
         formation,
         schedule,

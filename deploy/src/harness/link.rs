@@ -47,6 +47,19 @@ pub struct LinkOptions {
 }
 
 impl LinkOptions {
+    /// The broadcast to fly (with the acquisition sweep for event cameras) and when the
+    /// harness stops: the schedule's end (or the hover) plus the tail.
+    pub fn schedule(&self) -> Result<(Schedule, u64)> {
+        let acquisition =
+            self.modality == Receiver::Events && !self.no_acquisition && !self.payloads.is_empty();
+        let hover_ns = if self.payloads.is_empty() {
+            (self.hover_s * 1e9).round() as u64
+        } else {
+            0
+        };
+        broadcast_schedule(&self.payloads, acquisition, hover_ns)
+    }
+
     /// The observers' placements: the viewpoints if given, else the built-in formation.
     pub fn formation(&self) -> Result<Formation> {
         if self.viewpoints.is_empty() {
@@ -60,6 +73,20 @@ impl LinkOptions {
             Formation::custom(self.viewpoints.clone()).context("--viewpoint")
         }
     }
+}
+
+/// The performer's broadcast of `payloads` after the lead-in (with the acquisition sweep
+/// first when asked) and when a harness stops: its end, or the lead-in plus `hover_ns`,
+/// whichever is later, plus the tail.
+pub(crate) fn broadcast_schedule(
+    payloads: &[u8],
+    acquisition: bool,
+    hover_ns: u64,
+) -> Result<(Schedule, u64)> {
+    let schedule = broadcast(LEAD_IN_NS, payloads, acquisition, &GestureConfig::default())
+        .context("building the broadcast schedule")?;
+    let end_ns = schedule.end_ns().max(LEAD_IN_NS + hover_ns) + TAIL_NS;
+    Ok((schedule, end_ns))
 }
 
 /// Parses exactly six characters of '0'/'1' into a number, b1 most significant.
@@ -260,21 +287,7 @@ pub fn fly_link(args: &LinkOptions) -> Result<LinkOut> {
     let formation = args.formation()?;
     let names = check(args, &formation)?;
     let started = Instant::now();
-    let acquisition =
-        args.modality == Receiver::Events && !args.no_acquisition && !args.payloads.is_empty();
-    let schedule = broadcast(
-        LEAD_IN_NS,
-        &args.payloads,
-        acquisition,
-        &GestureConfig::default(),
-    )
-    .context("building the broadcast schedule")?;
-    let hover_ns = if args.payloads.is_empty() {
-        (args.hover_s * 1e9).round() as u64
-    } else {
-        0
-    };
-    let end_ns = schedule.end_ns().max(LEAD_IN_NS + hover_ns) + TAIL_NS;
+    let (schedule, end_ns) = args.schedule()?;
     let mut world = World::with_formation(&formation).context("building the scene")?;
 
     let ideal_config = if args.modality == Receiver::Events {

@@ -21,11 +21,11 @@ use perturb::seed::{Stream, rng, stream_seed, trial_seed};
 use proto::scene::{
     Formation, IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, MAX_OBSERVERS, Placement, observer_name,
 };
-use proto::{GestureConfig, Modality, Rectification, RenderPath, RgbFrame, broadcast};
+use proto::{Modality, Rectification, RenderPath, RgbFrame};
 use rand_distr::{Distribution, Normal};
 use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
-use crate::harness::link::{LEAD_IN_NS, ObserverOut, TAIL_NS, bits6, observer_out};
+use crate::harness::link::{ObserverOut, bits6, broadcast_schedule, observer_out};
 use crate::harness::pool::{Tally, run_pool};
 use crate::harness::rendered_flight::{FlightSpec, Gusts, RenderedFlight, fly_rendered};
 
@@ -100,14 +100,7 @@ impl TrialsOptions {
         let acquisition = self
             .acquisition
             .unwrap_or(self.modality == Modality::Events);
-        let schedule = broadcast(
-            LEAD_IN_NS,
-            &self.payloads,
-            acquisition,
-            &GestureConfig::default(),
-        )
-        .context("building the broadcast schedule")?;
-        let end_ns = schedule.end_ns() + TAIL_NS;
+        let (schedule, end_ns) = broadcast_schedule(&self.payloads, acquisition, 0)?;
         let mut formation = self.formation.clone();
         let mut gusts = None;
         if let Some(seed) = seed {

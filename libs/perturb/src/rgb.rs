@@ -257,6 +257,18 @@ mod tests {
         ChaCha8Rng::seed_from_u64(seed)
     }
 
+    /// Mean and (sample) variance of a frame's values.
+    fn mean_and_variance(values: &[u8]) -> (f64, f64) {
+        let n = values.len() as f64;
+        let mean = values.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
+        let var = values
+            .iter()
+            .map(|&v| (f64::from(v) - mean).powi(2))
+            .sum::<f64>()
+            / (n - 1.0);
+        (mean, var)
+    }
+
     #[test]
     fn ideal_passes_the_current_render_through() {
         let a = vec![1u8, 2, 3];
@@ -273,13 +285,7 @@ mod tests {
             ..RgbNoise::default()
         };
         let out = noise.sensor(&mut rng(7)).apply(&[&flat]);
-        let n = out.len() as f64;
-        let mean = out.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
-        let var = out
-            .iter()
-            .map(|&v| (f64::from(v) - mean).powi(2))
-            .sum::<f64>()
-            / (n - 1.0);
+        let (mean, var) = mean_and_variance(&out);
         // Rounding adds 1/12 grey² of variance.
         let want = 16.0 + 1.0 / 12.0;
         assert!((mean - 128.0).abs() < 0.05, "mean {mean}");
@@ -341,13 +347,7 @@ mod tests {
             };
             let flat = vec![128u8; 200_000];
             let out = noise.sensor(&mut rng(3)).apply(&[&flat]);
-            let n = out.len() as f64;
-            let mean = out.iter().map(|&v| f64::from(v)).sum::<f64>() / n;
-            let var = out
-                .iter()
-                .map(|&v| (f64::from(v) - mean).powi(2))
-                .sum::<f64>()
-                / (n - 1.0);
+            let (mean, var) = mean_and_variance(&out);
             let electrons = e.white_e * 128.0 / 255.0;
             let k = e.gain_grey_per_e;
             let want_mean = k * electrons;
