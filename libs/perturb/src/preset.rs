@@ -81,18 +81,9 @@ const V2E_NOISY: [(&str, f64); 9] = {
 
 /// v2e-noisy's sensor with the background activity measured on a real sensor in dim light.
 const DVS_DIM: [(&str, f64); 9] = {
-    let [a, b, c, d, e] = v2e_shape!();
-    [
-        a,
-        b,
-        c,
-        d,
-        e,
-        ("events.threshold_sigma", 0.05),
-        ("events.cutoff_hz", 30.0),
-        ("events.leak_hz", 0.1),
-        ("events.shot_noise_hz", 10.0),
-    ]
+    let mut terms = V2E_NOISY;
+    terms[8] = ("events.shot_noise_hz", 10.0);
+    terms
 };
 
 /// Every preset, by name.
