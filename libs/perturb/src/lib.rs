@@ -4,6 +4,8 @@
 //! * [`spec`] — the parameter set ([`Perturbation`]): `events.*` (the event sensor's v2e terms,
 //!   applied by [`event_camera::NoisyConverter`]), `rgb.*` ([`rgb::RgbNoise`]), `geometry.*` and
 //!   `flight.*` (placement jitter and gusts: a re-flown trial) and `link.*` ([`link::LinkNoise`]).
+//! * [`flight`] — the flight terms' typed views: wind (`wind.*`: mean, direction, Dryden σ and
+//!   length) and the cascade controller with its estimate (`flight.cascade`, `flight.estimate_*`).
 //! * [`light`] — one illuminance (`light.lux`) from which both cameras' exposure, noise,
 //!   blur, bandwidth and background activity follow.
 //! * [`preset`] — named sensor presets (v2e's `clean`, default and `noisy` values), cited.
@@ -13,6 +15,7 @@
 //! Pure code: no I/O, no clock; the same seed gives the same realisation on every machine
 //! (ChaCha8 streams, integer seeds).
 
+pub mod flight;
 pub mod light;
 pub mod link;
 pub mod preset;

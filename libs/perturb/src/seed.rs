@@ -15,6 +15,10 @@ pub enum Stream {
     Link = 3,
     Placement = 4,
     Gust = 5,
+    /// Wind turbulence (one field for the scene: observer 0).
+    Wind = 6,
+    /// The cascade's state-estimate noise (one seed; the physics gives each drone its stream).
+    Estimate = 7,
 }
 
 /// SplitMix64's output function: a bijective 64-bit mix.

@@ -230,6 +230,70 @@ pub const PARAMETERS: &[Parameter] = &[
         "how long each gust force holds",
     ),
     p(
+        "flight.cascade",
+        "0/1",
+        0.0,
+        0.0,
+        1.0,
+        true,
+        "1: every drone flies the Crazyflie-like cascade (thrust/tilt limits, noisy delayed \
+         estimate) instead of the ideal stabilisation",
+    ),
+    p(
+        "flight.estimate_sigma_m",
+        "m",
+        0.02,
+        0.0,
+        0.5,
+        false,
+        "cascade only: σ of each axis of the position estimate's error (Gauss–Markov, 0.2 s)",
+    ),
+    p(
+        "flight.estimate_latency_ms",
+        "ms",
+        4.0,
+        0.0,
+        100.0,
+        false,
+        "cascade only: age of the state estimate (rounded to the 2 ms physics step)",
+    ),
+    p(
+        "wind.mean_mps",
+        "m/s",
+        0.0,
+        0.0,
+        20.0,
+        false,
+        "mean horizontal wind over the scene (every drone; Crazyflie rotor drag)",
+    ),
+    p(
+        "wind.direction_deg",
+        "°",
+        0.0,
+        0.0,
+        360.0,
+        false,
+        "direction the mean wind blows towards, anticlockwise from world +x",
+    ),
+    p(
+        "wind.sigma_mps",
+        "m/s",
+        0.0,
+        0.0,
+        5.0,
+        false,
+        "Dryden turbulence: horizontal σ_u = σ_v; σ_w = 0.51 σ_u (MIL-HDBK-1797 low altitude)",
+    ),
+    p(
+        "wind.length_m",
+        "m",
+        0.0,
+        0.0,
+        1000.0,
+        false,
+        "Dryden length scale L_u = L_v (L_w = 0.132 L_u); 0 = the low-altitude form's 23 m",
+    ),
+    p(
         "link.drop_rate",
         "probability",
         0.0,
@@ -370,9 +434,13 @@ impl Perturbation {
         self.set.is_empty()
     }
 
-    /// True when a trial must fly its own flight (placement or gusts), not share one.
+    /// True when a trial must fly its own flight (placement, gusts, wind or the cascade with its
+    /// seeded estimate), not share one.
     pub fn reflies(&self) -> bool {
-        self.placement_sigma() != (0.0, 0.0) || self.gust_sigma_n() > 0.0
+        self.placement_sigma() != (0.0, 0.0)
+            || self.gust_sigma_n() > 0.0
+            || self.wind().is_some()
+            || self.cascade().is_some()
     }
 
     /// The event sensor (threshold and noise), its noise seeded with `seed`.

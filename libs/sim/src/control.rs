@@ -52,7 +52,7 @@ impl Default for Gains {
 
 /// Measured state of a drone: world position, world linear velocity, orientation quaternion
 /// (w, x, y, z; `world_from_body`) and body-frame angular velocity.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DroneState {
     pub pos_m: [f64; 3],
     pub vel_mps: [f64; 3],

@@ -2,7 +2,11 @@
 //!
 //! - [`mjcf`] generates the scene for N observers from the shared geometry in [`proto::scene`].
 //! - [`world`] steps physics at 500 Hz on an integer-nanosecond clock with ideal world-frame
-//!   force/torque stabilisation ([`control`]) and counts drone–drone contact steps.
+//!   force/torque stabilisation ([`control`]) or, as an option, a Crazyflie-like cascade
+//!   ([`cascade`], seeing the state through [`estimate`]), an optional wind ([`wind`]: mean plus
+//!   seeded Dryden turbulence, Crazyflie rotor drag), counts drone–drone contact steps and
+//!   keeps each drone's tracking error.
+//! - [`noise`] is the seeded Gaussian source of those random processes.
 //! - [`render`] renders observer cameras headlessly (EGL; Mesa's CPU rasteriser here).
 //!
 //! The MuJoCo FFI and its `unsafe` live in the `mujoco-rs` crate; this crate has none.
@@ -10,9 +14,13 @@
 #![forbid(unsafe_code)]
 
 pub mod assets;
+pub mod cascade;
 pub mod control;
 pub mod damage;
+pub mod estimate;
 pub mod mjcf;
+pub mod noise;
 pub mod render;
 pub mod sensor;
+pub mod wind;
 pub mod world;

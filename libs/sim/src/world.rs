@@ -1,15 +1,22 @@
 //! The physics world: MuJoCo model + data for one performer and N observers, stepped at 500 Hz
-//! on an integer-nanosecond clock, with ideal stabilisation and contact bookkeeping.
+//! on an integer-nanosecond clock, with ideal stabilisation (or, as an option, the cascade of
+//! [`crate::cascade`]), an optional wind ([`crate::wind`]), contact bookkeeping and each drone's
+//! tracking error.
+//!
+//! The default world (ideal controller, no wind, no disturbance) computes exactly what it always
+//! did: the options only add terms when they are set, so the frozen digests stay unchanged.
 
 use std::rc::Rc;
 
 use mujoco_rs::prelude::*;
 use proto::scene::{Formation, PERFORMER_HOVER_M, distance_m, observer_name};
 
+use crate::cascade::{Cascade, CascadeCommand, CascadeConfig};
 use crate::control::{DroneState, Gains, Reference, wrench};
 use crate::mjcf::{
     DRONE_INERTIA_KGM2, DRONE_MASS_KG, PERFORMER_BODY, PHYSICS_STEP_NS, SceneError, formation_xml,
 };
+use crate::wind::{WindConfig, WindError, WindField};
 
 /// Why the world could not be built.
 #[derive(Debug, thiserror::Error)]
@@ -43,6 +50,35 @@ pub struct ContactStats {
     pub min_separation_m: f64,
 }
 
+/// Which controller flies the drones.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum ControllerKind {
+    /// The paper's ideal world-frame force/torque stabilisation ([`crate::control`]).
+    #[default]
+    Ideal,
+    /// The Crazyflie-like cascade with limits and a noisy, delayed estimate.
+    Cascade(CascadeConfig),
+}
+
+/// A drone's tracking error: distance between its true position and its reference, sampled
+/// after every physics step (the reference advanced to that instant with its feed-forward).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TrackingError {
+    /// Root mean square of the 3-D error, m.
+    pub rms_m: f64,
+    /// Largest 3-D error, m.
+    pub max_m: f64,
+    /// Steps sampled.
+    pub steps: u64,
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+struct TrackingSums {
+    sum_sq_m2: f64,
+    max_m: f64,
+    steps: u64,
+}
+
 /// The simulated world.
 pub struct World {
     data: MjData<Rc<MjModel>>,
@@ -52,6 +88,10 @@ pub struct World {
     gains: Gains,
     /// External disturbance force on each drone, world frame, N (gusts; zero by default).
     disturbances_n: Vec<[f64; 3]>,
+    /// One cascade per drone when [`ControllerKind::Cascade`] is chosen; empty for ideal.
+    cascades: Vec<Cascade>,
+    wind: Option<WindField>,
+    tracking: Vec<TrackingSums>,
     step_index: u64,
     stats: ContactStats,
 }
@@ -100,6 +140,9 @@ impl World {
             references,
             gains: Gains::default(),
             disturbances_n,
+            cascades: Vec::new(),
+            wind: None,
+            tracking: vec![TrackingSums::default(); observers + 1],
             step_index: 0,
             stats: ContactStats {
                 contact_steps: 0,
@@ -171,34 +214,124 @@ impl World {
         }
     }
 
+    /// Chooses the controller of every drone from the next step on. A cascade starts with empty
+    /// integrators and estimate history; drone `i`'s estimate noise is its own stream of the
+    /// configured seed.
+    pub fn set_controller(&mut self, kind: ControllerKind) {
+        self.cascades = match kind {
+            ControllerKind::Ideal => Vec::new(),
+            ControllerKind::Cascade(config) => (0..self.drones.len())
+                .map(|i| Cascade::new(config, PHYSICS_STEP_NS, i))
+                .collect(),
+        };
+    }
+
+    /// What drone `i`'s cascade commanded on the last step (`None` under the ideal controller).
+    pub fn cascade_command(&self, i: DroneIndex) -> Option<CascadeCommand> {
+        self.cascades.get(i).map(Cascade::last_command)
+    }
+
+    /// Sets (or, with `None`, removes) the wind over every drone from the next step on. Its
+    /// turbulence starts at its seed's first sample.
+    pub fn set_wind(&mut self, config: Option<WindConfig>) -> Result<(), WindError> {
+        self.wind = config
+            .map(|c| WindField::new(c, PHYSICS_STEP_NS))
+            .transpose()?;
+        Ok(())
+    }
+
+    /// The wind velocity the next step applies, world frame, m/s (`None`: no wind).
+    pub fn wind_mps(&self) -> Option<[f64; 3]> {
+        self.wind.as_ref().map(WindField::velocity_mps)
+    }
+
+    /// The wind's drag on drone `i` in its current state, world frame, N (`None`: no wind).
+    pub fn wind_drag_n(&self, i: DroneIndex) -> Option<[f64; 3]> {
+        let s = self.state(i);
+        self.wind
+            .as_ref()
+            .map(|w| w.drag_n(s.world_from_body, s.vel_mps))
+    }
+
+    /// Drone `i`'s tracking error since the world was built or [`World::reset_tracking`].
+    pub fn tracking_error(&self, i: DroneIndex) -> TrackingError {
+        let t = self.tracking[i];
+        TrackingError {
+            rms_m: if t.steps > 0 {
+                (t.sum_sq_m2 / t.steps as f64).sqrt()
+            } else {
+                0.0
+            },
+            max_m: t.max_m,
+            steps: t.steps,
+        }
+    }
+
+    /// Restarts every drone's tracking statistics (e.g. when a broadcast starts).
+    pub fn reset_tracking(&mut self) {
+        self.tracking.fill(TrackingSums::default());
+    }
+
     /// Advances one 2 ms physics step.
     pub fn step(&mut self) {
         let gravity = -self.data.model().opt().gravity[2];
-        for (i, ids) in self.drones.iter().enumerate() {
+        for i in 0..self.drones.len() {
             let state = self.state(i);
-            let w = wrench(
-                &state,
-                &self.references[i],
-                DRONE_MASS_KG,
-                DRONE_INERTIA_KGM2,
-                gravity,
-                &self.gains,
-            );
-            let mut w = w;
+            let mut w = match self.cascades.get_mut(i) {
+                Some(c) => c.update(
+                    &state,
+                    &self.references[i],
+                    DRONE_MASS_KG,
+                    DRONE_INERTIA_KGM2,
+                    gravity,
+                ),
+                None => wrench(
+                    &state,
+                    &self.references[i],
+                    DRONE_MASS_KG,
+                    DRONE_INERTIA_KGM2,
+                    gravity,
+                    &self.gains,
+                ),
+            };
             // Only a set disturbance touches the wrench: the undisturbed world stays bit-exact.
             for (k, &f) in self.disturbances_n[i].iter().enumerate() {
                 if f != 0.0 {
                     w[k] += f;
                 }
             }
-            self.data.xfrc_applied_mut()[ids.body] = w;
+            if let Some(wind) = &self.wind {
+                let drag = wind.drag_n(state.world_from_body, state.vel_mps);
+                for k in 0..3 {
+                    w[k] += drag[k];
+                }
+            }
+            self.data.xfrc_applied_mut()[self.drones[i].body] = w;
         }
         self.data.step();
         self.step_index += 1;
+        if let Some(wind) = self.wind.as_mut() {
+            wind.advance();
+        }
         if self.data.ncon() > 0 {
             self.stats.contact_steps += 1;
         }
         self.update_separation();
+        self.update_tracking();
+    }
+
+    /// Samples each drone's distance from its reference at the new instant (qpos is the state
+    /// after the step; the reference is advanced by one step with its feed-forward).
+    fn update_tracking(&mut self) {
+        let dt_s = PHYSICS_STEP_NS as f64 * 1e-9;
+        for i in 0..self.drones.len() {
+            let want = self.references[i].kin.extrapolated(dt_s).pos_m;
+            let err = distance_m(self.state(i).pos_m, want);
+            let t = &mut self.tracking[i];
+            t.sum_sq_m2 += err * err;
+            t.max_m = t.max_m.max(err);
+            t.steps += 1;
+        }
     }
 
     /// Steps until sim time reaches `t_ns` (a multiple of the physics step).
