@@ -15,9 +15,10 @@
 //!   and every camera's sensor digest);
 //! - b's link down for 20 s, beyond the lease: the router drops b's sessions, everyone else sees
 //!   b's liveliness tokens vanish and goes on without it, O1 and O3 decode nothing, the
-//!   summary fails naming them, and every host's launcher ends — no hang. (Rarely the router
-//!   stalls on b's dead link until it returns, zenoh#1876, and c loses it too: O2 is then judged
-//!   a dropout, still without a hang.)
+//!   summary fails naming them, c's observer O2 decodes its message, and every host's launcher
+//!   ends — no hang. (Zenoh's TCP links linger on close; at its 10 s default the router's
+//!   threads blocked on b's dead links as long as c's lease, and about one run in ten c lost
+//!   the router too. The workspace builds Zenoh with a 1 s linger: see .cargo/config.toml.)
 //!
 //! Root is required (`ip netns`); every wait is bounded.
 
@@ -375,7 +376,6 @@ fn a_throttled_uplink_and_a_short_cut_stall_and_resume_byte_identically() {
         "the token bucket never held a packet back: {tbf_stats}"
     );
 
-    let want = golden_entry("only-a", "events");
     let a = &ended.iter().find(|(h, ..)| h == "a").expect("host a").2;
     let s = summary(a);
     assert!(s.mission.pass, "{:?}", s.mission.reasons);
@@ -386,6 +386,13 @@ fn a_throttled_uplink_and_a_short_cut_stall_and_resume_byte_identically() {
         s.mission.wall_seconds,
         cut_ended.as_secs_f64()
     );
+    assert_golden(&ended, a);
+}
+
+/// The session's `observers.json` and every camera's sensor digest equal the one-host golden
+/// run of `only-a` with event cameras; b's and c's launchers saw the mission report.
+fn assert_golden(ended: &[(String, Ended, PathBuf)], a: &Path) {
+    let want = golden_entry("only-a", "events");
     let observers = std::fs::read(a.join("observers.json")).expect("observers.json");
     assert_eq!(
         sha256_hex(&observers),
@@ -419,6 +426,23 @@ fn a_throttled_uplink_and_a_short_cut_stall_and_resume_byte_identically() {
 
 #[test]
 fn a_cut_beyond_the_lease_drops_the_host_and_the_run_fails_naming_its_observers() {
+    lease_cut_session();
+}
+
+/// The lease cut 20 times in a row (`deploy/test.sh --full`, ≈ 20 min): the healthy host never
+/// loses its observer. Zenoh's TCP links used to linger 10 s on close — as long as the lease — and
+/// about one run in ten the router's threads, blocked closing b's dead links, starved c's session.
+#[test]
+#[ignore = "20 sessions, ≈ 20 min: deploy/test.sh --full"]
+fn twenty_lease_cuts_in_a_row_never_lose_the_healthy_host() {
+    for run in 1..=20 {
+        eprintln!("lease cut {run}/20");
+        lease_cut_session();
+    }
+}
+
+/// b's link down from 10 s to 30 s after the hosts start, beyond the 10 s lease.
+fn lease_cut_session() {
     let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let (_hosts, ended) = run_session("lease", RouterOn::SupervisorHost, |hosts, started| {
         let at = |s: u64| {
@@ -449,16 +473,14 @@ fn a_cut_beyond_the_lease_drops_the_host_and_the_run_fails_naming_its_observers(
     // The observers b carried decoded nothing.
     assert_eq!(s.mission.observers["O1"].complete_messages, 0);
     assert_eq!(s.mission.observers["O3"].complete_messages, 0);
-    // c's observer goes on and decodes its message — unless the router stalled on b's dead
-    // link past c's own lease. Zenoh 1.10.2's router can block on a push to an unresponsive
-    // transport until the link returns (eclipse-zenoh/zenoh#1876, open); once in about ten
-    // runs c's camera lost the router too and ended. Then O2 must be judged, not waited for:
-    // the camera's packets are counted missing and the run fails naming O2 as well.
+    // c's observer goes on and decodes its message: the router drops b's links without
+    // stalling the healthy host (each dead link's close blocks one thread for ≤ 1 s, the linger
+    // set in .cargo/config.toml, well inside c's 10 s lease).
     let o2 = s.mission.observers["O2"].complete_messages;
     let o2_missing = s.missing_packets.get("O2").copied().unwrap_or(0);
     assert!(
-        o2 == 1 || (o2 == 0 && o2_missing > 0),
-        "O2: {o2} complete messages, {o2_missing} missing packets"
+        o2 == 1 && o2_missing == 0,
+        "O2 (healthy host c): {o2} complete messages, {o2_missing} missing packets"
     );
     let (_, b_end, _) = get("b");
     assert!(!b_end.success);

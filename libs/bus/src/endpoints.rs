@@ -225,6 +225,18 @@ mod tests {
     use super::*;
 
     #[test]
+    fn zenoh_tcp_links_linger_one_second_at_most() {
+        // The value Zenoh's TCP links were compiled with (.cargo/config.toml): zenoh-link-tcp
+        // reads the same variable with option_env!, so this crate sees what it saw. Without it,
+        // a router dropping a dead host's links blocks a thread per link for 10 s (the lease).
+        assert_eq!(
+            option_env!("TCP_LINGER_TIMEOUT"),
+            Some("1"),
+            "build through cargo with the workspace's .cargo/config.toml"
+        );
+    }
+
+    #[test]
     fn default_config_listens_on_loopback_with_multicast_off() {
         let c = config(&Endpoints::default(), &[]).unwrap();
         let listen = c.get_json("listen/endpoints").unwrap();

@@ -16,6 +16,10 @@
 //!   out-of-contract messages), counted and reported on `rejects/<role>/<id>`;
 //! - [`on_stop_signal`]: the SIGINT/SIGTERM flag with which processes end cleanly.
 //!
+//! Zenoh's TCP links are built with a 1 s `SO_LINGER` (`TCP_LINGER_TIMEOUT` in
+//! `.cargo/config.toml`) instead of 10 s: closing the link of a dead host blocks a thread for
+//! the linger time, and 10 s equals the lease, so healthy hosts' sessions expired with it.
+//!
 //! Key expressions come from [`proto::Keys`] only; payloads go through [`proto::encode`] /
 //! [`proto::decode`] only.
 
