@@ -59,7 +59,8 @@ fn zero_perturbation_matches_link(modality: &str, observers: &str, payload: &str
         "--payload",
         payload,
     ]);
-    let dir = tmp("trials-zero");
+    // One directory per modality: the two zero-perturbation tests run at once.
+    let dir = tmp(&format!("trials-zero-{modality}"));
     let (v, _) = trials(
         &dir,
         &[

@@ -15,6 +15,7 @@ pub mod replay;
 pub mod report;
 pub mod router;
 pub mod run;
+pub mod shard;
 pub mod study;
 pub mod sweep;
 pub mod trials;

@@ -1,27 +1,35 @@
 //! `waggle study`: a study file's conditions × levels × modalities as seeded trials, then
-//! `DIR/report.md` ([`crate::harness::study`]).
+//! `DIR/report.md` ([`crate::harness::study`]); one shard of it (`--shard K/N`), job files for
+//! a cluster (`--slurm`, `--kubernetes`) and the merge of shards (`waggle study merge`).
 
-use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
 
 use anyhow::{Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::harness::baselines::{BaselineStudy, run_baselines};
-use crate::harness::study::{Study, StudyFile, run_study, study_text};
+use crate::harness::shard::Shard;
+use crate::harness::study::{Study, StudyFile, study_text};
+use crate::harness::study_merge::{MergeOptions, Merged, merge};
+use crate::harness::study_run::run_study_part;
 use crate::run_dir::lock::RunLock;
 
 #[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
 pub struct StudyArgs {
+    #[command(subcommand)]
+    command: Option<StudyCommand>,
     /// A study file (TOML) or a built-in study: event-noise, rgb-noise, light, viewing-angle,
     /// distance, baselines (`--print` shows one to copy and edit).
-    study: String,
-    /// Output directory: one subdirectory per point (trials.json, cost.json), study.json,
-    /// success-<condition>.svg and report.md.
-    #[arg(long)]
-    out: PathBuf,
+    #[arg(required = true)]
+    study: Option<String>,
+    /// Output directory: one subdirectory per point (trials.json, cost.json, the per-trial
+    /// records under trials/), study.json, success-<condition>.svg, report.md, cost.md. Rerun
+    /// into the same directory to resume: only trials not recorded run.
+    #[arg(long, required = true)]
+    out: Option<PathBuf>,
     /// Trials at once (threads; default: the machine's cores).
     #[arg(long)]
     jobs: Option<usize>,
@@ -32,22 +40,32 @@ pub struct StudyArgs {
     #[arg(long)]
     print: bool,
     #[command(flatten)]
+    shard: super::shard::ShardArgs,
+    #[command(flatten)]
+    cluster: super::shard::ClusterArgs,
+    #[command(flatten)]
     render: super::RenderArg,
 }
 
+#[derive(Debug, clap::Subcommand)]
+enum StudyCommand {
+    /// Merge a study's (or `waggle trials`') shard directories into DIR: the same study.json,
+    /// trials.json, report.md and figures as one process would write, and cost.json summed.
+    Merge(super::shard::MergeArgs),
+}
+
 pub fn run(args: StudyArgs) -> Result<()> {
-    let study = Study::load(&args.study)?;
+    if let Some(StudyCommand::Merge(merge)) = args.command {
+        return super::shard::merge(&merge);
+    }
+    let (Some(name), Some(out)) = (args.study.clone(), args.out.clone()) else {
+        bail!("give a study and --out DIR (or `waggle study merge DIR… --out DIR`)");
+    };
+    let study = Study::load(&name)?;
     if args.print {
-        print!("{}", study_text(&args.study)?.0);
+        print!("{}", study_text(&name)?.0);
         return Ok(());
     }
-    if args.out.join("report.md").exists() {
-        bail!(
-            "{} already holds a study report: choose another --out",
-            args.out.display()
-        );
-    }
-    let _lock = RunLock::acquire(&args.out)?;
     let jobs = args
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get))
@@ -57,13 +75,35 @@ pub fn run(args: StudyArgs) -> Result<()> {
             if let Some(t) = args.trials {
                 study.trials = t;
             }
-            run_link_study(&study, &args, jobs)
+            if args.cluster.wanted() {
+                return args.cluster.write(&study, &out, &args.shard, &args.render);
+            }
+            let shard = args.shard.shard()?;
+            let _lock = RunLock::acquire(&out)?;
+            run_link_study(&study, &args, &out, shard, jobs)
         }
         Study::Baselines(mut study) => {
+            if args.cluster.wanted() || args.shard.given() {
+                bail!(
+                    "{name} is a baselines study (whole missions): --shard and cluster job files \
+                     are for link studies only"
+                );
+            }
+            if args
+                .out
+                .as_ref()
+                .is_some_and(|o| o.join("report.md").exists())
+            {
+                bail!(
+                    "{} already holds a study report: choose another --out",
+                    out.display()
+                );
+            }
+            let _lock = RunLock::acquire(&out)?;
             if let Some(t) = args.trials {
                 study.trials = t;
             }
-            run_baseline_study(&study, &args, jobs)
+            run_baseline_study(&study, &out, jobs, args.render.path)
         }
     }
 }
@@ -79,95 +119,107 @@ fn bar_for(trials: u64) -> ProgressBar {
     bar
 }
 
-/// What a study is about to run, for its progress bar and closing line.
-#[derive(Clone, Copy)]
-struct Plan<'a> {
-    name: &'a str,
-    /// What one point is called (`points`, `case × arm`).
-    unit: &'a str,
-    points: usize,
-    trials: u64,
-}
-
-/// Runs a study under a progress bar over `points` × `trials` trials (`run` gets the stop flag
-/// and the progress callback), prints what `print` makes of the results and the closing line;
-/// exit 1 when Ctrl-C interrupted it (the report is written either way).
-fn with_progress<R>(
-    plan: &Plan<'_>,
-    args: &StudyArgs,
+/// Runs a baselines study under a progress bar; exit 1 when Ctrl-C interrupted it (the report
+/// is written either way).
+fn run_baseline_study(
+    study: &BaselineStudy,
+    out: &Path,
     jobs: usize,
-    run: impl FnOnce(&Arc<AtomicBool>, &(dyn Fn(usize, usize, u64, u64) + Sync)) -> Result<Vec<R>>,
-    print: impl FnOnce(&[R]),
+    render: proto::RenderPath,
 ) -> Result<()> {
-    let Plan {
-        name,
-        unit,
-        points,
-        trials,
-    } = *plan;
+    let points = study.cases.len() * study.arms.len();
     let stop = bus::on_stop_signal();
-    let bar = bar_for(points as u64 * trials);
+    let bar = bar_for(points as u64 * study.trials);
     let started = std::time::Instant::now();
     let progress = |k: usize, n: usize, done: u64, per: u64| {
         bar.set_position(k as u64 * per + done);
-        bar.set_message(format!("{unit} {}/{n}", k + 1));
+        bar.set_message(format!("case × arm {}/{n}", k + 1));
     };
-    let results = run(&stop, &progress)?;
+    let results = run_baselines(study, out, render, jobs, &stop, progress)?;
     bar.finish_and_clear();
-    print(&results);
+    print!("{}", crate::harness::baselines::report(study, &results));
     println!(
-        "study {name}: {} {unit} in {:.0} s wall ({jobs} jobs) -> {}",
+        "study {}: {} case × arm in {:.0} s wall ({jobs} jobs) -> {}",
+        study.name,
         results.len(),
         started.elapsed().as_secs_f64(),
-        args.out.join("report.md").display()
+        out.join("report.md").display()
     );
     if stop.load(Ordering::SeqCst) {
         bail!(
-            "interrupted: {} of {points} {unit} finished (report written)",
+            "interrupted: {} of {points} case × arm finished (report written)",
             results.len()
         );
     }
     Ok(())
 }
 
-fn run_baseline_study(study: &BaselineStudy, args: &StudyArgs, jobs: usize) -> Result<()> {
-    let points = study.cases.len() * study.arms.len();
-    let plan = Plan {
-        name: &study.name,
-        unit: "case × arm",
-        points,
-        trials: study.trials,
-    };
-    with_progress(
-        &plan,
-        args,
+/// Runs a link study (or one shard of it) under a progress bar. A whole run then writes its
+/// results (partial ones when Ctrl-C interrupted it, exit 1); a shard leaves them to the merge.
+fn run_link_study(
+    study: &StudyFile,
+    args: &StudyArgs,
+    out: &Path,
+    shard: Option<Shard>,
+    jobs: usize,
+) -> Result<()> {
+    let stop = bus::on_stop_signal();
+    let bar = bar_for(0);
+    let started = std::time::Instant::now();
+    let counts = run_study_part(
+        study,
+        out,
+        args.render.path,
         jobs,
-        |stop, progress| run_baselines(study, &args.out, args.render.path, jobs, stop, progress),
-        |results| print!("{}", crate::harness::baselines::report(study, results)),
-    )
-}
-
-fn run_link_study(study: &StudyFile, args: &StudyArgs, jobs: usize) -> Result<()> {
-    let points = study.modalities.len() * study.vary.iter().map(|v| v.levels.len()).sum::<usize>();
-    let plan = Plan {
-        name: &study.name,
-        unit: "points",
-        points,
-        trials: study.trials,
-    };
-    with_progress(
-        &plan,
-        args,
-        jobs,
-        |stop, progress| run_study(study, &args.out, args.render.path, jobs, stop, progress),
-        |results| {
-            for r in results {
+        shard,
+        &stop,
+        |done, part| {
+            bar.set_length(part);
+            bar.set_position(done);
+        },
+    )?;
+    bar.finish_and_clear();
+    let what = shard.map_or_else(|| "study".to_owned(), |s| format!("shard {s} of the study"));
+    println!(
+        "{what} {}: {} trials in this part: {} ran now, {} were recorded{}; {:.0} s wall ({jobs} jobs)",
+        study.name,
+        counts.part,
+        counts.ran,
+        counts.recorded,
+        if counts.damaged > 0 {
+            format!(", {} damaged records set aside and rerun", counts.damaged)
+        } else {
+            String::new()
+        },
+        started.elapsed().as_secs_f64(),
+    );
+    let interrupted = stop.load(Ordering::SeqCst);
+    if shard.is_none() {
+        let options = MergeOptions {
+            partial: interrupted,
+            mixed_hosts: false,
+        };
+        if let Merged::Study(results) = merge(&[out.to_path_buf()], out, options)? {
+            for r in &results {
                 let (p, ci) = r.rate_cells();
                 println!(
                     "{:<7} {} = {:<8} {:>4}/{:<4} P = {p:<6} CI {ci}",
                     r.modality, r.key, r.level, r.successes, r.trials
                 );
             }
-        },
-    )
+        }
+        println!("-> {}", out.join("report.md").display());
+    } else if !interrupted {
+        println!(
+            "-> {} (merge every shard with `waggle study merge DIR… --out DIR`)",
+            out.display()
+        );
+    }
+    if interrupted {
+        bail!(
+            "interrupted: rerun the same command to run the {} missing trials",
+            counts.part - counts.recorded - counts.ran
+        );
+    }
+    Ok(())
 }

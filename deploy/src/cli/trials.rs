@@ -16,7 +16,10 @@ use crate::case::Case;
 use crate::harness::mission_metrics::Policy;
 use crate::harness::mission_trials::{MissionTrialsOptions, mission_criterion, run_mission_trials};
 use crate::harness::pool::Tally;
-use crate::harness::trials::{TrialsOptions, criterion, run_trials};
+use crate::harness::run_files::{PointCostSum, RunCost, RunKind, RunManifest, cpu_s};
+use crate::harness::study_merge::{MergeOptions, Merged, merge};
+use crate::harness::study_run::{header, recorded, run_point};
+use crate::harness::trials::{TrialsOptions, criterion, definition};
 use crate::run_dir::lock::RunLock;
 
 #[derive(Debug, Args)]
@@ -62,7 +65,11 @@ pub struct TrialsArgs {
     rectify: Rectification,
     #[command(flatten)]
     render: super::RenderArg,
-    /// Output directory: trials.json (deterministic) and cost.json (wall-clock figures).
+    #[command(flatten)]
+    shard: super::shard::ShardArgs,
+    /// Output directory: trials.json (deterministic), cost.json (wall-clock figures) and the
+    /// per-trial records under trials/. Rerun into the same directory to resume: only trials
+    /// not recorded run.
     #[arg(long)]
     out: PathBuf,
 }
@@ -104,6 +111,9 @@ fn default_jobs() -> usize {
 
 pub fn run(args: TrialsArgs) -> Result<()> {
     let perturbation = args.perturb.perturbation()?;
+    if args.case.is_some() && args.shard.given() {
+        bail!("--shard is for --link trials; --case (whole missions) runs in one process");
+    }
     if args.case.is_some() {
         return run_case(args, perturbation);
     }
@@ -133,23 +143,95 @@ pub fn run(args: TrialsArgs) -> Result<()> {
         acquisition: args.acquisition,
     };
     opts.check()?;
-    let _lock = fresh_out(&args.out)?;
+    let shard = args.shard.shard()?;
+    let _lock = RunLock::acquire(&args.out)?;
+    RunManifest {
+        kind: RunKind::Trials,
+        definition: definition(&opts),
+        requested: opts.trials,
+        shard: shard.map(|s| s.to_string()),
+    }
+    .claim(&args.out)?;
     eprintln!("trials: {}", criterion(&opts));
+    let range = shard.map_or(0..opts.trials, |s| s.range(opts.trials));
+    let (found, damaged) = recorded(&args.out, ".", opts.trials)?;
+    let missing: Vec<u64> = range
+        .clone()
+        .filter(|i| !found.records.contains_key(i))
+        .collect();
+    let already = range.end - range.start - missing.len() as u64;
     let stop = bus::on_stop_signal();
-    let bar = progress_bar(opts.trials, "flying and rendering the broadcast");
-    let (out, cost) = run_trials(&opts, None, &stop, |done, successes| {
-        bar.set_position(done);
-        bar.set_message(format!("{successes} succeeded"));
-    })?;
+    let bar = progress_bar(
+        range.end - range.start,
+        "flying and rendering the broadcast",
+    );
+    bar.set_position(already);
+    let (started, cpu_before) = (std::time::Instant::now(), cpu_s());
+    let cost = if missing.is_empty() && header(&args.out).is_some() {
+        PointCostSum::default()
+    } else {
+        run_point(
+            &opts,
+            &args.out,
+            ".",
+            None,
+            &missing,
+            &stop,
+            |done, successes| {
+                bar.set_position(already + done);
+                bar.set_message(format!("{successes} of this run's trials succeeded"));
+            },
+        )?
+    };
     bar.finish_and_clear();
-    let path = args.out.join("trials.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&out)? + "\n")
-        .with_context(|| format!("writing {}", path.display()))?;
-    let cost_path = args.out.join("cost.json");
-    std::fs::write(&cost_path, serde_json::to_string_pretty(&cost)? + "\n")
-        .with_context(|| format!("writing {}", cost_path.display()))?;
+    RunCost {
+        runs: 1,
+        wall_s: started.elapsed().as_secs_f64(),
+        cpu_s: cpu_s() - cpu_before,
+        trials_run: cost.trials_run,
+        points: [(".".to_owned(), cost)].into(),
+        ..RunCost::default()
+    }
+    .add_to(&args.out)?;
     println!(
-        "{} ({}): {}",
+        "this run: {} trials ran, {already} were recorded{}; {} flight(s) {:.1} s, trials {:.1} s \
+         ({:.2} s per trial at {} jobs), render cache {:.1} MB",
+        cost.trials_run,
+        if damaged > 0 {
+            format!(", {damaged} damaged records set aside and rerun")
+        } else {
+            String::new()
+        },
+        cost.flights,
+        cost.fly_and_render_s,
+        cost.trials_s,
+        cost.trials_s / cost.trials_run.max(1) as f64,
+        opts.jobs,
+        cost.render_cache_mb,
+    );
+    if let Some(shard) = shard {
+        println!(
+            "shard {shard} -> {} (merge every shard with `waggle study merge DIR… --out DIR`)",
+            args.out.display()
+        );
+        return finished_shard(&stop);
+    }
+    write_results(&args.out, &stop)
+}
+
+/// Writes `trials.json` from the records in `dir` (partial ones when `stop` interrupted the
+/// run) and prints the outcome.
+fn write_results(dir: &std::path::Path, stop: &AtomicBool) -> Result<()> {
+    let options = MergeOptions {
+        partial: stop.load(Ordering::SeqCst),
+        mixed_hosts: false,
+    };
+    let Merged::Trials(out) = merge(&[dir.to_path_buf()], dir, options)? else {
+        bail!("{} is not a trials directory", dir.display());
+    };
+    let path = dir.join("trials.json");
+    println!(
+        "{} ({}): {} -> {}",
         out.modality,
         if out.perturb.is_empty() {
             "no perturbation".to_owned()
@@ -160,19 +242,18 @@ pub fn run(args: TrialsArgs) -> Result<()> {
                 .collect::<Vec<_>>()
                 .join(" ")
         },
-        outcome_line(&out.tally, "trials succeeded")
-    );
-    println!(
-        "cost: {} flight(s) {:.1} s, trials {:.1} s ({:.2} s per trial at {} jobs), render cache {:.1} MB -> {}",
-        cost.flights,
-        cost.fly_and_render_s,
-        cost.trials_s,
-        cost.trials_s / out.tally.trials.max(1) as f64,
-        opts.jobs,
-        cost.render_cache_mb,
+        outcome_line(&out.tally, "trials succeeded"),
         path.display()
     );
-    finished(&stop, &out.tally, &path)
+    finished(stop, &out.tally, &path)
+}
+
+/// Ok, or the interruption of a shard (exit 1; rerun it to resume).
+fn finished_shard(stop: &AtomicBool) -> Result<()> {
+    if stop.load(Ordering::SeqCst) {
+        bail!("interrupted: rerun the same command to run the shard's missing trials");
+    }
+    Ok(())
 }
 
 /// Creates and locks `out` for a new run, refusing one that already holds results or that

@@ -2,9 +2,12 @@
 //! ([`link`]), the performer's flight as physics references ([`performer_flight`]) and the
 //! offline PNG → events converter ([`convert`]), decode success against viewpoint
 //! ([`viewpoints`]), seeded perturbed trials on a flight rendered once ([`trials`],
-//! [`rendered_flight`]) and studies of them ([`study`]).
+//! [`rendered_flight`]) and studies of them ([`study`]); per-trial records that make runs
+//! resumable ([`records`], [`run_files`]), shards and their merge ([`shard`], [`study_run`],
+//! [`study_merge`]) and cluster job files ([`cluster`]).
 
 pub mod baselines;
+pub mod cluster;
 pub mod convert;
 pub mod decode;
 pub mod link;
@@ -15,8 +18,14 @@ pub mod mission_trials;
 pub mod performer_flight;
 pub mod pool;
 pub mod raw;
+pub mod records;
 pub mod rendered_flight;
+pub mod run_files;
+pub mod shard;
 pub mod study;
+pub mod study_merge;
+pub mod study_report;
+pub mod study_run;
 pub mod trials;
 pub mod trials_out;
 pub mod viewpoints;

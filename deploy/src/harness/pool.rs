@@ -2,14 +2,14 @@
 //! results are returned sorted by index, so nothing a trial records depends on `jobs`.
 
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use anyhow::Result;
 use perturb::stats::wilson95;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// How a run's trials ended, as every `trials.json` records it.
-#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct Tally {
     pub requested: u64,
     pub trials: u64,
@@ -42,9 +42,7 @@ pub trait Outcome {
     fn success(&self) -> bool;
 }
 
-/// Runs trials `0..trials` on `jobs` threads, calling `progress(done, successes)` after each.
-/// `run(k)` returns `None` when it saw `stop` and abandoned trial k. When `stop` is raised no
-/// trial starts; the first error raises it and is returned once the running trials end.
+/// Runs trials `0..trials` on `jobs` threads (see [`run_pool_on`]).
 pub fn run_pool<T: Outcome + Send>(
     trials: u64,
     jobs: usize,
@@ -52,15 +50,32 @@ pub fn run_pool<T: Outcome + Send>(
     run: impl Fn(u64) -> Result<Option<T>> + Sync,
     progress: impl Fn(u64, u64) + Sync,
 ) -> Result<Vec<T>> {
-    let next = AtomicU64::new(0);
+    let indices: Vec<u64> = (0..trials).collect();
+    run_pool_on(&indices, jobs, stop, run, progress)
+}
+
+/// Runs the trials `indices` on `jobs` threads, calling `progress(done, successes)` after each.
+/// `run(k)` returns `None` when it saw `stop` and abandoned trial k. When `stop` is raised no
+/// trial starts; the first error raises it and is returned once the running trials end.
+pub fn run_pool_on<T: Outcome + Send>(
+    indices: &[u64],
+    jobs: usize,
+    stop: &AtomicBool,
+    run: impl Fn(u64) -> Result<Option<T>> + Sync,
+    progress: impl Fn(u64, u64) + Sync,
+) -> Result<Vec<T>> {
+    let next = AtomicUsize::new(0);
     let done = Mutex::new(Vec::<T>::new());
     let failure = Mutex::new(None::<anyhow::Error>);
     std::thread::scope(|scope| {
-        for _ in 0..jobs.max(1) {
+        for _ in 0..jobs.max(1).min(indices.len().max(1)) {
             scope.spawn(|| {
                 loop {
-                    let index = next.fetch_add(1, Ordering::SeqCst);
-                    if index >= trials || stop.load(Ordering::SeqCst) {
+                    let k = next.fetch_add(1, Ordering::SeqCst);
+                    let Some(&index) = indices.get(k) else {
+                        return;
+                    };
+                    if stop.load(Ordering::SeqCst) {
                         return;
                     }
                     match run(index) {

@@ -21,8 +21,6 @@
 //! section of the report and its figure `success-<key>.svg`. Unknown keys, unknown terms and out-of-range levels are refused at load, naming them.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result, bail};
 use perturb::Perturbation;
@@ -32,10 +30,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::harness::baselines::BaselineStudy;
 use crate::harness::link::{parse_bits6, parse_viewpoint};
-use sim::sensor::EVENT_RENDER_PERIOD_NS;
 
-use crate::harness::rendered_flight::{RenderedFlight, fly_rendered};
-use crate::harness::trials::{TrialsOptions, TrialsOut, run_trials};
+use crate::harness::trials::TrialsOptions;
 
 /// The built-in studies (`waggle study NAME`), as TOML.
 pub const BUILT_IN: &[(&str, &str)] = &[
@@ -139,16 +135,17 @@ pub struct Vary {
 
 /// One point: a modality at one level of one condition.
 #[derive(Debug, Clone)]
-struct Point {
-    key: String,
-    modality: Modality,
-    level: f64,
-    dir: String,
-    options: TrialsOptions,
+pub struct Point {
+    pub key: String,
+    pub modality: Modality,
+    pub level: f64,
+    /// Its directory name under the study's output.
+    pub dir: String,
+    pub options: TrialsOptions,
 }
 
 /// The measured point as the report lists it.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct PointResult {
     pub key: String,
     pub modality: String,
@@ -164,23 +161,6 @@ pub struct PointResult {
     pub sensor_messages: u64,
     /// Events received over every trial and observer (0 for RGB).
     pub events: u64,
-}
-
-/// What a point cost to compute: the process's CPU time over its trials (all threads), which
-/// is what `report.md` divides by trials and decoded messages. Kept out of `study.json`, which
-/// holds no measured time (same seed, same file).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct PointCost {
-    pub trials_cpu_s: f64,
-}
-
-/// The process's CPU time so far (user + system, every thread), s.
-fn cpu_s() -> f64 {
-    use nix::sys::resource::{UsageWho, getrusage};
-    getrusage(UsageWho::RUSAGE_SELF).map_or(0.0, |u| {
-        let t = |tv: nix::sys::time::TimeVal| tv.tv_sec() as f64 + tv.tv_usec() as f64 * 1e-6;
-        t(u.user_time()) + t(u.system_time())
-    })
 }
 
 impl PointResult {
@@ -234,8 +214,8 @@ impl StudyFile {
         }
     }
 
-    /// Every point of the study, checked.
-    fn points(&self, render: RenderPath, jobs: usize) -> Result<Vec<Point>> {
+    /// Every point of the study, checked, in the study's order (condition, level, modality).
+    pub fn points(&self, render: RenderPath, jobs: usize) -> Result<Vec<Point>> {
         if self.criterion != EXACT_PAYLOADS {
             bail!(
                 "criterion {:?}: the only link criterion is {EXACT_PAYLOADS:?}",
@@ -317,281 +297,9 @@ fn level_label(level: f64) -> String {
     s.replace('-', "m")
 }
 
-/// Runs every point into `out/<modality>-<level>/`, then writes `out/report.md`,
-/// `out/study.json` and one `out/success-<key>.svg` per condition. `progress(point, points, done, trials)` is called
-/// as trials finish. Returns the points measured (fewer when interrupted).
-pub fn run_study(
-    study: &StudyFile,
-    out: &Path,
-    render: RenderPath,
-    jobs: usize,
-    stop: &AtomicBool,
-    progress: impl Fn(usize, usize, u64, u64) + Sync,
-) -> Result<Vec<PointResult>> {
-    let points = study.points(render, jobs)?;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let mut results = Vec::new();
-    let mut costs = Vec::new();
-    // Points of one level share a formation and a broadcast: one flight serves every modality
-    // (kept only while its level runs).
-    let mut flight: Option<((String, f64), RenderedFlight)> = None;
-    for (k, point) in points.iter().enumerate() {
-        if stop.load(std::sync::atomic::Ordering::SeqCst) {
-            break;
-        }
-        let dir: PathBuf = out.join(&point.dir);
-        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-        let shared = if point.options.perturbation.reflies() {
-            None
-        } else {
-            if flight
-                .as_ref()
-                .is_none_or(|((key, level), _)| *key != point.key || *level != point.level)
-            {
-                drop(flight.take()); // free the last level's renders before flying the next
-                let period_ns = points
-                    .iter()
-                    .filter(|p| p.key == point.key && p.level == point.level)
-                    .map(|p| p.options.render_period_ns())
-                    .min()
-                    .unwrap_or(EVENT_RENDER_PERIOD_NS);
-                let spec = point.options.shared_flight_spec(period_ns)?;
-                flight = Some(((point.key.clone(), point.level), fly_rendered(spec)?));
-            }
-            flight.as_ref().map(|(_, f)| f)
-        };
-        let cpu_before = cpu_s();
-        let (trials, cost) = run_trials(&point.options, shared, stop, |done, _| {
-            progress(k, points.len(), done, point.options.trials);
-        })?;
-        costs.push(PointCost {
-            trials_cpu_s: cpu_s() - cpu_before,
-        });
-        write_json(&dir.join("trials.json"), &trials)?;
-        write_json(&dir.join("cost.json"), &cost)?;
-        results.push(point_result(point, &trials));
-    }
-    write_json(&out.join("study.json"), &results)?;
-    for vary in &study.vary {
-        let path = out.join(figure_name(&vary.key));
-        std::fs::write(&path, figure(study, vary, &results)?)
-            .with_context(|| format!("writing {}", path.display()))?;
-    }
-    std::fs::write(out.join("report.md"), report(study, &results, &costs))
-        .with_context(|| format!("writing {}", out.join("report.md").display()))?;
-    Ok(results)
-}
-
-fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
-    std::fs::write(path, serde_json::to_string_pretty(value)? + "\n")
-        .with_context(|| format!("writing {}", path.display()))
-}
-
-fn point_result(point: &Point, t: &TrialsOut) -> PointResult {
-    PointResult {
-        key: point.key.clone(),
-        modality: point.modality.to_string(),
-        level: point.level,
-        trials: t.tally.trials,
-        successes: t.tally.successes,
-        success_rate: t.tally.success_rate,
-        ci95: t.tally.ci95,
-        dir: point.dir.clone(),
-        decoded_messages: observer_sum(t, |o| o.released.len() as u64),
-        sensor_messages: observer_sum(t, |o| o.messages),
-        events: observer_sum(t, |o| o.events_received.unwrap_or(0)),
-    }
-}
-
-fn observer_sum(t: &TrialsOut, f: impl Fn(&crate::harness::trials::ObserverTrial) -> u64) -> u64 {
-    t.per_trial
-        .iter()
-        .flat_map(|r| r.observers.values())
-        .map(f)
-        .sum()
-}
-
-/// `report.md`: the study's definition and one table per modality.
-pub fn report(study: &StudyFile, results: &[PointResult], costs: &[PointCost]) -> String {
-    let mut s = format!("# Study: {}\n\n", study.name);
-    s.push_str(&format!(
-        "Broadcast {}; {}; {} trials per point, seed {}; criterion: every observer releases \
-         exactly the broadcast payloads, in order (`{}`); rectification `{}`. Varied, one at a \
-         time: {}.",
-        study.link.join(", "),
-        match (study.observers, study.viewpoint) {
-            (Some(n), _) => format!("{n} observers in the built-in formation"),
-            (_, Some(v)) => format!(
-                "one observer at azimuth {}°, elevation {}°, {} m",
-                v[0], v[1], v[2]
-            ),
-            _ => String::new(),
-        },
-        study.trials,
-        study.seed,
-        study.criterion,
-        study.rectify.as_deref().unwrap_or("pitched"),
-        study
-            .vary
-            .iter()
-            .map(|v| format!("`{}`", v.key))
-            .collect::<Vec<_>>()
-            .join(", "),
-    ));
-    if !study.fixed.is_empty() {
-        let fixed: Vec<String> = study
-            .fixed
-            .iter()
-            .map(|(k, v)| format!("`{k}` = {v}"))
-            .collect();
-        s.push_str(&format!(" Held: {}.", fixed.join(", ")));
-    }
-    s.push('\n');
-    for vary in &study.vary {
-        let key = &vary.key;
-        s.push_str(&format!(
-            "\n## {key}\n\n![success probability against {key}]({})\n",
-            figure_name(key)
-        ));
-        for m in &study.modalities {
-            let m = m.to_string();
-            s.push_str(&format!(
-                "\n### {m}\n\n| {key} | successes / trials | P(success) | 95 % CI (Wilson) |\n| ---: | ---: | ---: | :---: |\n"
-            ));
-            for r in results.iter().filter(|r| r.modality == m && &r.key == key) {
-                let (p, ci) = r.rate_cells();
-                s.push_str(&format!(
-                    "| {} | {} / {} | {p} | {ci} |\n",
-                    r.level, r.successes, r.trials
-                ));
-            }
-        }
-        if !costs.is_empty() {
-            s.push_str(&cost_table(key, results, costs));
-        }
-    }
-    s
-}
-
-/// Computation and sensor traffic per point: CPU time per trial and per decoded message (the
-/// machine's, all threads of the study process), sensor messages and events per second of sim
-/// time (each message covers 40 ms).
-fn cost_table(key: &str, results: &[PointResult], costs: &[PointCost]) -> String {
-    let mut s = format!(
-        "\n### Cost and sensor traffic\n\n| modality | {key} | core-s per trial | core-s per decoded \
-         message | messages/s | events/s |\n| --- | ---: | ---: | ---: | ---: | ---: |\n"
-    );
-    for (r, c) in results.iter().zip(costs).filter(|(r, _)| r.key == key) {
-        let sim_s = r.sensor_messages as f64 * 0.04;
-        let per = |n: u64| {
-            if n == 0 {
-                "—".to_owned()
-            } else {
-                format!("{:.3}", c.trials_cpu_s / n as f64)
-            }
-        };
-        let rate = |n: u64| {
-            if sim_s > 0.0 {
-                format!("{:.0}", n as f64 / sim_s)
-            } else {
-                "—".to_owned()
-            }
-        };
-        s.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} |\n",
-            r.modality,
-            r.level,
-            per(r.trials),
-            per(r.decoded_messages),
-            rate(r.sensor_messages),
-            if r.modality == "events" {
-                rate(r.events)
-            } else {
-                "—".to_owned()
-            },
-        ));
-    }
-    s
-}
-
 /// The figure of condition `key`: `success-<key>.svg`.
 pub fn figure_name(key: &str) -> String {
     format!("success-{key}.svg")
-}
-
-/// The success probability with its interval against the levels of `vary`, one series per
-/// modality.
-fn figure(study: &StudyFile, vary: &Vary, results: &[PointResult]) -> Result<String> {
-    use plotters::prelude::*;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (720, 420)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
-        // Levels are often geometric (0, 0.0003, 0.001, …): one evenly spaced slot per level,
-        // labelled with its value, keeps every point readable.
-        let levels = &vary.levels;
-        let slot = |level: f64| levels.iter().position(|&l| l == level).unwrap_or(0) as f64;
-        let n = levels.len() as f64;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!("{}: P(success) ± 95 % CI against {}", study.name, vary.key),
-                ("sans-serif", 18),
-            )
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(50)
-            .build_cartesian_2d(-0.5..n - 0.5, 0.0..1.05)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        chart
-            .configure_mesh()
-            .x_labels(levels.len())
-            .x_label_formatter(&|x| {
-                let k = x.round();
-                levels
-                    .get(k as usize)
-                    .filter(|_| (x - k).abs() < 1e-6 && k >= 0.0)
-                    .map_or(String::new(), |l| format!("{l}"))
-            })
-            .x_desc(vary.key.as_str())
-            .y_desc("P(success)")
-            .draw()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        for (k, m) in study.modalities.iter().enumerate() {
-            let colour = Palette99::pick(k).to_rgba();
-            let m = m.to_string();
-            let pts: Vec<&PointResult> = results
-                .iter()
-                .filter(|r| r.modality == m && r.key == vary.key)
-                .collect();
-            chart
-                .draw_series(LineSeries::new(
-                    pts.iter()
-                        .filter_map(|r| r.success_rate.map(|p| (slot(r.level), p))),
-                    colour.stroke_width(2),
-                ))
-                .map_err(|e| anyhow::anyhow!("{e}"))?
-                .label(m.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
-                });
-            chart
-                .draw_series(pts.iter().map(|r| {
-                    PathElement::new(
-                        vec![(slot(r.level), r.ci95[0]), (slot(r.level), r.ci95[1])],
-                        colour.stroke_width(1),
-                    )
-                }))
-                .map_err(|e| anyhow::anyhow!("{e}"))?;
-        }
-        chart
-            .configure_series_labels()
-            .border_style(BLACK)
-            .background_style(WHITE)
-            .draw()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
-    }
-    Ok(svg)
 }
 
 #[cfg(test)]

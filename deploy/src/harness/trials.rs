@@ -8,7 +8,8 @@
 //! (no wall-clock value), so the same seed gives identical records whatever `--jobs`.
 
 pub use crate::harness::trials_out::{
-    ObserverTrial, PlacementOut, TokenTiming, TrialRecord, TrialsCost, TrialsOut, TrialsSummary,
+    ObserverTrial, PlacementOut, TokenTiming, TrialRecord, TrialsCost, TrialsHeader, TrialsOut,
+    TrialsSummary,
 };
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -26,7 +27,7 @@ use rand_distr::{Distribution, Normal};
 use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
 use crate::harness::link::{ObserverOut, bits6, broadcast_schedule, observer_out};
-use crate::harness::pool::{Tally, run_pool};
+use crate::harness::pool::run_pool_on;
 use crate::harness::rendered_flight::{FlightSpec, Gusts, RenderedFlight, fly_rendered};
 
 /// One condition and how many times to try it.
@@ -380,11 +381,6 @@ fn run_trial(
     }))
 }
 
-fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
-    let (sum, n) = values.fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
-    (n > 0).then(|| sum / n as f64)
-}
-
 /// The criterion printed before the first trial and recorded in `trials.json`.
 pub fn criterion(opts: &TrialsOptions) -> String {
     format!(
@@ -394,16 +390,32 @@ pub fn criterion(opts: &TrialsOptions) -> String {
     )
 }
 
-/// Runs every trial (up to `opts.jobs` at once), calling `progress(done, successes)` after each.
-/// When `stop` is raised, running trials are abandoned and no more start; the finished ones are
-/// kept and the output is marked interrupted.
+/// What [`run_trials`] did: the condition's header, the trials it finished (sorted by index)
+/// and what they cost.
+#[derive(Debug)]
+pub struct TrialsRun {
+    pub header: TrialsHeader,
+    pub records: Vec<TrialRecord>,
+    pub cost: TrialsCost,
+}
+
+/// Runs the trials `indices` (up to `opts.jobs` at once), calling `on_record` as each finishes
+/// (from the thread that ran it: this is where a record is written) and then
+/// `progress(done, successes)`. When `stop` is raised, running trials are abandoned and no
+/// more start; the finished ones are returned. With no indices it only flies what the header
+/// needs (the reference releases).
 pub fn run_trials(
     opts: &TrialsOptions,
     flown: Option<&RenderedFlight>,
+    indices: &[u64],
     stop: &AtomicBool,
+    on_record: impl Fn(&TrialRecord) -> Result<()> + Sync,
     progress: impl Fn(u64, u64) + Sync,
-) -> Result<(TrialsOut, TrialsCost)> {
+) -> Result<TrialsRun> {
     opts.check()?;
+    if let Some(&bad) = indices.iter().find(|&&i| i >= opts.trials) {
+        bail!("trial {bad} is outside 0..{}", opts.trials);
+    }
     let started = std::time::Instant::now();
     let own;
     let shared = match flown {
@@ -435,25 +447,24 @@ pub fn run_trials(
             .unwrap_or_default(),
     };
     let trials_started = std::time::Instant::now();
-    let per_trial = run_pool(
-        opts.trials,
+    let records = run_pool_on(
+        indices,
         opts.jobs,
         stop,
-        |index| run_trial(opts, shared, index, stop),
+        |index| {
+            let record = run_trial(opts, shared, index, stop)?;
+            if let Some(r) = &record {
+                on_record(r)?;
+            }
+            Ok(record)
+        },
         progress,
     )?;
-    let tally = Tally::of(&per_trial, opts.trials);
-    let all_observers = || per_trial.iter().flat_map(|r| r.observers.values());
-    let summary = TrialsSummary {
-        mean_token_error_ms: mean(all_observers().filter_map(|o| o.token_timing.mean_abs_error_ms)),
-        mean_latency_s: mean(all_observers().flat_map(|o| o.latency_s.iter().copied())),
-        messages_lost: all_observers().map(|o| o.messages_lost).sum(),
-    };
     let cost = TrialsCost {
         flights: if shared.is_some() {
             u64::from(flown.is_none())
         } else {
-            tally.trials + 1
+            records.len() as u64 + 1
         },
         fly_and_render_s: fly_s,
         trials_s: trials_started.elapsed().as_secs_f64(),
@@ -462,41 +473,58 @@ pub fn run_trials(
             .map_or(0.0, |f| f.stored_bytes() as f64 / 1e6),
     };
     let names: Vec<String> = (0..opts.formation.len()).map(observer_name).collect();
-    Ok((
-        TrialsOut {
-            criterion: criterion(opts),
-            link: opts.want(),
-            observers: opts.formation.len(),
-            placements: names
-                .iter()
-                .zip(opts.formation.placements())
-                .map(|(n, p)| {
-                    let placement = PlacementOut {
-                        home_m: p.home_m,
-                        yaw_deg: p.yaw_rad.to_degrees(),
-                        camera_pitch_deg: p.pitch_rad.to_degrees(),
-                    };
-                    (n.clone(), placement)
-                })
-                .collect(),
-            modality: opts.modality.to_string(),
-            perturb: opts.perturbation.recorded(),
-            flight: if shared.is_some() {
-                "shared"
-            } else {
-                "per trial"
-            }
-            .into(),
-            seed: opts.seed,
-            tally,
-            summary,
-            ideal_released: names
-                .iter()
-                .cloned()
-                .zip(nominal_ideal.iter().map(|o| o.payloads.clone()))
-                .collect(),
-            per_trial,
-        },
+    let header = TrialsHeader {
+        criterion: criterion(opts),
+        link: opts.want(),
+        observers: opts.formation.len(),
+        placements: names
+            .iter()
+            .zip(opts.formation.placements())
+            .map(|(n, p)| {
+                let placement = PlacementOut {
+                    home_m: p.home_m,
+                    yaw_deg: p.yaw_rad.to_degrees(),
+                    camera_pitch_deg: p.pitch_rad.to_degrees(),
+                };
+                (n.clone(), placement)
+            })
+            .collect(),
+        modality: opts.modality.to_string(),
+        perturb: opts.perturbation.recorded(),
+        flight: if shared.is_some() {
+            "shared"
+        } else {
+            "per trial"
+        }
+        .into(),
+        seed: opts.seed,
+        ideal_released: names
+            .iter()
+            .cloned()
+            .zip(nominal_ideal.iter().map(|o| o.payloads.clone()))
+            .collect(),
+    };
+    Ok(TrialsRun {
+        header,
+        records,
         cost,
-    ))
+    })
+}
+
+/// A fingerprint of everything that decides this condition's trials (not `jobs` nor the render
+/// path, which give the same bytes): a run directory records it, and a rerun into the same
+/// directory must match it.
+pub fn definition(opts: &TrialsOptions) -> String {
+    format!(
+        "link {:?}; placements {:?}; modality {}; trials {}; seed {}; perturb {:?}; \
+         rectification {:?}; acquisition {:?}",
+        opts.want(),
+        opts.formation.placements(),
+        opts.modality,
+        opts.trials,
+        opts.seed,
+        opts.perturbation.recorded(),
+        opts.rectification,
+        opts.acquisition
+    )
 }

@@ -3,12 +3,12 @@
 
 use std::collections::BTreeMap;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::harness::pool::{Outcome, Tally};
 
 /// How one observer's token stamps compare with the ideal receiver's on the same flight.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct TokenTiming {
     /// Ideal tokens matched by a token of the same kind within ±1 s.
     pub matched: usize,
@@ -21,7 +21,7 @@ pub struct TokenTiming {
 }
 
 /// One observer in one trial.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct ObserverTrial {
     /// Released payloads, six-bit strings, in release order.
     pub released: Vec<String>,
@@ -47,7 +47,7 @@ pub struct ObserverTrial {
 }
 
 /// One trial.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct TrialRecord {
     pub index: u64,
     pub seed: u64,
@@ -65,7 +65,7 @@ impl Outcome for TrialRecord {
 }
 
 /// Means over the finished trials.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct TrialsSummary {
     pub mean_token_error_ms: Option<f64>,
     pub mean_latency_s: Option<f64>,
@@ -73,7 +73,7 @@ pub struct TrialsSummary {
 }
 
 /// What `trials.json` holds (no wall-clock value: same seed, same file).
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct TrialsOut {
     pub criterion: String,
     pub link: Vec<String>,
@@ -93,8 +93,70 @@ pub struct TrialsOut {
     pub per_trial: Vec<TrialRecord>,
 }
 
+/// Everything `trials.json` holds besides the tally and the trials: the condition and the
+/// reference, fixed once the flight is flown (`point.json` beside the per-trial records).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TrialsHeader {
+    pub criterion: String,
+    pub link: Vec<String>,
+    pub observers: usize,
+    pub placements: BTreeMap<String, PlacementOut>,
+    pub modality: String,
+    pub perturb: BTreeMap<String, f64>,
+    pub flight: String,
+    pub seed: u64,
+    pub ideal_released: BTreeMap<String, Vec<String>>,
+}
+
+fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
+    let (sum, n) = values.fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    (n > 0).then(|| sum / n as f64)
+}
+
+impl TrialsOut {
+    /// `trials.json` of `requested` trials from its header and the finished records (sorted by
+    /// index here, so the file does not depend on which process or thread ran which trial).
+    pub fn assemble(header: TrialsHeader, requested: u64, mut per_trial: Vec<TrialRecord>) -> Self {
+        per_trial.sort_by_key(|r| r.index);
+        let tally = Tally::of(&per_trial, requested);
+        let all_observers = || per_trial.iter().flat_map(|r| r.observers.values());
+        let summary = TrialsSummary {
+            mean_token_error_ms: mean(
+                all_observers().filter_map(|o| o.token_timing.mean_abs_error_ms),
+            ),
+            mean_latency_s: mean(all_observers().flat_map(|o| o.latency_s.iter().copied())),
+            messages_lost: all_observers().map(|o| o.messages_lost).sum(),
+        };
+        let TrialsHeader {
+            criterion,
+            link,
+            observers,
+            placements,
+            modality,
+            perturb,
+            flight,
+            seed,
+            ideal_released,
+        } = header;
+        Self {
+            criterion,
+            link,
+            observers,
+            placements,
+            modality,
+            perturb,
+            flight,
+            seed,
+            tally,
+            summary,
+            ideal_released,
+            per_trial,
+        }
+    }
+}
+
 /// An observer's placement as `trials.json` records it.
-#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct PlacementOut {
     pub home_m: [f64; 3],
     pub yaw_deg: f64,

@@ -1,0 +1,303 @@
+//! The results of a study or trials run, made from per-trial records: of one directory (a run in
+//! one process, finished or interrupted) or of several (`waggle study merge`: the shards of one
+//! run). Every file is a function of the records and the definition alone — records sorted by
+//! index, no wall-clock value — so merging shards gives the bytes a single process gives.
+//! Costs are summed from each directory's `run-cost.json` into `cost.json` and `cost.md`.
+//!
+//! Refused: directories of different runs, a trial recorded differently twice, a damaged record,
+//! records of different binaries; unless asked to accept them, records of different CPU models
+//! or renderers and missing trials (named, with the shard that should hold them).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use proto::RenderPath;
+use serde::Serialize;
+
+use crate::harness::records::{Provenance, scan, write_atomic, write_json};
+use crate::harness::run_files::{RunCost, RunKind, RunManifest};
+use crate::harness::shard::Shard;
+use crate::harness::study::{Point, PointResult, StudyFile, figure_name};
+use crate::harness::study_report::{cost_md, figure, report};
+use crate::harness::study_run::header;
+use crate::harness::trials::{ObserverTrial, TrialRecord, TrialsHeader, TrialsOut};
+
+/// What a merge accepts beyond a complete run of one binary on one kind of host.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MergeOptions {
+    /// Write results from the trials recorded so far (an interrupted run); otherwise every trial
+    /// must be recorded.
+    pub partial: bool,
+    /// Accept records made on different CPU models or renderers.
+    pub mixed_hosts: bool,
+}
+
+/// What a merge made.
+#[derive(Debug)]
+pub enum Merged {
+    Study(Vec<PointResult>),
+    Trials(Box<TrialsOut>),
+}
+
+/// Who made a study's records (`provenance.json`).
+#[derive(Debug, Default, Serialize)]
+struct Makers {
+    versions: BTreeSet<String>,
+    cpus: BTreeSet<String>,
+    renderers: BTreeSet<String>,
+}
+
+/// The directories' common manifest, checked: one run, each shard once.
+fn common_manifest(sources: &[PathBuf]) -> Result<RunManifest> {
+    let mut first: Option<(RunManifest, &Path)> = None;
+    let mut shards = BTreeMap::new();
+    for dir in sources {
+        let m = RunManifest::read(dir)
+            .with_context(|| format!("{} is not a study or trials directory", dir.display()))?;
+        if let Some(s) = &m.shard
+            && let Some(other) = shards.insert(s.clone(), dir)
+        {
+            bail!(
+                "{} and {} both hold shard {s}",
+                other.display(),
+                dir.display()
+            );
+        }
+        match &first {
+            None => first = Some((m, dir)),
+            Some((f, fdir)) => {
+                let same_run = f.kind == m.kind
+                    && f.definition == m.definition
+                    && f.requested == m.requested
+                    && f.shard.is_some() == m.shard.is_some();
+                if !same_run {
+                    bail!(
+                        "{} and {} are not parts of the same run (their run.json differ)",
+                        fdir.display(),
+                        dir.display()
+                    );
+                }
+            }
+        }
+    }
+    let (m, _) = first.context("nothing to merge: give at least one directory")?;
+    Ok(m)
+}
+
+/// The shards of `n` that no source holds, as `K/N` (for a readable refusal).
+fn missing_shards(sources: &[PathBuf]) -> String {
+    let held: Vec<Shard> = sources
+        .iter()
+        .filter_map(|d| RunManifest::read(d).ok()?.shard?.parse().ok())
+        .collect();
+    let Some(n) = held.first().map(|s| s.n) else {
+        return String::new();
+    };
+    let missing: Vec<String> = (1..=n)
+        .filter(|k| !held.iter().any(|s| s.k == *k))
+        .map(|k| format!("{k}/{n}"))
+        .collect();
+    if missing.is_empty() {
+        String::new()
+    } else {
+        format!("; no directory given holds shard {}", missing.join(", "))
+    }
+}
+
+/// One point's header and records over every source.
+fn gather(
+    sources: &[PathBuf],
+    rel: &str,
+    requested: u64,
+    makers: &mut Makers,
+) -> Result<(Option<TrialsHeader>, Vec<TrialRecord>)> {
+    let mut head: Option<TrialsHeader> = None;
+    let mut records: BTreeMap<u64, TrialRecord> = BTreeMap::new();
+    for src in sources {
+        let dir = src.join(rel);
+        if let Some(h) = header(&dir) {
+            if head.as_ref().is_some_and(|g| *g != h) {
+                bail!(
+                    "{}: this point's header differs between the directories",
+                    dir.display()
+                );
+            }
+            head = Some(h);
+        }
+        let found = scan(&dir, rel, requested)?;
+        if let Some((path, why)) = found.damaged.first() {
+            bail!(
+                "damaged record {}: {why} (rerun that directory's run to repair it)",
+                path.display()
+            );
+        }
+        for (i, (r, p)) in found.records {
+            let Provenance {
+                version,
+                cpu,
+                renderer,
+            } = p;
+            makers.versions.insert(version);
+            makers.cpus.insert(cpu);
+            makers.renderers.insert(renderer);
+            if let Some(was) = records.insert(i, r.clone())
+                && was != r
+            {
+                bail!(
+                    "trial {i} of {rel} is recorded twice with different results ({})",
+                    dir.display()
+                );
+            }
+        }
+    }
+    Ok((head, records.into_values().collect()))
+}
+
+fn check_makers(makers: &Makers, options: MergeOptions) -> Result<()> {
+    if makers.versions.len() > 1 {
+        bail!(
+            "the records were made by different waggle binaries ({}): results of different \
+             versions are not merged",
+            makers
+                .versions
+                .iter()
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(" | ")
+        );
+    }
+    if !options.mixed_hosts && (makers.cpus.len() > 1 || makers.renderers.len() > 1) {
+        bail!(
+            "the records were made on different CPU models ({}) or renderers ({}); rendering may \
+             differ between them, so the result may not equal a run on one machine kind \
+             (--allow-mixed-hosts merges anyway)",
+            makers.cpus.iter().cloned().collect::<Vec<_>>().join(" | "),
+            makers
+                .renderers
+                .iter()
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(" | ")
+        );
+    }
+    Ok(())
+}
+
+/// The run's costs: every source's `run-cost.json`, summed.
+fn costs(sources: &[PathBuf]) -> Result<RunCost> {
+    let mut total = RunCost::default();
+    for src in sources {
+        total.add(&RunCost::read(src)?);
+    }
+    Ok(total)
+}
+
+/// Writes the results of the run(s) in `sources` into `out` (which may be one of them).
+pub fn merge(sources: &[PathBuf], out: &Path, options: MergeOptions) -> Result<Merged> {
+    let manifest = common_manifest(sources)?;
+    if !sources.iter().any(|s| s == out)
+        && out.join(crate::harness::records::MANIFEST_FILE).exists()
+    {
+        bail!(
+            "{} is a run directory that is not among those merged: choose another --out",
+            out.display()
+        );
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mut makers = Makers::default();
+    let cost = costs(sources)?;
+    let incomplete = |what: &str, have: usize| -> Result<()> {
+        if !options.partial && have as u64 != manifest.requested {
+            bail!(
+                "{what}: {have} of {} trials recorded{}",
+                manifest.requested,
+                missing_shards(sources)
+            );
+        }
+        Ok(())
+    };
+    match manifest.kind {
+        RunKind::Trials => {
+            let (head, records) = gather(sources, ".", manifest.requested, &mut makers)?;
+            incomplete("the trials", records.len())?;
+            check_makers(&makers, options)?;
+            let head = head.context("no directory holds the trials' header (point.json)")?;
+            let trials = TrialsOut::assemble(head, manifest.requested, records);
+            write_json(&out.join("trials.json"), &trials)?;
+            let point = cost.points.get(".").copied().unwrap_or_default();
+            write_json(&out.join("cost.json"), &point)?;
+            write_json(&out.join("provenance.json"), &makers)?;
+            Ok(Merged::Trials(Box::new(trials)))
+        }
+        RunKind::Study => {
+            let study: StudyFile = toml::from_str(&manifest.definition)
+                .context("run.json: the study's definition does not parse")?;
+            let points = study.points(RenderPath::default(), 1)?;
+            let mut results = Vec::new();
+            for point in &points {
+                let (head, records) = gather(sources, &point.dir, manifest.requested, &mut makers)?;
+                incomplete(&format!("point {}", point.dir), records.len())?;
+                let Some(head) = head else {
+                    continue; // an interrupted run that never reached this point
+                };
+                let trials = TrialsOut::assemble(head, manifest.requested, records);
+                let dir = out.join(&point.dir);
+                write_json(&dir.join("trials.json"), &trials)?;
+                let point_cost = cost.points.get(&point.dir).copied().unwrap_or_default();
+                write_json(&dir.join("cost.json"), &point_cost)?;
+                results.push(point_result(point, &trials));
+            }
+            check_makers(&makers, options)?;
+            write_study(&study, &results, out, &cost)?;
+            write_json(&out.join("provenance.json"), &makers)?;
+            Ok(Merged::Study(results))
+        }
+    }
+}
+
+/// `study.json`, one figure per condition, `report.md`, `cost.json` and `cost.md`.
+fn write_study(
+    study: &StudyFile,
+    results: &[PointResult],
+    out: &Path,
+    cost: &RunCost,
+) -> Result<()> {
+    write_json(&out.join("study.json"), &results)?;
+    for vary in &study.vary {
+        write_atomic(
+            &out.join(figure_name(&vary.key)),
+            figure(study, vary, results)?.as_bytes(),
+        )?;
+    }
+    write_atomic(&out.join("report.md"), report(study, results).as_bytes())?;
+    write_json(&out.join("cost.json"), cost)?;
+    write_atomic(
+        &out.join("cost.md"),
+        cost_md(study, results, cost).as_bytes(),
+    )
+}
+
+fn point_result(point: &Point, t: &TrialsOut) -> PointResult {
+    PointResult {
+        key: point.key.clone(),
+        modality: point.modality.to_string(),
+        level: point.level,
+        trials: t.tally.trials,
+        successes: t.tally.successes,
+        success_rate: t.tally.success_rate,
+        ci95: t.tally.ci95,
+        dir: point.dir.clone(),
+        decoded_messages: observer_sum(t, |o| o.released.len() as u64),
+        sensor_messages: observer_sum(t, |o| o.messages),
+        events: observer_sum(t, |o| o.events_received.unwrap_or(0)),
+    }
+}
+
+fn observer_sum(t: &TrialsOut, f: impl Fn(&ObserverTrial) -> u64) -> u64 {
+    t.per_trial
+        .iter()
+        .flat_map(|r| r.observers.values())
+        .map(f)
+        .sum()
+}

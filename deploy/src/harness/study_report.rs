@@ -1,0 +1,204 @@
+//! A link study's `report.md` (success per level, per condition and modality), its figures
+//! (`success-<key>.svg`) and `cost.md` (CPU time per trial and per decoded message, sensor
+//! traffic). `report.md` holds nothing measured in wall-clock or CPU time, so it is the same bytes
+//! however the study was run; the costs are in `cost.md` and `cost.json`.
+
+use anyhow::Result;
+
+use crate::harness::run_files::RunCost;
+use crate::harness::study::{PointResult, StudyFile, Vary, figure_name};
+
+/// `report.md`: the study's definition and one table per modality.
+#[must_use]
+pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
+    let mut s = format!("# Study: {}\n\n", study.name);
+    s.push_str(&format!(
+        "Broadcast {}; {}; {} trials per point, seed {}; criterion: every observer releases \
+         exactly the broadcast payloads, in order (`{}`); rectification `{}`. Varied, one at a \
+         time: {}.",
+        study.link.join(", "),
+        match (study.observers, study.viewpoint) {
+            (Some(n), _) => format!("{n} observers in the built-in formation"),
+            (_, Some(v)) => format!(
+                "one observer at azimuth {}°, elevation {}°, {} m",
+                v[0], v[1], v[2]
+            ),
+            _ => String::new(),
+        },
+        study.trials,
+        study.seed,
+        study.criterion,
+        study.rectify.as_deref().unwrap_or("pitched"),
+        study
+            .vary
+            .iter()
+            .map(|v| format!("`{}`", v.key))
+            .collect::<Vec<_>>()
+            .join(", "),
+    ));
+    if !study.fixed.is_empty() {
+        let fixed: Vec<String> = study
+            .fixed
+            .iter()
+            .map(|(k, v)| format!("`{k}` = {v}"))
+            .collect();
+        s.push_str(&format!(" Held: {}.", fixed.join(", ")));
+    }
+    s.push('\n');
+    for vary in &study.vary {
+        let key = &vary.key;
+        s.push_str(&format!(
+            "\n## {key}\n\n![success probability against {key}]({})\n",
+            figure_name(key)
+        ));
+        for m in &study.modalities {
+            let m = m.to_string();
+            s.push_str(&format!(
+                "\n### {m}\n\n| {key} | successes / trials | P(success) | 95 % CI (Wilson) |\n| ---: | ---: | ---: | :---: |\n"
+            ));
+            for r in results.iter().filter(|r| r.modality == m && &r.key == key) {
+                let (p, ci) = r.rate_cells();
+                s.push_str(&format!(
+                    "| {} | {} / {} | {p} | {ci} |\n",
+                    r.level, r.successes, r.trials
+                ));
+            }
+        }
+    }
+    s
+}
+
+/// `cost.md`: per condition, computation and sensor traffic per point — CPU time per trial run
+/// and per decoded message (the machine's, all threads of the processes that ran it, summed over
+/// shards and resumed runs), sensor messages and events per second of sim time (each message
+/// covers 40 ms).
+#[must_use]
+pub fn cost_md(study: &StudyFile, results: &[PointResult], costs: &RunCost) -> String {
+    let mut s = format!(
+        "# Cost: {}\n\n{} run(s), {:.0} s wall and {:.0} core-s in total ({} trials run; {} \
+         shared flight(s) flown and rendered in {:.0} s).\n",
+        study.name,
+        costs.runs,
+        costs.wall_s,
+        costs.cpu_s,
+        costs.trials_run,
+        costs.shared_flights,
+        costs.shared_fly_s
+    );
+    for vary in &study.vary {
+        s.push_str(&cost_table(&vary.key, results, costs));
+    }
+    s
+}
+
+fn cost_table(key: &str, results: &[PointResult], costs: &RunCost) -> String {
+    let mut s = format!(
+        "\n## {key}\n\n| modality | {key} | core-s per trial | core-s per decoded \
+         message | messages/s | events/s |\n| --- | ---: | ---: | ---: | ---: | ---: |\n"
+    );
+    for r in results.iter().filter(|r| r.key == key) {
+        let c = costs.points.get(&r.dir).copied().unwrap_or_default();
+        let per_trial = (c.trials_run > 0).then(|| c.cpu_s / c.trials_run as f64);
+        let per = |n: u64| match per_trial {
+            Some(t) if n > 0 => format!("{:.3}", t * r.trials as f64 / n as f64),
+            _ => "—".to_owned(),
+        };
+        let sim_s = r.sensor_messages as f64 * 0.04;
+        let rate = |n: u64| {
+            if sim_s > 0.0 {
+                format!("{:.0}", n as f64 / sim_s)
+            } else {
+                "—".to_owned()
+            }
+        };
+        s.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} |\n",
+            r.modality,
+            r.level,
+            per(r.trials),
+            per(r.decoded_messages),
+            rate(r.sensor_messages),
+            if r.modality == "events" {
+                rate(r.events)
+            } else {
+                "—".to_owned()
+            },
+        ));
+    }
+    s
+}
+
+/// The success probability with its interval against the levels of `vary`, one series per
+/// modality.
+pub fn figure(study: &StudyFile, vary: &Vary, results: &[PointResult]) -> Result<String> {
+    use plotters::prelude::*;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (720, 420)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
+        // Levels are often geometric (0, 0.0003, 0.001, …): one evenly spaced slot per level,
+        // labelled with its value, keeps every point readable.
+        let levels = &vary.levels;
+        let slot = |level: f64| levels.iter().position(|&l| l == level).unwrap_or(0) as f64;
+        let n = levels.len() as f64;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!("{}: P(success) ± 95 % CI against {}", study.name, vary.key),
+                ("sans-serif", 18),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(50)
+            .build_cartesian_2d(-0.5..n - 0.5, 0.0..1.05)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        chart
+            .configure_mesh()
+            .x_labels(levels.len())
+            .x_label_formatter(&|x| {
+                let k = x.round();
+                levels
+                    .get(k as usize)
+                    .filter(|_| (x - k).abs() < 1e-6 && k >= 0.0)
+                    .map_or(String::new(), |l| format!("{l}"))
+            })
+            .x_desc(vary.key.as_str())
+            .y_desc("P(success)")
+            .draw()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        for (k, m) in study.modalities.iter().enumerate() {
+            let colour = Palette99::pick(k).to_rgba();
+            let m = m.to_string();
+            let pts: Vec<&PointResult> = results
+                .iter()
+                .filter(|r| r.modality == m && r.key == vary.key)
+                .collect();
+            chart
+                .draw_series(LineSeries::new(
+                    pts.iter()
+                        .filter_map(|r| r.success_rate.map(|p| (slot(r.level), p))),
+                    colour.stroke_width(2),
+                ))
+                .map_err(|e| anyhow::anyhow!("{e}"))?
+                .label(m.clone())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
+                });
+            chart
+                .draw_series(pts.iter().map(|r| {
+                    PathElement::new(
+                        vec![(slot(r.level), r.ci95[0]), (slot(r.level), r.ci95[1])],
+                        colour.stroke_width(1),
+                    )
+                }))
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
+        }
+        chart
+            .configure_series_labels()
+            .border_style(BLACK)
+            .background_style(WHITE)
+            .draw()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
+    Ok(svg)
+}
