@@ -5,7 +5,11 @@
 #   deploy/test.sh            default suite (≈ 26 min on 2 cores, build included; run as root:
 #                             the multi-host tests make network namespaces)
 #   deploy/test.sh --full     also the long `#[ignore]`d tests: whole missions as processes with
-#                             sensors, the frozen-behaviour runs of nominal-3 and dropout-o2 (≈ 1 h)
+#                             sensors, the frozen-behaviour runs of nominal-3 and dropout-o2, a
+#                             study in shards killed and resumed, and a study as a job array on a
+#                             real Slurm (tests/tests/slurm.rs: installs slurm-wlm and munge once,
+#                             starts its own slurmctld, slurmd and munged from a generated
+#                             configuration in a temporary directory, removes it after) (≈ 1 h)
 #   deploy/test.sh ARGS…      any other arguments go to `cargo test --release` instead of
 #                             `--workspace` (e.g. `-p proto`, or `-p waggle-tests --test run`)
 #
