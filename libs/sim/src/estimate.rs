@@ -45,7 +45,23 @@ impl Default for EstimateConfig {
     }
 }
 
+/// Velocity-error σ per metre of position-error σ, 1/s: the default's 5 cm/s at 2 cm, so that
+/// one knob (`flight.estimate_sigma_m`) scales the whole estimate's quality.
+pub const VELOCITY_PER_POSITION_SIGMA_PS: f64 = 2.5;
+
 impl EstimateConfig {
+    /// The perturbation terms' estimate: position σ `position_sigma_m`, velocity σ
+    /// [`VELOCITY_PER_POSITION_SIGMA_PS`] times it, the default correlation times, `latency_ns`.
+    pub fn from_terms(position_sigma_m: f64, latency_ns: u64, seed: u64) -> Self {
+        Self {
+            position_sigma_m,
+            velocity_sigma_mps: VELOCITY_PER_POSITION_SIGMA_PS * position_sigma_m,
+            latency_ns,
+            seed,
+            ..Self::default()
+        }
+    }
+
     /// A perfect estimate: no noise, no latency.
     pub fn perfect() -> Self {
         Self {
@@ -115,6 +131,11 @@ impl Estimator {
             noise,
             noisy: config.position_sigma_m > 0.0 || config.velocity_sigma_mps > 0.0,
         }
+    }
+
+    /// Forgets the delay line (the noise processes continue).
+    pub fn clear(&mut self) {
+        self.history.clear();
     }
 
     /// Latency in whole steps.

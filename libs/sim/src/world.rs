@@ -420,6 +420,11 @@ impl World {
             .copy_from_slice(&[pos_m[0], pos_m[1], pos_m[2], c, 0.0, 0.0, s]);
         self.data.qvel_mut()[ids.qvel..ids.qvel + 6].fill(0.0);
         self.references[i] = Reference::hover(pos_m, yaw_rad);
+        // A teleported drone's cascade forgets the integrators and the estimate history of the
+        // place it left.
+        if let Some(c) = self.cascades.get_mut(i) {
+            c.reset();
+        }
         self.data.forward();
     }
 }

@@ -143,6 +143,42 @@ fn the_cascade_holds_a_steady_wind_with_zero_steady_error() {
     }
 }
 
+/// Maxima over 2 s after commanding a jump of `offset_m` with feed-forward `acc_mps2`: total
+/// thrust, any motor's thrust, tilt setpoint and body tilt. Asserts every motor stays in range.
+fn limits_run(config: CascadeConfig, offset_m: [f64; 3], acc_mps2: [f64; 3]) -> [f64; 4] {
+    let mut world = World::new(1).expect("scene");
+    world.set_controller(ControllerKind::Cascade(config));
+    world.step_until(SECOND_NS);
+    let p = world.reference(0).kin.pos_m;
+    let mut far = Reference::hover(
+        [p[0] + offset_m[0], p[1] + offset_m[1], p[2] + offset_m[2]],
+        0.0,
+    );
+    far.kin.acc_mps2 = acc_mps2;
+    world.set_reference(0, far);
+    let mut max = [0.0f64; 4];
+    while world.time_ns() < 3 * SECOND_NS {
+        world.step();
+        let c = world.cascade_command(0).expect("cascade");
+        let motor_max = config.limits.max_motor_thrust_n;
+        assert!(
+            c.motor_thrust_n
+                .iter()
+                .all(|&m| (0.0..=motor_max).contains(&m)),
+            "{c:?}"
+        );
+        let motor = c.motor_thrust_n.iter().copied().fold(0.0, f64::max);
+        let body = tilt_rad(world.state(0).world_from_body);
+        for (m, v) in max
+            .iter_mut()
+            .zip([c.thrust_n, motor, c.tilt_setpoint_rad, body])
+        {
+            *m = m.max(v);
+        }
+    }
+    max
+}
+
 #[test]
 fn the_cascade_respects_its_thrust_and_tilt_limits() {
     let config = CascadeConfig {
@@ -151,45 +187,28 @@ fn the_cascade_respects_its_thrust_and_tilt_limits() {
     };
     let max_motor = config.limits.max_motor_thrust_n;
     let max_tilt = config.limits.max_tilt_rad;
-    let mut world = World::new(1).expect("scene");
-    world.set_controller(ControllerKind::Cascade(config));
-    world.step_until(SECOND_NS);
-    let p = world.reference(0).kin.pos_m;
-    // A 4 m jump sideways and up, with a 2 m/s² feed-forward demand on top.
-    let mut far = Reference::hover([p[0] + 4.0, p[1] - 1.0, p[2] + 3.0], 0.0);
-    far.kin.acc_mps2 = [6.0, 0.0, 8.0];
-    world.set_reference(0, far);
-    let (mut max_thrust, mut max_tilt_sp, mut max_tilt_body) = (0.0f64, 0.0f64, 0.0f64);
-    while world.time_ns() < 3 * SECOND_NS {
-        world.step();
-        let c = world.cascade_command(0).expect("cascade");
-        assert!(
-            c.motor_thrust_n
-                .iter()
-                .all(|&m| (0.0..=max_motor).contains(&m)),
-            "{c:?}"
-        );
-        max_thrust = max_thrust.max(c.thrust_n);
-        max_tilt_sp = max_tilt_sp.max(c.tilt_setpoint_rad);
-        max_tilt_body = max_tilt_body.max(tilt_rad(world.state(0).world_from_body));
-    }
+    // Straight up with 2 g demanded: thrust saturates.
+    let [thrust, motor, _, _] = limits_run(config, [0.0, 0.0, 3.0], [0.0, 0.0, 20.0]);
     println!(
-        "max thrust {:.4} N (limit {:.4}), max tilt setpoint {:.2}°, max body tilt {:.2}°",
-        max_thrust,
-        4.0 * max_motor,
-        max_tilt_sp.to_degrees(),
-        max_tilt_body.to_degrees()
+        "climb: max thrust {thrust:.4} N (limit {:.4}), max motor {motor:.4} N",
+        4.0 * max_motor
     );
-    assert!(max_thrust <= 4.0 * max_motor + 1e-12);
-    assert!(
-        max_thrust > 0.99 * 4.0 * max_motor,
-        "the thrust limit was reached"
+    assert!(thrust <= 4.0 * max_motor + 1e-12);
+    assert!(thrust > 0.95 * 4.0 * max_motor, "thrust near its limit");
+    assert_eq!(motor, max_motor, "a motor saturated");
+    // 4 m sideways with 6 m/s² demanded: tilt saturates.
+    let [_, _, tilt_sp, tilt_body] = limits_run(config, [4.0, -1.0, 0.0], [6.0, 0.0, 0.0]);
+    println!(
+        "dash: max tilt setpoint {:.3}°, max body tilt {:.3}° (limit {:.1}°)",
+        tilt_sp.to_degrees(),
+        tilt_body.to_degrees(),
+        max_tilt.to_degrees()
     );
-    assert!(max_tilt_sp <= max_tilt + 1e-12);
-    assert!(max_tilt_sp > max_tilt - 1e-6, "the tilt limit was reached");
+    assert!(tilt_sp <= max_tilt + 1e-12);
+    assert!(tilt_sp > max_tilt - 1e-6, "the tilt limit was reached");
     assert!(
-        max_tilt_body < max_tilt + 3f64.to_radians(),
-        "body tilt {max_tilt_body}"
+        tilt_body < max_tilt + 3f64.to_radians(),
+        "body tilt {tilt_body}"
     );
 }
 
@@ -272,4 +291,59 @@ fn turbulence_moves_the_ideal_performer_by_millimetres() {
         t.max_m * 1e3
     );
     assert!(t.rms_m > 1e-3, "{t:?}");
+}
+
+/// A gesture-like sway from rest: 0.3 m peak to peak at 0.5 Hz along y (peak 0.47 m/s,
+/// 1.5 m/s²), with its velocity and acceleration fed forward.
+fn sway(home: [f64; 3], t_s: f64) -> Reference {
+    let (a, w) = (0.15, std::f64::consts::PI);
+    let (s, c) = (w * t_s).sin_cos();
+    let mut r = Reference::hover([home[0], home[1] + a * (1.0 - c), home[2]], 0.0);
+    r.kin.vel_mps[1] = a * w * s;
+    r.kin.acc_mps2[1] = a * w * w * c;
+    r
+}
+
+fn sway_error(controller: ControllerKind, wind: Option<WindConfig>) -> sim::world::TrackingError {
+    let mut world = World::new(1).expect("scene");
+    world.set_controller(controller);
+    world.set_wind(wind).unwrap();
+    let home = world.reference(0).kin.pos_m;
+    world.step_until(2 * SECOND_NS);
+    world.reset_tracking();
+    while world.time_ns() < 12 * SECOND_NS {
+        let t_s = (world.time_ns() - 2 * SECOND_NS) as f64 * 1e-9;
+        world.set_reference(0, sway(home, t_s));
+        world.step();
+    }
+    world.tracking_error(0)
+}
+
+#[test]
+fn tracking_error_of_a_sway_by_controller_and_wind() {
+    let gusts = Some(WindConfig::from_terms(2.0, 90.0, 1.0, 0.0, 4));
+    let cascade = ControllerKind::Cascade(CascadeConfig::from_terms(0.02, 4_000_000, 4));
+    let rows = [
+        ("ideal, calm", sway_error(ControllerKind::Ideal, None)),
+        (
+            "ideal, 2 m/s + σ 1 m/s",
+            sway_error(ControllerKind::Ideal, gusts),
+        ),
+        (
+            "cascade (perfect estimate), calm",
+            sway_error(perfect_cascade(), None),
+        ),
+        ("cascade, calm", sway_error(cascade, None)),
+        ("cascade, 2 m/s + σ 1 m/s", sway_error(cascade, gusts)),
+    ];
+    for (name, t) in &rows {
+        println!(
+            "{name}: RMS {:.2} mm, max {:.2} mm",
+            t.rms_m * 1e3,
+            t.max_m * 1e3
+        );
+    }
+    assert!(rows[0].1.max_m < 2e-3, "{:?}", rows[0]);
+    assert!(rows[4].1.rms_m > rows[0].1.rms_m);
+    assert!(rows[4].1.rms_m < 0.1, "{:?}", rows[4]);
 }
