@@ -389,3 +389,66 @@ fn shard_arguments_are_checked_and_cluster_files_written() {
     assert!(!dir.join("run.json").exists(), "--slurm runs nothing");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+#[ignore = "a crossed study in one process and in two shards, ≈ 2 min: deploy/test.sh --full"]
+fn a_crossed_study_is_laid_out_per_factor_and_merges_byte_for_byte() {
+    let dir = tmp("study-crossed");
+    let file = dir.join("crossed.toml");
+    let crossed = STUDY
+        .replace("name = \"shards\"", "name = \"crossed\"\ncross = true")
+        .replace("levels = [0.0003]", "levels = [0.0, 0.0003]")
+        .replace("trials = 2", "trials = 1");
+    std::fs::write(&file, crossed).unwrap();
+    let single = dir.join("single");
+    waggle(
+        &["study", s(&file), "--jobs", "2", "--out", s(&single)],
+        "the crossed study in one process",
+    );
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    for (k, out) in [("1/2", &a), ("2/2", &b)] {
+        waggle(
+            &[
+                "study",
+                s(&file),
+                "--jobs",
+                "2",
+                "--shard",
+                k,
+                "--out",
+                s(out),
+            ],
+            &format!("crossed shard {k}"),
+        );
+    }
+    let merged = dir.join("merged");
+    waggle(
+        &["study", "merge", s(&a), s(&b), "--out", s(&merged)],
+        "merge",
+    );
+    let points = read_json(&single.join("study.json"));
+    let points = points.as_array().unwrap();
+    assert_eq!(points.len(), 2 * 2 * 2, "2 × 2 levels × 2 modalities");
+    assert_eq!(points[0]["factors"]["rgb.read_noise_grey"], 0.0);
+    for f in [
+        "study.json",
+        "report.md",
+        "success-rgb.read_noise_grey.svg",
+        "success-events.shot_noise_hz.svg",
+    ] {
+        assert_same(&single, &merged, f);
+    }
+    for p in points {
+        assert_same(
+            &single,
+            &merged,
+            &format!("{}/trials.json", p["dir"].as_str().unwrap()),
+        );
+    }
+    let report = std::fs::read_to_string(single.join("report.md")).unwrap();
+    assert!(
+        report.contains("Crossed") && report.matches("Every combination:").count() == 4,
+        "{report}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -202,9 +202,16 @@ fn run_link_study(
         if let Merged::Study(results) = merge(&[out.to_path_buf()], out, options)? {
             for r in &results {
                 let (p, ci) = r.rate_cells();
+                let at = if r.factors.is_empty() {
+                    format!("{} = {:<8}", r.key, r.level)
+                } else {
+                    let f: Vec<String> =
+                        r.factors.iter().map(|(k, v)| format!("{k}={v}")).collect();
+                    f.join(" ")
+                };
                 println!(
-                    "{:<7} {} = {:<8} {:>4}/{:<4} P = {p:<6} CI {ci}",
-                    r.modality, r.key, r.level, r.successes, r.trials
+                    "{:<7} {at} {:>4}/{:<4} P = {p:<6} CI {ci}",
+                    r.modality, r.successes, r.trials
                 );
             }
         }

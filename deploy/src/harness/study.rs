@@ -17,7 +17,10 @@
 //! key = "events.shot_noise_hz"            # a perturbation term, or viewpoint.azimuth_deg /
 //! levels = [0.0, 0.1, 0.2, 0.5, 1.0]      # viewpoint.elevation_deg / viewpoint.distance_m
 //! ```
-//! Each condition is varied alone, the others held at their `fixed` value (or off); each gets a
+//! With `cross = true` the conditions are crossed (a point for every combination of their
+//! levels, e.g. light × wind × viewpoint) and the report is laid out per factor: the success
+//! pooled over the other factors' levels, and every combination. Otherwise each
+//! condition is varied alone, the others held at their `fixed` value (or off); each gets a
 //! section of the report and its figure `success-<key>.svg`. Unknown keys, unknown terms and out-of-range levels are refused at load, naming them.
 
 use std::collections::BTreeMap;
@@ -121,6 +124,10 @@ pub struct StudyFile {
     /// The receivers' viewpoint rectification: `off`, `pitched` (default) or `frontal`.
     #[serde(default)]
     pub rectify: Option<String>,
+    /// Cross the conditions: a point for every combination of their levels (otherwise each is
+    /// varied alone).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub cross: bool,
     /// The conditions: each a term (or viewpoint axis) and its levels.
     pub vary: Vec<Vary>,
 }
@@ -139,9 +146,21 @@ pub struct Point {
     pub key: String,
     pub modality: Modality,
     pub level: f64,
+    /// Crossed studies: every condition's level at this point (empty otherwise).
+    pub factors: BTreeMap<String, f64>,
     /// Its directory name under the study's output.
     pub dir: String,
     pub options: TrialsOptions,
+}
+
+/// The key of every point of a crossed study: its conditions joined (`light.lux × link.drop_rate`).
+pub fn cross_key(study: &StudyFile) -> String {
+    study
+        .vary
+        .iter()
+        .map(|v| v.key.as_str())
+        .collect::<Vec<_>>()
+        .join(" × ")
 }
 
 /// The measured point as the report lists it.
@@ -150,6 +169,9 @@ pub struct PointResult {
     pub key: String,
     pub modality: String,
     pub level: f64,
+    /// Crossed studies: every condition's level at this point.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub factors: BTreeMap<String, f64>,
     pub trials: u64,
     pub successes: u64,
     pub success_rate: Option<f64>,
@@ -191,27 +213,60 @@ impl StudyFile {
         Ok(study)
     }
 
-    fn formation(&self, axis: Option<(&str, f64)>, key: &str) -> Result<Formation> {
+    fn formation(&self, axes: &[(&str, f64)]) -> Result<Formation> {
         match (self.observers, self.viewpoint) {
             (Some(_), Some(_)) => bail!("give either observers or viewpoint, not both"),
             (Some(n), None) => {
-                if axis.is_some() {
+                if let Some((key, _)) = axes.first() {
                     bail!("vary.key {key} needs viewpoint = [az, el, dist]");
                 }
                 Formation::standard(n)
                     .map_err(|_| anyhow::anyhow!("observers = {n} is outside 1..=8"))
             }
             (None, Some(mut v)) => {
-                if let Some((key, level)) = axis {
-                    let k = VIEWPOINT_AXES.iter().position(|a| *a == key).unwrap_or(0);
-                    v[k] = level;
+                for (key, level) in axes {
+                    let k = VIEWPOINT_AXES.iter().position(|a| a == key).unwrap_or(0);
+                    v[k] = *level;
                 }
+                let what = axes.iter().map(|a| a.0).collect::<Vec<_>>().join(", ");
                 let p: Placement = parse_viewpoint(&format!("{},{},{}", v[0], v[1], v[2]))
-                    .map_err(|e| anyhow::anyhow!("{}: {e}", axis.map_or("viewpoint", |a| a.0)))?;
+                    .map_err(|e| {
+                        anyhow::anyhow!(
+                            "{}: {e}",
+                            if what.is_empty() { "viewpoint" } else { &what }
+                        )
+                    })?;
                 Ok(Formation::custom(vec![p])?)
             }
             (None, None) => bail!("give observers = N or viewpoint = [az, el, dist]"),
         }
+    }
+
+    /// The settings the study runs, each a list of (key, level): one per level of each
+    /// condition, or with `cross`, every combination of the conditions' levels (the first
+    /// condition outermost).
+    fn settings(&self) -> Vec<Vec<(&str, f64)>> {
+        if !self.cross {
+            return self
+                .vary
+                .iter()
+                .flat_map(|v| v.levels.iter().map(|&l| vec![(v.key.as_str(), l)]))
+                .collect();
+        }
+        let mut all: Vec<Vec<(&str, f64)>> = vec![Vec::new()];
+        for v in &self.vary {
+            all = all
+                .into_iter()
+                .flat_map(|prefix| {
+                    v.levels.iter().map(move |&l| {
+                        let mut s = prefix.clone();
+                        s.push((v.key.as_str(), l));
+                        s
+                    })
+                })
+                .collect();
+        }
+        all
     }
 
     /// Every point of the study, checked, in the study's order (condition, level, modality).
@@ -247,44 +302,68 @@ impl StudyFile {
                 .map_err(|e| anyhow::anyhow!("rectify {r:?}: {e}"))?,
             None => Rectification::default(),
         };
+        if self.cross
+            && self
+                .vary
+                .iter()
+                .enumerate()
+                .any(|(i, v)| self.vary[..i].iter().any(|w| w.key == v.key))
+        {
+            bail!("cross: every vary.key must be a different condition");
+        }
         let mut points = Vec::new();
-        for vary in &self.vary {
-            let key = vary.key.as_str();
-            let viewpoint_axis = VIEWPOINT_AXES.contains(&key);
-            for &level in &vary.levels {
-                for &modality in &self.modalities {
-                    let mut perturbation = base.clone();
-                    let formation = if viewpoint_axis {
-                        self.formation(Some((key, level)), key)?
+        for setting in self.settings() {
+            for &modality in &self.modalities {
+                let mut perturbation = base.clone();
+                let mut axes = Vec::new();
+                for &(key, level) in &setting {
+                    if VIEWPOINT_AXES.contains(&key) {
+                        axes.push((key, level));
                     } else {
                         perturbation.set(key, level).context("vary")?;
-                        self.formation(None, key)?
-                    };
-                    let dir = if self.vary.len() == 1 {
-                        format!("{modality}-{}", level_label(level))
-                    } else {
-                        format!("{modality}-{key}-{}", level_label(level))
-                    };
-                    points.push(Point {
-                        key: key.to_owned(),
-                        modality,
-                        level,
-                        dir,
-                        options: TrialsOptions {
-                            payloads: payloads.clone(),
-                            formation,
-                            modality,
-                            trials: self.trials,
-                            seed: self.seed,
-                            perturbation,
-                            jobs,
-                            render,
-                            rectification,
-                            // One flight for every modality of the study (matched trajectories).
-                            acquisition: Some(self.modalities.contains(&Modality::Events)),
-                        },
-                    });
+                    }
                 }
+                let formation = self.formation(&axes)?;
+                let (key, level) = setting[0];
+                let dir = if self.cross {
+                    let parts: Vec<String> = setting
+                        .iter()
+                        .map(|(k, l)| format!("{k}-{}", level_label(*l)))
+                        .collect();
+                    format!("{modality}-{}", parts.join("-"))
+                } else if self.vary.len() == 1 {
+                    format!("{modality}-{}", level_label(level))
+                } else {
+                    format!("{modality}-{key}-{}", level_label(level))
+                };
+                points.push(Point {
+                    key: if self.cross {
+                        cross_key(self)
+                    } else {
+                        key.to_owned()
+                    },
+                    modality,
+                    level,
+                    factors: if self.cross {
+                        setting.iter().map(|(k, l)| ((*k).to_owned(), *l)).collect()
+                    } else {
+                        BTreeMap::new()
+                    },
+                    dir,
+                    options: TrialsOptions {
+                        payloads: payloads.clone(),
+                        formation,
+                        modality,
+                        trials: self.trials,
+                        seed: self.seed,
+                        perturbation,
+                        jobs,
+                        render,
+                        rectification,
+                        // One flight for every modality of the study (matched trajectories).
+                        acquisition: Some(self.modalities.contains(&Modality::Events)),
+                    },
+                });
             }
         }
         Ok(points)
@@ -355,6 +434,31 @@ levels = [0.0, 0.5]
         assert_eq!(drop[0].dir, "events-link.drop_rate-0.1");
         let dirs: std::collections::BTreeSet<&str> = pts.iter().map(|p| p.dir.as_str()).collect();
         assert_eq!(dirs.len(), pts.len(), "directory names collide");
+    }
+
+    #[test]
+    fn crossed_conditions_give_every_combination() {
+        let text = format!(
+            "cross = true\n{GOOD}\n[[vary]]\nkey = \"link.drop_rate\"\nlevels = [0.1, 0.2, 0.3]\n"
+        );
+        let pts = parse(&text)
+            .unwrap()
+            .points(RenderPath::default(), 1)
+            .unwrap();
+        assert_eq!(pts.len(), 2 * 2 * 3);
+        let dirs: std::collections::BTreeSet<&str> = pts.iter().map(|p| p.dir.as_str()).collect();
+        assert_eq!(dirs.len(), pts.len(), "directory names collide");
+        let last = pts.last().unwrap();
+        assert_eq!(last.dir, "rgb-events.shot_noise_hz-0.5-link.drop_rate-0.3");
+        assert_eq!(last.options.perturbation.get("events.shot_noise_hz"), 0.5);
+        assert_eq!(last.options.perturbation.get("link.drop_rate"), 0.3);
+        assert_eq!(last.factors.len(), 2);
+        // The study as run.json records it reads back the same.
+        let study = parse(&text).unwrap();
+        let back: StudyFile = toml::from_str(&toml::to_string(&study).unwrap()).unwrap();
+        assert!(back.cross);
+        let twice = text.replace("link.drop_rate", "events.shot_noise_hz");
+        assert!(format!("{:#}", parse(&twice).unwrap_err()).contains("different condition"));
     }
 
     #[test]

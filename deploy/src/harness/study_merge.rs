@@ -19,7 +19,7 @@ use crate::harness::records::{Provenance, scan, write_atomic, write_json};
 use crate::harness::run_files::{RunCost, RunKind, RunManifest};
 use crate::harness::shard::Shard;
 use crate::harness::study::{Point, PointResult, StudyFile, figure_name};
-use crate::harness::study_report::{cost_md, figure, report};
+use crate::harness::study_report::{cost_md, figure, marginals, report};
 use crate::harness::study_run::header;
 use crate::harness::trials::{ObserverTrial, TrialRecord, TrialsHeader, TrialsOut};
 
@@ -264,10 +264,11 @@ fn write_study(
     cost: &RunCost,
 ) -> Result<()> {
     write_json(&out.join("study.json"), &results)?;
+    let pooled = marginals(study, results);
     for vary in &study.vary {
         write_atomic(
             &out.join(figure_name(&vary.key)),
-            figure(study, vary, results)?.as_bytes(),
+            figure(study, vary, &pooled)?.as_bytes(),
         )?;
     }
     write_atomic(&out.join("report.md"), report(study, results).as_bytes())?;
@@ -283,6 +284,7 @@ fn point_result(point: &Point, t: &TrialsOut) -> PointResult {
         key: point.key.clone(),
         modality: point.modality.to_string(),
         level: point.level,
+        factors: point.factors.clone(),
         trials: t.tally.trials,
         successes: t.tally.successes,
         success_rate: t.tally.success_rate,

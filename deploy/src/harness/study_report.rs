@@ -6,16 +6,17 @@
 use anyhow::Result;
 
 use crate::harness::run_files::RunCost;
-use crate::harness::study::{PointResult, StudyFile, Vary, figure_name};
+use crate::harness::study::{PointResult, StudyFile, Vary, cross_key, figure_name};
 
 /// `report.md`: the study's definition and one table per modality.
 #[must_use]
 pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
+    let whole = results;
+    let results = &marginals(study, whole);
     let mut s = format!("# Study: {}\n\n", study.name);
     s.push_str(&format!(
         "Broadcast {}; {}; {} trials per point, seed {}; criterion: every observer releases \
-         exactly the broadcast payloads, in order (`{}`); rectification `{}`. Varied, one at a \
-         time: {}.",
+         exactly the broadcast payloads, in order (`{}`); rectification `{}`. {}: {}.",
         study.link.join(", "),
         match (study.observers, study.viewpoint) {
             (Some(n), _) => format!("{n} observers in the built-in formation"),
@@ -29,6 +30,11 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
         study.seed,
         study.criterion,
         study.rectify.as_deref().unwrap_or("pitched"),
+        if study.cross {
+            "Crossed (every combination of levels)"
+        } else {
+            "Varied, one at a time"
+        },
         study
             .vary
             .iter()
@@ -63,7 +69,92 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
                     r.level, r.successes, r.trials
                 ));
             }
+            if study.cross {
+                s.push_str(&combinations(study, key, &m, whole));
+            }
         }
+    }
+    s
+}
+
+/// A crossed study's results pooled per factor: for each condition, modality and level, the
+/// trials of every point at that level (whatever the other factors), as points keyed by that
+/// condition — what the per-condition tables and figures show. Others' results as they are.
+#[must_use]
+pub fn marginals(study: &StudyFile, results: &[PointResult]) -> Vec<PointResult> {
+    if !study.cross {
+        return results.to_vec();
+    }
+    let mut pooled = Vec::new();
+    for vary in &study.vary {
+        for &level in &vary.levels {
+            for m in &study.modalities {
+                let m = m.to_string();
+                let at: Vec<&PointResult> = results
+                    .iter()
+                    .filter(|r| r.modality == m && r.factors.get(&vary.key) == Some(&level))
+                    .collect();
+                let sum = |f: fn(&PointResult) -> u64| at.iter().map(|r| f(r)).sum::<u64>();
+                let (trials, successes) = (sum(|r| r.trials), sum(|r| r.successes));
+                pooled.push(PointResult {
+                    key: vary.key.clone(),
+                    modality: m,
+                    level,
+                    factors: std::collections::BTreeMap::new(),
+                    trials,
+                    successes,
+                    success_rate: (trials > 0).then(|| successes as f64 / trials as f64),
+                    ci95: perturb::stats::wilson95(successes, trials),
+                    dir: String::new(),
+                    decoded_messages: sum(|r| r.decoded_messages),
+                    sensor_messages: sum(|r| r.sensor_messages),
+                    events: sum(|r| r.events),
+                });
+            }
+        }
+    }
+    pooled
+}
+
+/// Every combination of a crossed study for modality `m`, ordered by `key`'s level first.
+fn combinations(study: &StudyFile, key: &str, m: &str, results: &[PointResult]) -> String {
+    let others: Vec<&str> = study
+        .vary
+        .iter()
+        .map(|v| v.key.as_str())
+        .filter(|k| *k != key)
+        .collect();
+    let mut s = format!(
+        "\nEvery combination:\n\n| {key} | {} | successes / trials | P(success) | 95 % CI (Wilson) |\n| ---: |{} ---: | ---: | :---: |\n",
+        others.join(" | "),
+        " ---: |".repeat(others.len())
+    );
+    let slot = |r: &PointResult, k: &str| {
+        let levels = &study.vary.iter().find(|v| v.key == k).map(|v| &v.levels);
+        let l = r.factors.get(k).copied().unwrap_or_default();
+        levels
+            .and_then(|ls| ls.iter().position(|x| *x == l))
+            .unwrap_or(0)
+    };
+    let mut rows: Vec<&PointResult> = results.iter().filter(|r| r.modality == m).collect();
+    rows.sort_by_key(|r| {
+        std::iter::once(slot(r, key))
+            .chain(others.iter().map(|k| slot(r, k)))
+            .collect::<Vec<_>>()
+    });
+    for r in rows {
+        let (p, ci) = r.rate_cells();
+        let cells: Vec<String> = others
+            .iter()
+            .map(|k| format!("{}", r.factors.get(*k).copied().unwrap_or_default()))
+            .collect();
+        s.push_str(&format!(
+            "| {} | {} | {} / {} | {p} | {ci} |\n",
+            r.factors.get(key).copied().unwrap_or_default(),
+            cells.join(" | "),
+            r.successes,
+            r.trials
+        ));
     }
     s
 }
@@ -85,8 +176,12 @@ pub fn cost_md(study: &StudyFile, results: &[PointResult], costs: &RunCost) -> S
         costs.shared_flights,
         costs.shared_fly_s
     );
-    for vary in &study.vary {
-        s.push_str(&cost_table(&vary.key, results, costs));
+    if study.cross {
+        s.push_str(&cost_table(&cross_key(study), results, costs));
+    } else {
+        for vary in &study.vary {
+            s.push_str(&cost_table(&vary.key, results, costs));
+        }
     }
     s
 }
@@ -111,10 +206,16 @@ fn cost_table(key: &str, results: &[PointResult], costs: &RunCost) -> String {
                 "—".to_owned()
             }
         };
+        let at = if r.factors.is_empty() {
+            format!("{}", r.level)
+        } else {
+            let f: Vec<String> = r.factors.iter().map(|(k, v)| format!("{k}={v}")).collect();
+            f.join(", ")
+        };
         s.push_str(&format!(
             "| {} | {} | {} | {} | {} | {} |\n",
             r.modality,
-            r.level,
+            at,
             per(r.trials),
             per(r.decoded_messages),
             rate(r.sensor_messages),
