@@ -46,7 +46,8 @@ impl Perturbation {
         })
     }
 
-    /// True when the trial has wind (its terms with seed 0: [`Perturbation::wind_of`] seeds it).
+    /// The wind terms with seed 0, `None` when there is no wind ([`Perturbation::wind_of`] seeds
+    /// them for a trial).
     pub fn wind(&self) -> Option<WindTerms> {
         self.wind_of(0)
     }
