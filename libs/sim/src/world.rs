@@ -88,8 +88,9 @@ pub struct World {
     gains: Gains,
     /// External disturbance force on each drone, world frame, N (gusts; zero by default).
     disturbances_n: Vec<[f64; 3]>,
-    /// One cascade per drone when [`ControllerKind::Cascade`] is chosen; empty for ideal.
-    cascades: Vec<Cascade>,
+    /// Drone `i`'s cascade when it flies [`ControllerKind::Cascade`]; `None` (or an empty
+    /// vector, the default) flies the ideal controller.
+    cascades: Vec<Option<Cascade>>,
     wind: Option<WindField>,
     tracking: Vec<TrackingSums>,
     step_index: u64,
@@ -221,14 +222,30 @@ impl World {
         self.cascades = match kind {
             ControllerKind::Ideal => Vec::new(),
             ControllerKind::Cascade(config) => (0..self.drones.len())
-                .map(|i| Cascade::new(config, PHYSICS_STEP_NS, i))
+                .map(|i| Some(Cascade::new(config, PHYSICS_STEP_NS, i)))
                 .collect(),
+        };
+    }
+
+    /// Chooses drone `i`'s controller alone from the next step on (e.g. only the performer
+    /// flies the cascade); its estimate noise is the same stream [`World::set_controller`] gives it.
+    pub fn set_controller_of(&mut self, i: DroneIndex, kind: ControllerKind) {
+        if i >= self.drones.len() {
+            return;
+        }
+        self.cascades.resize_with(self.drones.len(), || None);
+        self.cascades[i] = match kind {
+            ControllerKind::Ideal => None,
+            ControllerKind::Cascade(config) => Some(Cascade::new(config, PHYSICS_STEP_NS, i)),
         };
     }
 
     /// What drone `i`'s cascade commanded on the last step (`None` under the ideal controller).
     pub fn cascade_command(&self, i: DroneIndex) -> Option<CascadeCommand> {
-        self.cascades.get(i).map(Cascade::last_command)
+        self.cascades
+            .get(i)
+            .and_then(Option::as_ref)
+            .map(Cascade::last_command)
     }
 
     /// Sets (or, with `None`, removes) the wind over every drone from the next step on. Its
@@ -277,7 +294,7 @@ impl World {
         let gravity = -self.data.model().opt().gravity[2];
         for i in 0..self.drones.len() {
             let state = self.state(i);
-            let mut w = match self.cascades.get_mut(i) {
+            let mut w = match self.cascades.get_mut(i).and_then(Option::as_mut) {
                 Some(c) => c.update(
                     &state,
                     &self.references[i],
@@ -422,7 +439,7 @@ impl World {
         self.references[i] = Reference::hover(pos_m, yaw_rad);
         // A teleported drone's cascade forgets the integrators and the estimate history of the
         // place it left.
-        if let Some(c) = self.cascades.get_mut(i) {
+        if let Some(c) = self.cascades.get_mut(i).and_then(Option::as_mut) {
             c.reset();
         }
         self.data.forward();

@@ -86,6 +86,22 @@ fn the_default_world_is_untouched_by_the_options() {
 }
 
 #[test]
+fn one_drone_can_fly_the_cascade_alone() {
+    let mut mixed = World::new(2).expect("scene");
+    let mut plain = World::new(2).expect("scene");
+    mixed.set_controller_of(0, perfect_cascade());
+    assert!(mixed.cascade_command(0).is_some() && mixed.cascade_command(1).is_none());
+    mixed.step_until(SECOND_NS);
+    plain.step_until(SECOND_NS);
+    // The observers still fly the ideal controller, bit for bit.
+    for i in 1..3 {
+        let (a, b) = (mixed.state(i), plain.state(i));
+        assert_eq!(a.pos_m.map(f64::to_bits), b.pos_m.map(f64::to_bits));
+    }
+    assert!(mixed.cascade_command(0).is_some_and(|c| c.thrust_n > 0.2));
+}
+
+#[test]
 fn the_ideal_controller_tracks_a_hover_to_a_millimetre() {
     let mut world = World::new(1).expect("scene");
     world.step_until(2 * SECOND_NS);
