@@ -19,6 +19,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use clap::Parser;
+use node_args::ObserverArgs;
 use perception::runtime::ObserverRuntime;
 use perception::tick::{MissingReason, SensorPacket, Step, TickAssembler, TickInput};
 use proto::{
@@ -29,15 +30,8 @@ use proto::{
 #[derive(Parser)]
 #[command(name = "observer-node", version, about = "One Waggle observer process")]
 struct Args {
-    /// This observer's id (O1, O2, …).
-    #[arg(long)]
-    id: ObserverId,
-    /// The sensor it carries.
-    #[arg(long, value_enum)]
-    modality: Modality,
-    /// Wall-clock time after `clock{k}` at which a packet that has not arrived is missing, ms.
-    #[arg(long, default_value_t = 10_000)]
-    grace_ms: u64,
+    #[command(flatten)]
+    own: ObserverArgs,
     #[command(flatten)]
     node: NodeArgs,
 }
@@ -50,30 +44,35 @@ fn main() -> Result<()> {
     let args = Args::parse();
     let node = &args.node;
     let runtime = ObserverRuntime::new(
-        args.id.clone(),
+        args.own.id.clone(),
         Roster::default_scene(node.observers),
-        args.modality,
+        args.own.modality,
     )
     .context("building the receiver")?;
     let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
     let keys = bus.keys().clone();
     // The only three data subscriptions of an observer (see the isolation test).
-    bus.subscribe(&keys.sensor_any(&args.id))?;
+    bus.subscribe(&keys.sensor_any(&args.own.id))?;
     bus.subscribe(&keys.clock())?;
     bus.subscribe(&keys.sched_session())?;
-    node.join(&mut bus, &Process::new(Role::Observer, args.id.as_str()))
-        .context("start-up handshake")?;
+    node.join(
+        &mut bus,
+        &Process::new(Role::Observer, args.own.id.as_str()),
+    )
+    .context("start-up handshake")?;
 
     let mut observer = Observer::new(&args, keys, runtime)?;
     observer.run(&mut bus)?;
     tracing::info!(
-        observer = %args.id,
+        observer = %args.own.id,
         ticks = observer.assembler.next_tick(),
         missing = observer.missing,
         "observer done"
     );
     bus.put(
-        &observer.keys.rejects(Role::Observer, args.id.as_str())?,
+        &observer
+            .keys
+            .rejects(Role::Observer, args.own.id.as_str())?,
         &observer.rejects.report(),
     )?;
     bus.close()?;
@@ -107,25 +106,25 @@ struct Observer {
 
 impl Observer {
     fn new(args: &Args, keys: Keys, runtime: ObserverRuntime) -> Result<Self> {
-        let sensor_key = match args.modality {
-            Modality::Rgb => keys.sensor_rgb(&args.id),
-            Modality::Events => keys.sensor_events(&args.id),
+        let sensor_key = match args.own.modality {
+            Modality::Rgb => keys.sensor_rgb(&args.own.id),
+            Modality::Events => keys.sensor_events(&args.own.id),
         };
         Ok(Self {
-            id: args.id.clone(),
-            modality: args.modality,
+            id: args.own.id.clone(),
+            modality: args.own.modality,
             runtime,
             assembler: TickAssembler::new(),
             rgb: RgbReassembler::default(),
             clocks: BTreeMap::new(),
-            grace: Duration::from_millis(args.grace_ms),
+            grace: Duration::from_millis(args.own.grace_ms),
             clock_key: keys.clock(),
             session_key: keys.sched_session(),
             sensor_key,
-            camera_alive: keys.alive(Role::Camera, args.id.as_str())?,
+            camera_alive: keys.alive(Role::Camera, args.own.id.as_str())?,
             sim_alive: keys.alive(Role::Sim, Role::Sim.as_str())?,
             scheduler_alive: keys.alive(Role::Scheduler, Role::Scheduler.as_str())?,
-            rejects: Rejects::new(format!("observer-{}", args.id), &keys),
+            rejects: Rejects::new(format!("observer-{}", args.own.id), &keys),
             keys,
             missing: 0,
         })

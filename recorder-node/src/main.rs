@@ -13,13 +13,13 @@ mod live;
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
-use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use clap::Parser;
+use node_args::{RecorderArgs, RecorderOutput};
 use proto::{RejectReason, Role};
 use recording::foxglove::LogLevel;
 use recording::{Recorded, RecorderOptions, SessionInfo, SessionWriter};
@@ -31,41 +31,10 @@ use recording::{Recorded, RecorderOptions, SessionInfo, SessionWriter};
     about = "Records a Waggle session into one MCAP file"
 )]
 struct Args {
-    /// The MCAP file to write (its directory is created).
-    #[arg(long)]
-    out: PathBuf,
-    /// Case name, stored in the recording's metadata.
-    #[arg(long)]
-    case_name: Option<String>,
-    /// Case TOML file, stored (its text) in the recording's metadata.
-    #[arg(long)]
-    case_file: Option<PathBuf>,
-    /// Observer sensor modality (`rgb` or `events`), stored in the metadata.
-    #[arg(long)]
-    modality: Option<String>,
-    /// Rate of the event-frame pictures in the `/view/<o>/events` channels, Hz (0: none).
-    #[arg(long, default_value_t = 2.0)]
-    event_view_hz: f64,
-    /// A view image (`/view/<o>/rgb`) of every n-th RGB frame; the raw channel holds every
-    /// update the camera published (lossless: replayable) whatever this is.
-    #[arg(long, default_value_t = 25)]
-    rgb_every: u64,
-    /// A view image of every RGB frame (same as `--rgb-every 1`).
-    #[arg(long)]
-    all_rgb: bool,
-    /// Uncompressed chunk size, KiB.
-    #[arg(long, default_value_t = 4096)]
-    chunk_kib: u64,
-    /// Close the current chunk and flush the file at least this often, ms of wall time.
-    #[arg(long, default_value_t = 1000)]
-    flush_ms: u64,
-    /// Serve the view channels live over a Foxglove WebSocket on this loopback address
-    /// (e.g. `127.0.0.1:8765`), while recording.
-    #[arg(long, value_name = "ADDR:PORT")]
-    live: Option<std::net::SocketAddr>,
-    /// After `MissionEnd`, stop once nothing arrived for this long, ms.
-    #[arg(long, default_value_t = 1000)]
-    linger_ms: u64,
+    #[command(flatten)]
+    own: RecorderArgs,
+    #[command(flatten)]
+    output: RecorderOutput,
     #[command(flatten)]
     node: NodeArgs,
 }
@@ -79,7 +48,7 @@ fn main() -> Result<()> {
     let stop = bus::on_stop_signal();
     let node = &args.node;
     let mut writer = session_writer(&args)?;
-    if let Some(addr) = args.live {
+    if let Some(addr) = args.output.live {
         let live = live::Live::start(addr, &node.session, &writer.expected_views())?;
         writer = writer.with_tap(Box::new(live));
     }
@@ -92,8 +61,8 @@ fn main() -> Result<()> {
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
     let scheduler_alive = keys.alive(Role::Scheduler, Role::Scheduler.as_str())?;
 
-    let flush_every = Duration::from_millis(args.flush_ms.max(1));
-    let linger = Duration::from_millis(args.linger_ms);
+    let flush_every = Duration::from_millis(args.own.flush_ms.max(1));
+    let linger = Duration::from_millis(args.own.linger_ms);
     let mut last_flush = Instant::now();
     let mut mission_end_at: Option<Instant> = None;
     let mut peers_gone_at: Option<Instant> = None;
@@ -162,7 +131,7 @@ fn main() -> Result<()> {
         messages,
         unknown = stats.unknown_keys.values().sum::<u64>(),
         undecodable = stats.undecodable.values().sum::<u64>(),
-        file = %args.out.display(),
+        file = %args.output.out.display(),
         "recording finished"
     );
     // What could not be decoded was recorded raw all the same; reported like every process's
@@ -182,9 +151,9 @@ fn main() -> Result<()> {
     Ok(())
 }
 
-/// The MCAP writer for `args.out` (directory created), its header and metadata written.
+/// The MCAP writer for `args.output.out` (directory created), its header and metadata written.
 fn session_writer(args: &Args) -> Result<SessionWriter<BufWriter<File>>> {
-    let case_toml = match &args.case_file {
+    let case_toml = match &args.output.case_file {
         Some(p) => {
             Some(std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?)
         }
@@ -193,26 +162,31 @@ fn session_writer(args: &Args) -> Result<SessionWriter<BufWriter<File>>> {
     let info = SessionInfo {
         session: args.node.session.clone(),
         observers: args.node.observers,
-        case_name: args.case_name.clone(),
+        case_name: args.own.case_name.clone(),
         case_toml,
-        modality: args.modality.clone(),
+        modality: args.own.modality.map(|m| m.as_str().to_string()),
     };
     let options = RecorderOptions {
-        chunk_bytes: args.chunk_kib.saturating_mul(1024),
-        event_view_period_ns: (args.event_view_hz > 0.0)
-            .then(|| (1e9 / args.event_view_hz).round() as u64),
-        rgb_every: if args.all_rgb {
+        chunk_bytes: args.own.chunk_kib.saturating_mul(1024),
+        event_view_period_ns: (args.own.event_view_hz > 0.0)
+            .then(|| (1e9 / args.own.event_view_hz).round() as u64),
+        rgb_every: if args.own.all_rgb {
             1
         } else {
-            args.rgb_every.max(1)
+            args.own.rgb_every.max(1)
         },
         zstd_level: 0,
     };
-    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+    if let Some(dir) = args
+        .output
+        .out
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+    {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    let file =
-        File::create(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let file = File::create(&args.output.out)
+        .with_context(|| format!("creating {}", args.output.out.display()))?;
     let mut writer = SessionWriter::new(BufWriter::with_capacity(1 << 20, file), &info, options)
         .context("starting the MCAP file")?;
     writer.flush()?;

@@ -16,13 +16,12 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use clap::Parser;
+use node_args::SchedulerArgs;
 use proto::{
     BroadcastTick, ClockTick, Departure, MissionReport, ObserverId, ObserverStatus, RejectReason,
     Role, SessionTick, SimState, Site, TICK_NS,
 };
-use scheduler::{
-    DecisionNotice, EventKind, FlightMode, Modality, Scheduler, SchedulerConfig, observer_positions,
-};
+use scheduler::{DecisionNotice, EventKind, Scheduler, SchedulerConfig, observer_positions};
 
 #[derive(Parser)]
 #[command(
@@ -31,21 +30,8 @@ use scheduler::{
     about = "The Waggle scheduler process"
 )]
 struct Args {
-    /// The observers' sensor (the event modality adds the acquisition preamble).
-    #[arg(long, value_enum)]
-    modality: Modality,
-    /// Sites advertised each round, in order, comma-separated; empty: no broadcast.
-    #[arg(long, default_value = "A,B")]
-    offers: String,
-    /// Number of rounds.
-    #[arg(long, default_value_t = 2)]
-    rounds: u32,
-    /// Hard limit on simulated time, seconds.
-    #[arg(long)]
-    time_limit_s: Option<f64>,
-    /// Safety router: one trip at a time, or overlapping trips on checked reservations.
-    #[arg(long, value_enum, default_value_t = FlightMode::default())]
-    flights: FlightMode,
+    #[command(flatten)]
+    own: SchedulerArgs,
     #[command(flatten)]
     node: NodeArgs,
 }
@@ -68,17 +54,17 @@ fn main() -> Result<()> {
         .init();
     let args = Args::parse();
     let node = &args.node;
-    let modality = args.modality;
+    let modality = args.own.modality;
     let mut config = SchedulerConfig::new(node.observers, modality)
-        .with_offer_sites(&parse_sites(&args.offers)?);
-    config.rounds = args.rounds;
-    config.flights = args.flights;
-    if let Some(limit) = args.time_limit_s
+        .with_offer_sites(&parse_sites(&args.own.offers)?);
+    config.rounds = args.own.rounds;
+    config.flights = args.own.flights;
+    if let Some(limit) = args.own.time_limit_s
         && !(limit.is_finite() && limit > 0.0 && limit <= 1.0e6)
     {
         bail!("--time-limit-s {limit}: must be a finite number of seconds in (0, 1e6]");
     }
-    config.time_limit_ns = args.time_limit_s.map(|s| (s * 1e9).round() as u64);
+    config.time_limit_ns = args.own.time_limit_s.map(|s| (s * 1e9).round() as u64);
     let mut scheduler = Scheduler::new(config).context("configuring the scheduler")?;
 
     let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;

@@ -30,7 +30,7 @@ enum Command {
     Run(node_run::RunArgs),
     /// One observer's camera process: renders its view from `sim/state` and publishes RGB
     /// frames or event packets.
-    Camera(node_camera::CameraArgs),
+    Camera(node_camera::CameraCli),
     /// Write each observer's current view as DIR/O<i>.png, then time 200 full renders per camera.
     Snapshot {
         /// Number of observers (1..=8).

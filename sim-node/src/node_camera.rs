@@ -12,6 +12,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
+use node_args::CameraArgs;
 use proto::clock::EVENT_RENDER_PERIOD_NS;
 use proto::{
     Fault, FaultKind, FrameChange, ObserverId, PixelRect, RejectReason, RgbFrame, RgbUpdate, Role,
@@ -21,83 +22,14 @@ use sim::render::{CameraRenderer, RenderCounts, RenderPath};
 use sim::sensor::{Modality, ObserverSensor, SensorOutput};
 use sim::world::World;
 
+/// `sim-node camera`'s command line: the camera's own arguments (the contract the composer
+/// builds, [`node_args::CameraArgs`]) and the session-wide ones.
 #[derive(Debug, clap::Args)]
-pub struct CameraArgs {
-    /// The observer whose camera this is (O1, O2, …).
-    #[arg(long)]
-    observer: ObserverId,
-    /// The sensor it carries.
-    #[arg(long, value_enum)]
-    modality: Modality,
-    /// Black input from start-up (the fault of the black-o2 case). Given on the command line so
-    /// it is in force before the first render, whatever the arrival order of messages; the
-    /// launcher also publishes it on `fault/Oi` for the record.
-    #[arg(long)]
-    black: bool,
-    /// The stream stops at this sim time, ns (the dropout fault): nothing is published from the
-    /// render at this instant on. Given on the command line, like `--black`, so it holds
-    /// whatever the arrival order of messages; also published on `fault/Oi`.
-    #[arg(long, value_name = "NS")]
-    dropout_ns: Option<u64>,
-    /// How the camera renders: `damage` (default) redraws only what moved, `full` every pixel of
-    /// every frame (the reference; both deliver identical bytes).
-    #[arg(long, value_enum, default_value_t)]
-    render: RenderPath,
+pub struct CameraCli {
     #[command(flatten)]
-    sensor: SensorArgs,
+    camera: CameraArgs,
     #[command(flatten)]
     node: NodeArgs,
-}
-
-/// The event sensor's model beyond the paper's ideal one (`waggle run --sensor-preset NAME
-/// --perturb events.KEY=VALUE --seed S` hands these on): the same preset and terms, re-parsed
-/// here by `perturb`, so a camera process and `waggle mission` build identical sensors.
-#[derive(Debug, Clone, Default, clap::Args)]
-pub struct SensorArgs {
-    /// A named sensor preset (`v2e-clean`, `v2e-default`, `v2e-noisy`): its `events.*` terms.
-    #[arg(long = "sensor-preset", value_name = "NAME")]
-    sensor_preset: Option<String>,
-    /// An `events.*` term KEY=VALUE over the preset's (repeatable, later ones win).
-    #[arg(long = "perturb", value_name = "KEY=VALUE")]
-    perturb: Vec<String>,
-    /// The run's seed: this observer's sensor noise draws from
-    /// `stream_seed(seed, EventSensor, observer index)`, as in `waggle mission`.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-}
-
-impl SensorArgs {
-    /// The event sensor of observer `index` carrying `modality`, or `None` for the paper's ideal
-    /// sensor (no preset, no term: the camera is built exactly as before). Refuses terms of
-    /// another group than `events` and any term on an RGB camera, naming them.
-    pub fn model(
-        &self,
-        modality: Modality,
-        index: usize,
-    ) -> Result<Option<event_camera::EventSensorModel>> {
-        if self.sensor_preset.is_none() && self.perturb.is_empty() {
-            return Ok(None);
-        }
-        let p = perturb::Perturbation::with_preset(self.sensor_preset.as_deref(), &self.perturb)
-            .context("the camera's sensor model (--sensor-preset/--perturb)")?;
-        for a in &self.perturb {
-            let key = a.split_once('=').map_or(a.as_str(), |(k, _)| k).trim();
-            if !key.starts_with("events.") {
-                bail!(
-                    "--perturb {a}: a camera process takes only events.* terms (the event \
-                     sensor's model), not {key}"
-                );
-            }
-        }
-        if modality != Modality::Events {
-            bail!(
-                "--sensor-preset/--perturb set an event sensor; this camera is {}",
-                modality.as_str()
-            );
-        }
-        let seed = perturb::seed::stream_seed(self.seed, perturb::seed::Stream::EventSensor, index);
-        Ok(Some(p.event_sensor(seed)))
-    }
 }
 
 /// Folds `bytes` into the running digest `h` (8-byte words, multiply–rotate): cheap enough for
@@ -268,9 +200,9 @@ fn command_line_faults(args: &CameraArgs) -> Vec<Fault> {
     faults
 }
 
-pub fn run(args: CameraArgs) -> Result<()> {
+pub fn run(cli: CameraCli) -> Result<()> {
+    let CameraCli { camera: args, node } = cli;
     let mut faults = command_line_faults(&args);
-    let node = args.node;
     let index = observer_index(&args.observer, node.observers)?;
     let mut world = World::new(node.observers).context("building the scene")?;
     let mut renderer =
@@ -391,74 +323,8 @@ pub fn run(args: CameraArgs) -> Result<()> {
 
 #[cfg(test)]
 mod tests {
-    use super::{CameraArgs, digest, rgb_wire, throttle_drops};
-    use clap::Parser;
-    use perturb::Perturbation;
-    use perturb::seed::{Stream, stream_seed};
-    use proto::{FrameChange, Modality, PixelRect, RgbFrame, RgbReassembler, RgbUpdate};
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        camera: CameraArgs,
-    }
-
-    fn camera(extra: &[&str]) -> Result<CameraArgs, clap::Error> {
-        let base = ["camera", "--observer", "O2", "--modality", "events"];
-        let node = ["--session", "s1", "--observers", "3"];
-        Cli::try_parse_from(base.iter().chain(extra).chain(&node)).map(|c| c.camera)
-    }
-
-    #[test]
-    fn the_sensor_arguments_build_the_missions_sensor_for_this_observer() {
-        let args = camera(&[
-            "--sensor-preset",
-            "v2e-default",
-            "--perturb",
-            "events.leak_hz=0.2",
-            "--seed",
-            "7",
-        ])
-        .unwrap();
-        let want = Perturbation::with_preset(Some("v2e-default"), &["events.leak_hz=0.2"])
-            .unwrap()
-            .event_sensor(stream_seed(7, Stream::EventSensor, 1));
-        let got = args.sensor.model(Modality::Events, 1).unwrap();
-        assert_eq!(got, Some(want));
-        // Another observer draws from its own stream.
-        assert_ne!(args.sensor.model(Modality::Events, 2).unwrap(), Some(want));
-        // Without a preset or a term the camera is built as before.
-        assert_eq!(
-            camera(&[])
-                .unwrap()
-                .sensor
-                .model(Modality::Events, 1)
-                .unwrap(),
-            None
-        );
-    }
-
-    #[test]
-    fn the_sensor_arguments_refuse_unknown_presets_other_groups_and_rgb_cameras() {
-        for (extra, needle) in [
-            (&["--sensor-preset", "v2e-loud"][..], "v2e-loud"),
-            (&["--sensor-preset", "v2e-loud"][..], "v2e-default"),
-            (
-                &["--perturb", "rgb.read_noise_grey=4"][..],
-                "rgb.read_noise_grey",
-            ),
-            (&["--perturb", "events.nope=1"][..], "events.nope"),
-        ] {
-            let err = camera(extra)
-                .unwrap()
-                .sensor
-                .model(Modality::Events, 0)
-                .unwrap_err();
-            assert!(format!("{err:#}").contains(needle), "{extra:?}: {err:#}");
-        }
-        let rgb = camera(&["--sensor-preset", "v2e-clean"]).unwrap();
-        assert!(rgb.sensor.model(Modality::Rgb, 0).is_err());
-    }
+    use super::{digest, rgb_wire, throttle_drops};
+    use proto::{FrameChange, PixelRect, RgbFrame, RgbReassembler, RgbUpdate};
 
     #[test]
     fn rgb_updates_rebuild_every_frame_and_key_frames_come_when_due() {

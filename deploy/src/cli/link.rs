@@ -19,11 +19,11 @@ use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, Placement, observer_name};
 use proto::{Modality, Receiver, Rectification};
 use sim::sensor::EVENT_RENDER_PERIOD_NS;
 
-use crate::compose::sensor::SensorSpec;
 use crate::harness::link::{LinkOptions, LinkOut, fly_link, observer_out, print_table};
 pub use crate::harness::link::{parse_bits6, parse_viewpoint};
 use crate::harness::rendered_flight::{FlightSpec, fly_rendered};
 use crate::run_dir::SensorRecord;
+use node_args::SensorArgs;
 
 #[derive(Debug, Args)]
 pub struct LinkArgs {
@@ -75,12 +75,12 @@ pub struct LinkArgs {
 
 /// The sensor model of `args`, checked: `None` for the paper's ideal sensors.
 fn sensor(args: &LinkArgs) -> Result<Option<(Perturbation, SensorRecord)>> {
-    let spec = SensorSpec {
+    let spec = SensorArgs {
         preset: args.perturb.sensor_preset.clone(),
         perturb: args.perturb.perturb.clone(),
         seed: args.seed,
     };
-    let Some(record) = spec.record()? else {
+    let Some(record) = crate::compose::sensor::record(&spec)? else {
         return Ok(None);
     };
     if args.modality != Receiver::Events {

@@ -8,11 +8,11 @@ use clap::Args;
 use proto::Modality;
 
 use crate::case::Case;
-use crate::compose::sensor::SensorSpec;
 use crate::eval::summary::print_summary;
 use crate::fault::{BlackSpec, ExtraFaults, KillSpec, ThrottleSpec};
 use crate::launch::{RunOptions, run_case, run_modality};
 use crate::run_dir::RunSummary;
+use node_args::SensorArgs;
 
 /// What defines a session: the case, its modality, faults, bus and recording (shared by
 /// `waggle run` and `waggle compose`).
@@ -78,7 +78,7 @@ impl SessionArgs {
     pub fn options(self) -> Result<(Case, Modality, RunOptions)> {
         let case = self.flights.apply(Case::load(&self.case)?);
         let modality = run_modality(&case, self.modality)?;
-        let sensor = SensorSpec {
+        let sensor = SensorArgs {
             preset: self.perturb.sensor_preset,
             perturb: self.perturb.perturb,
             seed: self.seed,

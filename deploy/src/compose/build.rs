@@ -1,10 +1,12 @@
 //! The compose file of a case: every node of the session with its arguments, placed on hosts.
 
 use anyhow::Result;
+use node_args::{
+    CameraArgs, NodeCommand, NodeLine, ObserverArgs, RecorderArgs, SchedulerArgs, SensorArgs,
+};
 use proto::{Modality, ObserverId, RenderPath, Role};
 
 use super::place::{Placement, place};
-use super::sensor::SensorSpec;
 use super::{COMPOSE_VERSION, Compose, Faults, Node, Router};
 use crate::case::Case;
 use crate::fault::{ExtraFaults, Injected, injected_faults};
@@ -37,7 +39,7 @@ pub struct ComposeOptions {
     pub record_all_rgb: bool,
     pub render: RenderPath,
     /// The event cameras' sensor model (none: the paper's ideal sensors, no argument).
-    pub sensor: SensorSpec,
+    pub sensor: SensorArgs,
     /// Router listeners (default [`LOOPBACK_ROUTER`]) and connect endpoints.
     pub router_listen: Vec<String>,
     pub router_connect: Vec<String>,
@@ -92,12 +94,16 @@ struct NodeArgs<'a> {
     keys: &'a proto::Keys,
 }
 
-fn node(role: &str, binary: &str, args: Vec<String>) -> Node {
+fn node(role: &str, command: NodeCommand) -> Node {
+    line(role, NodeLine::new(command))
+}
+
+fn line(role: &str, line: NodeLine) -> Node {
     Node {
         role: role.to_string(),
         host: DEFAULT_HOST.to_string(),
-        binary: binary.to_string(),
-        args,
+        binary: line.binary().to_string(),
+        args: line.to_args(),
     }
 }
 
@@ -105,86 +111,54 @@ impl NodeArgs<'_> {
     /// The simulator, scheduler, performer, each observer's camera and observer, and the
     /// recorder — the order `waggle up` starts them in.
     fn nodes(&self) -> Vec<Node> {
-        let m = self.opts.modality.as_str().to_string();
+        let modality = self.opts.modality;
         let mut out = vec![
-            node("sim", "sim-node", vec!["run".into()]),
-            node("scheduler", "scheduler-node", self.scheduler_args(&m)),
-            node("performer", "performer-node", Vec::new()),
+            node("sim", NodeCommand::Sim),
+            node("scheduler", NodeCommand::Scheduler(self.scheduler_args())),
+            node("performer", NodeCommand::Performer),
         ];
         for o in self.observers {
-            let mut camera_args = vec![
-                "camera".into(),
-                "--observer".into(),
-                o.to_string(),
-                "--modality".into(),
-                m.clone(),
-                "--render".into(),
-                self.opts.render.to_string(),
-            ];
-            if self.injected.iter().any(|f| f.black_from_start(o)) {
-                camera_args.push("--black".into());
-            }
-            if let Some(at_ns) = self.injected.iter().find_map(|f| f.dropout_from(o)) {
-                camera_args.push("--dropout-ns".into());
-                camera_args.push(at_ns.to_string());
-            }
-            camera_args.extend(self.opts.sensor.camera_args());
-            out.push(node(&format!("camera-{o}"), "sim-node", camera_args));
-            out.push(node(
-                &format!("observer-{o}"),
-                "observer-node",
-                self.observer_args(o, &m),
-            ));
+            let camera = CameraArgs {
+                observer: o.clone(),
+                modality,
+                black: self.injected.iter().any(|f| f.black_from_start(o)),
+                dropout_ns: self.injected.iter().find_map(|f| f.dropout_from(o)),
+                render: self.opts.render,
+                sensor: self.opts.sensor.clone(),
+            };
+            out.push(node(&format!("camera-{o}"), NodeCommand::Camera(camera)));
+            let observer = ObserverArgs {
+                id: o.clone(),
+                modality,
+                grace_ms: self.opts.grace_ms,
+            };
+            let deny = if self.opts.observer_acl {
+                observer_denied_keys(self.keys, o, self.observers)
+            } else {
+                Vec::new()
+            };
+            let command = NodeCommand::Observer(observer);
+            out.push(line(&format!("observer-{o}"), NodeLine { command, deny }));
         }
         if self.opts.record {
-            let mut args = vec![
-                "--case-name".into(),
-                self.case.name.clone(),
-                "--modality".into(),
-                m,
-            ];
-            if self.opts.record_all_rgb {
-                args.push("--all-rgb".into());
-            }
-            out.push(node(Role::Recorder.as_str(), "recorder-node", args));
+            let mut recorder = RecorderArgs::new(&self.case.name, modality);
+            recorder.all_rgb = self.opts.record_all_rgb;
+            out.push(node(
+                Role::Recorder.as_str(),
+                NodeCommand::Recorder(recorder),
+            ));
         }
         out
     }
 
-    fn scheduler_args(&self, modality: &str) -> Vec<String> {
-        let mut a = vec![
-            "--modality".into(),
-            modality.to_string(),
-            "--offers".into(),
-            self.case.offer_sites.join(","),
-            "--rounds".into(),
-            self.case.rounds.to_string(),
-        ];
-        if let Some(limit) = self.case.time_limit_s {
-            a.push("--time-limit-s".into());
-            a.push(limit.to_string());
+    fn scheduler_args(&self) -> SchedulerArgs {
+        SchedulerArgs {
+            modality: self.opts.modality,
+            offers: self.case.offer_sites.join(","),
+            rounds: self.case.rounds,
+            time_limit_s: self.case.time_limit_s,
+            flights: self.case.flights,
         }
-        a.push("--flights".into());
-        a.push(self.case.flights.to_string());
-        a
-    }
-
-    fn observer_args(&self, o: &ObserverId, modality: &str) -> Vec<String> {
-        let mut a = vec![
-            "--id".into(),
-            o.to_string(),
-            "--modality".into(),
-            modality.to_string(),
-            "--grace-ms".into(),
-            self.opts.grace_ms.to_string(),
-        ];
-        if self.opts.observer_acl {
-            for key in observer_denied_keys(self.keys, o, self.observers) {
-                a.push("--deny".into());
-                a.push(key);
-            }
-        }
-        a
     }
 }
 

@@ -17,6 +17,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
+use node_args::{NodeCommand, NodeLine, SensorArgs};
 use proto::{Modality, ObserverId, Role};
 use serde::{Deserialize, Serialize};
 
@@ -128,6 +129,14 @@ pub struct Node {
     /// Its own arguments (the session-wide ones are added by `waggle up`).
     #[serde(default)]
     pub args: Vec<String>,
+}
+
+impl Node {
+    /// Its command line, typed: refused (naming the node) when its binary is unknown or its
+    /// arguments are not ones that binary takes.
+    pub fn line(&self) -> Result<NodeLine> {
+        NodeLine::parse(&self.binary, &self.args).with_context(|| format!("node {}", self.role))
+    }
 }
 
 /// A host or role name: it becomes part of a user name and a key, so letters, digits, `-`, `_`.
@@ -250,26 +259,23 @@ impl Compose {
 
     /// The event cameras' sensor model, from the cameras' own arguments (every camera must
     /// carry the same one).
-    pub fn sensor(&self) -> Result<sensor::SensorSpec> {
-        let mut cameras = self.nodes.iter().filter(|n| n.role.starts_with("camera-"));
-        let Some(first) = cameras.next() else {
-            return Ok(sensor::SensorSpec::default());
-        };
-        let spec = sensor::SensorSpec::from_camera_args(&first.args)
-            .with_context(|| format!("node {}", first.role))?;
-        for n in cameras {
-            let other = sensor::SensorSpec::from_camera_args(&n.args)
-                .with_context(|| format!("node {}", n.role))?;
-            if other != spec {
-                bail!(
-                    "nodes {} and {} carry different sensor models (--sensor-preset, --perturb, \
-                     --seed): every camera of a session carries the same",
-                    first.role,
-                    n.role
-                );
+    pub fn sensor(&self) -> Result<SensorArgs> {
+        let mut models = Vec::new();
+        for n in &self.nodes {
+            if let NodeCommand::Camera(c) = n.line()?.command {
+                models.push((n.role.as_str(), c.sensor));
             }
         }
-        Ok(spec)
+        let Some((first, spec)) = models.first() else {
+            return Ok(SensorArgs::default());
+        };
+        if let Some((other, _)) = models.iter().find(|(_, m)| m != spec) {
+            bail!(
+                "nodes {first} and {other} carry different sensor models (--sensor-preset, \
+                 --perturb, --seed): every camera of a session carries the same"
+            );
+        }
+        Ok(spec.clone())
     }
 
     /// The process names this session must list: the mission's processes, and the recorder
@@ -366,6 +372,7 @@ impl Compose {
                     n.binary
                 );
             }
+            n.line()?;
         }
         if let Some(missing) = expected.iter().find(|r| !seen.contains(r.as_str())) {
             bail!("no node runs {missing}");

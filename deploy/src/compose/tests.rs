@@ -24,7 +24,7 @@ fn options(case: &str, placements: &[&str], router: &[&str]) -> (Case, ComposeOp
         record: true,
         record_all_rgb: false,
         render: proto::RenderPath::Damage,
-        sensor: super::sensor::SensorSpec::default(),
+        sensor: node_args::SensorArgs::default(),
         router_listen: router.iter().map(|s| s.to_string()).collect(),
         router_connect: Vec::new(),
         placements: placements.iter().map(|p| p.parse().unwrap()).collect(),
@@ -173,8 +173,8 @@ fn a_placement_that_matches_nothing_is_an_error() {
     assert_eq!(placed.hosts(), ["local", "r"]);
 }
 
-fn noisy() -> super::sensor::SensorSpec {
-    super::sensor::SensorSpec {
+fn noisy() -> node_args::SensorArgs {
+    node_args::SensorArgs {
         preset: Some("v2e-default".into()),
         perturb: vec![
             "events.leak_hz=0.2".into(),
@@ -224,7 +224,9 @@ fn a_sensor_model_rides_on_every_camera_and_round_trips_through_the_file() {
     let back: Compose = toml::from_str(&composed.to_toml().unwrap()).unwrap();
     assert_eq!(back, composed);
     assert_eq!(back.sensor().unwrap(), noisy());
-    let record = back.sensor().unwrap().record().unwrap().unwrap();
+    let record = super::sensor::record(&back.sensor().unwrap())
+        .unwrap()
+        .unwrap();
     assert_eq!(record.preset.as_deref(), Some("v2e-default"));
     assert_eq!(record.seed, 7);
     // The preset's terms with the explicit ones over them, sorted by key.
@@ -266,22 +268,21 @@ fn without_a_sensor_model_the_cameras_arguments_are_unchanged() {
         ]
     );
     assert!(c.sensor().unwrap().is_none());
-    assert_eq!(c.sensor().unwrap().record().unwrap(), None);
+    assert_eq!(super::sensor::record(&c.sensor().unwrap()).unwrap(), None);
 }
 
 #[test]
 fn unknown_presets_other_groups_and_rgb_cameras_are_refused_naming_them() {
-    use super::sensor::SensorSpec;
-    let err = |s: SensorSpec, m: Modality| format!("{:#}", s.check(m).unwrap_err());
-    let unknown = SensorSpec {
+    let err = |s: node_args::SensorArgs, m: Modality| format!("{:#}", s.check(m).unwrap_err());
+    let unknown = node_args::SensorArgs {
         preset: Some("v2e-loud".into()),
-        ..SensorSpec::default()
+        ..Default::default()
     };
     let e = err(unknown.clone(), Modality::Events);
     assert!(e.contains("v2e-loud") && e.contains("v2e-default"), "{e}");
-    let rgb_term = SensorSpec {
+    let rgb_term = node_args::SensorArgs {
         perturb: vec!["rgb.read_noise_grey=4".into()],
-        ..SensorSpec::default()
+        ..Default::default()
     };
     assert!(err(rgb_term, Modality::Events).contains("rgb.read_noise_grey"));
     assert!(err(noisy(), Modality::Rgb).contains("rgb"));
@@ -290,4 +291,22 @@ fn unknown_presets_other_groups_and_rgb_cameras_are_refused_naming_them() {
     o.sensor = unknown;
     let e = format!("{:#}", compose(&c, &o).unwrap_err());
     assert!(e.contains("v2e-loud"), "{e}");
+}
+
+#[test]
+fn every_composed_node_parses_as_its_binarys_arguments_and_bad_ones_are_refused() {
+    let mut c = composed("nominal-3", &["camera-O2=b"], &["tcp/10.1.0.1:7447"]);
+    for n in &c.nodes {
+        let line = n.line().unwrap();
+        assert_eq!(line.binary(), n.binary, "{}", n.role);
+        assert_eq!(line.to_args(), n.args, "{}", n.role);
+    }
+    let obs = c
+        .nodes
+        .iter_mut()
+        .find(|n| n.role == "observer-O2")
+        .unwrap();
+    obs.args.extend(["--grace".to_string(), "5".to_string()]);
+    let e = check_err(&c);
+    assert!(e.contains("observer-O2") && e.contains("--grace"), "{e}");
 }

@@ -149,7 +149,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                     endpoints: Endpoints::default(),
                     render,
                     live: None,
-                    sensor: crate::compose::sensor::SensorSpec::default(),
+                    sensor: node_args::SensorArgs::default(),
                 },
             )?;
             if done.summary.interrupted {

@@ -34,11 +34,11 @@ use proto::{Modality, RenderPath};
 
 pub use crate::case::run_modality;
 use crate::case::{Case, case_source};
-use crate::compose::sensor::SensorSpec;
 use crate::compose::{self, build::ComposeOptions};
 use crate::fault::ExtraFaults;
 use crate::run_dir::lock::RunLock;
 use crate::run_dir::{LOG_DIR, RunSummary};
+use node_args::SensorArgs;
 use process::Proc;
 use up::{UpDone, UpOptions};
 
@@ -74,7 +74,7 @@ pub struct RunOptions {
     /// Serve the view channels live over a Foxglove WebSocket on this loopback port.
     pub live: Option<u16>,
     /// The event cameras' sensor model (default: the paper's ideal sensors).
-    pub sensor: SensorSpec,
+    pub sensor: SensorArgs,
 }
 
 /// Where one run lives.

@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use bus::{Bus, Credentials, Endpoints, NodeArgs, SessionSecrets, handshake};
+use node_args::{NodeCommand, RecorderOutput};
 use proto::{Key, ObserverId, RenderPath, Role};
 
 use super::process::{Proc, Spawner};
@@ -113,7 +114,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
     let injected = compose.injected(&case)?;
     let sensor = compose.sensor()?;
     sensor.check(compose.modality)?;
-    let sensor = sensor.record()?;
+    let sensor = crate::compose::sensor::record(&sensor)?;
     if let Some(port) = opts.live {
         check_live(&compose, &share, port)?;
     }
@@ -199,7 +200,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
     let info = RunInfo {
         case: &case,
         modality: compose.modality,
-        render: render_path(&compose),
+        render: render_path(&compose)?,
         sensor,
         session: &compose.session,
         started,
@@ -280,16 +281,13 @@ fn host_record(
 }
 
 /// How the cameras render (their `--render` argument; damage when none says).
-fn render_path(compose: &Compose) -> RenderPath {
-    compose
-        .nodes
-        .iter()
-        .filter(|n| n.role.starts_with("camera-"))
-        .find_map(|n| {
-            let i = n.args.iter().position(|a| a == "--render")?;
-            n.args.get(i + 1)?.parse().ok()
-        })
-        .unwrap_or_default()
+fn render_path(compose: &Compose) -> Result<RenderPath> {
+    for n in &compose.nodes {
+        if let NodeCommand::Camera(c) = n.line()?.command {
+            return Ok(c.render);
+        }
+    }
+    Ok(RenderPath::default())
 }
 
 /// The launcher's own session: the router on the router's host, else a client of it.
@@ -338,13 +336,11 @@ fn spawn_share(
         let mut args = node.args.clone();
         let recorder = node.role == Role::Recorder.as_str();
         if recorder {
-            args.extend(recorder_paths(&compose.case, out_dir)?);
-            if let Some(port) = live {
-                args.push("--live".into());
-                args.push(format!("127.0.0.1:{port}"));
+            let output = recorder_output(&compose.case, out_dir, live)?;
+            args.extend(output.to_args());
+            if let Some(addr) = output.live {
                 eprintln!(
-                    "live view: ws://127.0.0.1:{port} (Foxglove: Open connection → Foxglove \
-                     WebSocket)"
+                    "live view: ws://{addr} (Foxglove: Open connection → Foxglove WebSocket)"
                 );
             }
         }
@@ -355,16 +351,15 @@ fn spawn_share(
     Ok(())
 }
 
-/// The recorder's paths in the run directory; writes the case text to `out_dir/case.toml` so
-/// the recording holds the case and its expected outcome.
-fn recorder_paths(case_text: &str, out_dir: &Path) -> Result<Vec<String>> {
+/// Where the recorder writes in the run directory, and the live view's loopback address; writes
+/// the case text to `out_dir/case.toml` so the recording holds the case and its expected outcome.
+fn recorder_output(case_text: &str, out_dir: &Path, live: Option<u16>) -> Result<RecorderOutput> {
     let case_file = out_dir.join(CASE_FILE);
     std::fs::write(&case_file, case_text)
         .with_context(|| format!("writing {}", case_file.display()))?;
-    Ok(vec![
-        "--out".into(),
-        out_dir.join(RECORDING_FILE).display().to_string(),
-        "--case-file".into(),
-        case_file.display().to_string(),
-    ])
+    Ok(RecorderOutput {
+        out: out_dir.join(RECORDING_FILE),
+        case_file: Some(case_file),
+        live: live.map(|port| std::net::SocketAddr::from(([127, 0, 0, 1], port))),
+    })
 }

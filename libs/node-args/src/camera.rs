@@ -1,0 +1,139 @@
+//! `sim-node camera`'s own arguments, with the event sensor's model.
+
+use proto::{Modality, ObserverId, RenderPath};
+
+use crate::ArgList;
+use crate::command::NodeArgsError;
+
+/// One observer's camera process.
+#[derive(Debug, Clone, PartialEq, Eq, clap::Args)]
+pub struct CameraArgs {
+    /// The observer whose camera this is (O1, O2, …).
+    #[arg(long)]
+    pub observer: ObserverId,
+    /// The sensor it carries.
+    #[arg(long, value_enum)]
+    pub modality: Modality,
+    /// Black input from start-up (the fault of the black-o2 case). Given on the command line so
+    /// it is in force before the first render, whatever the arrival order of messages; the
+    /// launcher also publishes it on `fault/Oi` for the record.
+    #[arg(long)]
+    pub black: bool,
+    /// The stream stops at this sim time, ns (the dropout fault): nothing is published from the
+    /// render at this instant on. Given on the command line, like `--black`, so it holds
+    /// whatever the arrival order of messages; also published on `fault/Oi`.
+    #[arg(long, value_name = "NS")]
+    pub dropout_ns: Option<u64>,
+    /// How the camera renders: `damage` (default) redraws only what moved, `full` every pixel of
+    /// every frame (the reference; both deliver identical bytes).
+    #[arg(long, value_enum, default_value_t)]
+    pub render: RenderPath,
+    #[command(flatten)]
+    pub sensor: SensorArgs,
+}
+
+impl CameraArgs {
+    /// The arguments that reproduce these (after the `camera` subcommand).
+    pub fn to_args(&self) -> Vec<String> {
+        let mut a = ArgList::new()
+            .value("--observer", &self.observer)
+            .value("--modality", self.modality.as_str())
+            .value("--render", self.render)
+            .flag("--black", self.black)
+            .opt("--dropout-ns", self.dropout_ns)
+            .done();
+        a.extend(self.sensor.to_args());
+        a
+    }
+}
+
+/// The event sensor's model of a session's cameras: a named preset and `events.*` terms over it,
+/// and the run's seed. None of them: the paper's ideal sensor, and no argument at all, so such a
+/// session's nodes and outputs are the ones it always had.
+#[derive(Debug, Clone, Default, PartialEq, Eq, clap::Args)]
+pub struct SensorArgs {
+    /// A named sensor preset (`v2e-clean`, `v2e-default`, `v2e-noisy`, …): its `events.*` terms.
+    #[arg(long = "sensor-preset", value_name = "NAME")]
+    pub preset: Option<String>,
+    /// An `events.*` term KEY=VALUE over the preset's (repeatable, later ones win).
+    #[arg(long = "perturb", value_name = "KEY=VALUE")]
+    pub perturb: Vec<String>,
+    /// The run's seed: observer i's sensor noise draws from
+    /// `stream_seed(seed, EventSensor, i)`, as in `waggle mission`.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+impl SensorArgs {
+    /// True when the sensors are the paper's ideal ones (nothing to hand on).
+    pub fn is_none(&self) -> bool {
+        self.preset.is_none() && self.perturb.is_empty()
+    }
+
+    /// The arguments that reproduce these (none for the ideal sensor).
+    pub fn to_args(&self) -> Vec<String> {
+        if self.is_none() {
+            return Vec::new();
+        }
+        let mut a = ArgList::new();
+        a.opt("--sensor-preset", self.preset.as_ref());
+        for t in &self.perturb {
+            a.value("--perturb", t);
+        }
+        a.value("--seed", self.seed).done()
+    }
+
+    /// The perturbation the preset and terms make, refusing an unknown preset or term (naming
+    /// it and the known ones) and any term outside the `events` group: a camera models the
+    /// event sensor only (`rgb.*`, `link.*`, `geometry.*` and `flight.*` terms are modelled by
+    /// `waggle trials` and `waggle mission`).
+    pub fn perturbation(&self) -> Result<perturb::Perturbation, NodeArgsError> {
+        let p = perturb::Perturbation::with_preset(self.preset.as_deref(), &self.perturb)
+            .map_err(|e| NodeArgsError::Sensor(e.to_string()))?;
+        if let Some(a) = self
+            .perturb
+            .iter()
+            .find(|a| !a.trim_start().starts_with("events."))
+        {
+            let key = a.split_once('=').map_or(a.as_str(), |(k, _)| k).trim();
+            return Err(NodeArgsError::Sensor(format!(
+                "--perturb {a}: only events.* terms apply here (the event cameras' sensor \
+                 model), not {key}; `waggle trials` and `waggle mission` model the other groups"
+            )));
+        }
+        Ok(p)
+    }
+
+    /// Checks the model for cameras carrying `modality`: a sensor model on RGB cameras is
+    /// refused (it would change nothing).
+    pub fn check(&self, modality: Modality) -> Result<(), NodeArgsError> {
+        if self.is_none() {
+            return Ok(());
+        }
+        self.perturbation()?;
+        if modality != Modality::Events {
+            return Err(NodeArgsError::Sensor(format!(
+                "--sensor-preset/--perturb set the event cameras' sensor model; these cameras \
+                 are {} (use --modality events)",
+                modality.as_str()
+            )));
+        }
+        Ok(())
+    }
+
+    /// The event sensor of observer `index` carrying `modality`, or `None` for the paper's
+    /// ideal sensor (the camera is then built exactly as before).
+    pub fn model(
+        &self,
+        modality: Modality,
+        index: usize,
+    ) -> Result<Option<event_camera::EventSensorModel>, NodeArgsError> {
+        if self.is_none() {
+            return Ok(None);
+        }
+        self.check(modality)?;
+        let p = self.perturbation()?;
+        let seed = perturb::seed::stream_seed(self.seed, perturb::seed::Stream::EventSensor, index);
+        Ok(Some(p.event_sensor(seed)))
+    }
+}

@@ -1,0 +1,38 @@
+//! `scheduler-node`'s own arguments.
+
+use proto::{FlightMode, Modality};
+
+use crate::ArgList;
+
+/// The scheduler process of a session.
+#[derive(Debug, Clone, PartialEq, clap::Args)]
+pub struct SchedulerArgs {
+    /// The observers' sensor (the event modality adds the acquisition preamble).
+    #[arg(long, value_enum)]
+    pub modality: Modality,
+    /// Sites advertised each round, in order, comma-separated; empty: no broadcast.
+    #[arg(long, default_value = "A,B")]
+    pub offers: String,
+    /// Number of rounds.
+    #[arg(long, default_value_t = 2)]
+    pub rounds: u32,
+    /// Hard limit on simulated time, seconds.
+    #[arg(long)]
+    pub time_limit_s: Option<f64>,
+    /// Safety router: one trip at a time, or overlapping trips on checked reservations.
+    #[arg(long, value_enum, default_value_t = FlightMode::default())]
+    pub flights: FlightMode,
+}
+
+impl SchedulerArgs {
+    /// The arguments that reproduce these.
+    pub fn to_args(&self) -> Vec<String> {
+        ArgList::new()
+            .value("--modality", self.modality.as_str())
+            .value("--offers", &self.offers)
+            .value("--rounds", self.rounds)
+            .opt("--time-limit-s", self.time_limit_s)
+            .value("--flights", self.flights)
+            .done()
+    }
+}

@@ -1,0 +1,228 @@
+//! Every node's arguments survive `to_args` → parse unchanged, for arbitrary values, and bad
+//! arguments are refused naming the node.
+
+use node_args::{
+    CameraArgs, NodeArgsError, NodeCommand, NodeLine, ObserverArgs, RecorderArgs, RecorderOutput,
+    SchedulerArgs, SensorArgs,
+};
+use proptest::prelude::*;
+use proto::{FlightMode, Modality, ObserverId, RenderPath};
+
+fn observer_id() -> impl Strategy<Value = ObserverId> {
+    (0usize..8).prop_map(ObserverId::from_index)
+}
+
+fn modality() -> impl Strategy<Value = Modality> {
+    prop_oneof![Just(Modality::Rgb), Just(Modality::Events)]
+}
+
+fn sensor() -> impl Strategy<Value = SensorArgs> {
+    prop_oneof![
+        Just(SensorArgs::default()),
+        (
+            proptest::option::of(prop_oneof![
+                Just("v2e-clean".to_string()),
+                Just("v2e-noisy".to_string())
+            ]),
+            proptest::collection::vec(
+                (0.0f64..5.0).prop_map(|v| format!("events.shot_noise_hz={v}")),
+                1..3
+            ),
+            any::<u64>(),
+        )
+            .prop_map(|(preset, perturb, seed)| SensorArgs {
+                preset,
+                perturb,
+                seed
+            }),
+        (any::<u64>()).prop_map(|seed| SensorArgs {
+            preset: Some("v2e-default".into()),
+            perturb: Vec::new(),
+            seed
+        }),
+    ]
+}
+
+fn command() -> impl Strategy<Value = NodeCommand> {
+    prop_oneof![
+        Just(NodeCommand::Sim),
+        Just(NodeCommand::Performer),
+        (
+            modality(),
+            "[A-D](,[A-D]){0,3}",
+            0u32..10,
+            proptest::option::of(1.0f64..1e5),
+            prop_oneof![Just(FlightMode::Sequential), Just(FlightMode::Concurrent)],
+        )
+            .prop_map(|(modality, offers, rounds, time_limit_s, flights)| {
+                NodeCommand::Scheduler(SchedulerArgs {
+                    modality,
+                    offers,
+                    rounds,
+                    time_limit_s,
+                    flights,
+                })
+            }),
+        (
+            observer_id(),
+            modality(),
+            any::<bool>(),
+            proptest::option::of(any::<u64>()),
+            prop_oneof![Just(RenderPath::Damage), Just(RenderPath::Full)],
+            sensor(),
+        )
+            .prop_map(|(observer, modality, black, dropout_ns, render, sensor)| {
+                NodeCommand::Camera(CameraArgs {
+                    observer,
+                    modality,
+                    black,
+                    dropout_ns,
+                    render,
+                    sensor,
+                })
+            }),
+        (observer_id(), modality(), any::<u64>()).prop_map(|(id, modality, grace_ms)| {
+            NodeCommand::Observer(ObserverArgs {
+                id,
+                modality,
+                grace_ms,
+            })
+        }),
+        (
+            proptest::option::of("[a-z][a-z0-9-]{0,12}"),
+            proptest::option::of(modality()),
+            0.0f64..100.0,
+            1u64..100,
+            any::<bool>(),
+            (1u64..1 << 20, any::<u32>(), any::<u32>()),
+        )
+            .prop_map(
+                |(
+                    case_name,
+                    modality,
+                    event_view_hz,
+                    rgb_every,
+                    all_rgb,
+                    (chunk, flush, linger),
+                )| {
+                    NodeCommand::Recorder(RecorderArgs {
+                        case_name,
+                        modality,
+                        event_view_hz,
+                        rgb_every,
+                        all_rgb,
+                        chunk_kib: chunk,
+                        flush_ms: flush.into(),
+                        linger_ms: linger.into(),
+                    })
+                }
+            ),
+    ]
+}
+
+proptest! {
+    #[test]
+    fn every_node_line_round_trips(
+        command in command(),
+        deny in proptest::collection::vec("waggle/[a-z]{1,6}/\\*\\*", 0..3),
+    ) {
+        let line = NodeLine { command, deny };
+        let parsed = NodeLine::parse(line.binary(), &line.to_args()).unwrap();
+        prop_assert_eq!(parsed, line);
+    }
+}
+
+#[test]
+fn the_recorders_output_round_trips() {
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        out: RecorderOutput,
+    }
+    for out in [
+        RecorderOutput {
+            out: "runs/x/session.mcap".into(),
+            case_file: Some("runs/x/case.toml".into()),
+            live: Some("127.0.0.1:8765".parse().unwrap()),
+        },
+        RecorderOutput {
+            out: "a b/s.mcap".into(),
+            case_file: None,
+            live: None,
+        },
+    ] {
+        let argv = std::iter::once("recorder-node".to_string()).chain(out.to_args());
+        let back = <Cli as clap::Parser>::try_parse_from(argv).unwrap().out;
+        assert_eq!(back, out);
+    }
+}
+
+#[test]
+fn bad_arguments_are_refused_naming_the_node() {
+    let args = |a: &[&str]| a.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let err = NodeLine::parse(
+        "observer-node",
+        &args(&["--id", "O1", "--modality", "rgb", "--grace-ms", "soon"]),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains("observer-node") && err.contains("soon"),
+        "{err}"
+    );
+    let err = NodeLine::parse("sim-node", &args(&["camera", "--observer", "O1"]))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("--modality"), "{err}");
+    assert!(matches!(
+        NodeLine::parse("rogue-node", &[]),
+        Err(NodeArgsError::UnknownBinary(_))
+    ));
+    let err = NodeLine::parse("performer-node", &args(&["--speed", "2"]))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("--speed"), "{err}");
+}
+
+#[test]
+fn the_sensor_model_refuses_other_groups_unknown_presets_and_rgb_cameras() {
+    let s = |preset: Option<&str>, terms: &[&str]| SensorArgs {
+        preset: preset.map(String::from),
+        perturb: terms.iter().map(|t| t.to_string()).collect(),
+        seed: 1,
+    };
+    let msg = |e: NodeArgsError| e.to_string();
+    assert!(
+        msg(s(Some("v2e-loud"), &[])
+            .check(Modality::Events)
+            .unwrap_err())
+        .contains("v2e-loud")
+    );
+    assert!(
+        msg(s(None, &["rgb.read_noise_grey=4"])
+            .check(Modality::Events)
+            .unwrap_err())
+        .contains("rgb.read_noise_grey")
+    );
+    assert!(
+        msg(s(Some("v2e-default"), &[])
+            .check(Modality::Rgb)
+            .unwrap_err())
+        .contains("rgb")
+    );
+    assert!(SensorArgs::default().check(Modality::Rgb).is_ok());
+    assert_eq!(
+        SensorArgs::default().model(Modality::Events, 1).unwrap(),
+        None
+    );
+    let one = s(Some("v2e-default"), &[])
+        .model(Modality::Events, 1)
+        .unwrap();
+    let two = s(Some("v2e-default"), &[])
+        .model(Modality::Events, 2)
+        .unwrap();
+    assert!(
+        one.is_some() && one != two,
+        "each observer draws from its own stream"
+    );
+}
