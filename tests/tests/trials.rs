@@ -481,3 +481,67 @@ fn re_flown_trials_render_on_parallel_threads_and_stay_identical_across_jobs() {
         std::fs::read(b.join("trials.json")).unwrap()
     );
 }
+
+#[test]
+fn wind_and_the_cascade_fly_in_missions_and_link_trials_with_their_tracking_measured() {
+    let tracking = |v: &Value| v["per_trial"][0]["metrics"]["performer_tracking"].clone();
+    // Still air, ideal stabilisation: no tracking field (outputs as before).
+    let calm = tmp("air-calm");
+    let (v, _) = trials(
+        &calm,
+        &["--case", "only-a", "--modality", "ideal", "--trials", "1"],
+    );
+    assert!(tracking(&v).is_null(), "{v}");
+    // A steady 1 m/s wind under ideal stabilisation: millimetres of error, still a pass.
+    let windy = tmp("air-wind");
+    let wind = ["--perturb", "wind.mean_mps=1"];
+    let (v, _) = trials(
+        &windy,
+        &[
+            &["--case", "only-a", "--modality", "ideal", "--trials", "1"][..],
+            &wind,
+        ]
+        .concat(),
+    );
+    let t = tracking(&v);
+    let (rms_m, max_m) = (t["rms_m"].as_f64().unwrap(), t["max_m"].as_f64().unwrap());
+    assert!(rms_m > 1e-4 && max_m < 0.02 && rms_m <= max_m, "{t}");
+    assert_eq!(v["successes"], 1, "{v}");
+    // The cascade with its noisy estimate tracks worse than the ideal controller in the same air.
+    let cascade = tmp("air-cascade");
+    let (vc, _) = trials(
+        &cascade,
+        &[
+            &["--case", "only-a", "--modality", "ideal", "--trials", "1"][..],
+            &wind,
+            &["--perturb", "flight.cascade=1"],
+        ]
+        .concat(),
+    );
+    assert!(
+        tracking(&vc)["rms_m"].as_f64().unwrap() > 3.0 * rms_m,
+        "{vc}"
+    );
+    // Link trials re-fly each trial in its own wind: two seeds, two flights.
+    let (a, b) = (tmp("air-link-a"), tmp("air-link-b"));
+    let link = [
+        "--link",
+        "011010",
+        "--observers",
+        "1",
+        "--modality",
+        "rgb",
+        "--trials",
+        "1",
+        "--perturb",
+        "wind.mean_mps=1",
+        "--perturb",
+        "wind.sigma_mps=0.3",
+    ];
+    let (va, _) = trials(&a, &[&link[..], &["--seed", "1"]].concat());
+    let (vb, _) = trials(&b, &[&link[..], &["--seed", "2"]].concat());
+    assert_ne!(
+        va["per_trial"], vb["per_trial"],
+        "two seeds flew the same wind"
+    );
+}

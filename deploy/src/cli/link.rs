@@ -170,6 +170,7 @@ fn fly_link_with_sensors(opts: &LinkOptions, p: &Perturbation, seed: u64) -> Res
         render: opts.render,
         rectification: opts.rectification,
         gusts: None,
+        air: None,
     })?;
     let names: Vec<String> = (0..flight.spec.formation.len())
         .map(observer_name)

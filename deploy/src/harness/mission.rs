@@ -37,6 +37,7 @@ use sim::world::World;
 
 use crate::case::{Case, Receiver};
 use crate::eval::summary::{check_expected, decision_label, ns_s};
+use crate::harness::air::{Tracking, set_air};
 use crate::harness::mission_metrics::{MissionMetrics, Policy, measure};
 use crate::harness::performer_flight::performer_reference;
 use crate::run_dir::{MissionSummary, ObserverSummary};
@@ -205,7 +206,10 @@ pub fn fly_case_with(
     let Some(end_reason) = mission.fly(opts.stop.as_deref())? else {
         return Ok(None);
     };
-    let metrics = measure(&mission.scheduler, opts.policy, mission.world.time_ns());
+    let mut metrics = measure(&mission.scheduler, opts.policy, mission.world.time_ns());
+    if mission.air {
+        metrics.performer_tracking = Some(Tracking::of(&mission.world, 0));
+    }
     Ok(Some((
         mission.summarise(case, modality, end_reason, started),
         metrics,
@@ -239,13 +243,16 @@ struct Mission {
     /// Fixed policy: each observer's site, roster order (`None`: no site is offered).
     fixed_sites: Vec<Option<Site>>,
     gusts: Option<GustState>,
+    /// Wind or the cascade controller is set: the performer's tracking is measured.
+    air: bool,
 }
 
 impl Mission {
     fn new(case: &Case, modality: Receiver, opts: &MissionOptions) -> Result<Self> {
         let render = opts.render;
         let n = case.observers;
-        let world = World::new(n).context("building the scene")?;
+        let mut world = World::new(n).context("building the scene")?;
+        let air = set_air(&mut world, &opts.perturbation, opts.seed)?;
         // The ideal baseline flies the RGB broadcast (no acquisition preamble).
         let sched_modality = modality.sensor().unwrap_or(Modality::Rgb);
         let scheduler = scheduler_for(case, sched_modality)?;
@@ -285,6 +292,7 @@ impl Mission {
             fixed_due: None,
             fixed_sites,
             gusts,
+            air,
             world,
             scheduler,
             renderer,

@@ -60,6 +60,10 @@ pub struct MissionMetrics {
     /// broadcast (acquisition sweep included). Zero for the fixed policy, which reads nothing.
     pub broadcast_symbols: u64,
     pub broadcast_s: f64,
+    /// The performer's tracking of its reference, when wind or the cascade controller flew
+    /// (absent in still air under ideal stabilisation, so those outputs are as before).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub performer_tracking: Option<crate::harness::air::Tracking>,
 }
 
 fn seconds(ns: u64) -> f64 {
@@ -91,6 +95,7 @@ pub fn measure(scheduler: &Scheduler, policy: Policy, end_ns: u64) -> MissionMet
         reassignments: reassignments(scheduler),
         broadcast_symbols: symbols,
         broadcast_s: seconds(broadcast_ns),
+        performer_tracking: None,
     }
 }
 

@@ -6,6 +6,7 @@
 //! resumable ([`records`], [`run_files`]), shards and their merge ([`shard`], [`study_run`],
 //! [`study_merge`]) and cluster job files ([`cluster`]).
 
+pub mod air;
 pub mod baselines;
 pub mod cluster;
 pub mod convert;

@@ -37,6 +37,10 @@ pub struct FlightSpec {
     /// Gusts on the performer: σ of each horizontal component (N), how long each holds (ns),
     /// the seed of the draws. `None`: still air.
     pub gusts: Option<Gusts>,
+    /// Wind and the cascade controller (`wind.*`, `flight.cascade`) with the trial's seed, set
+    /// on the world before it flies ([`crate::harness::air::set_air`]). `None`: still air and
+    /// the paper's ideal stabilisation.
+    pub air: Option<(perturb::Perturbation, u64)>,
 }
 
 /// A gust model: a horizontal force on the performer, redrawn at the first render at or after
@@ -148,6 +152,9 @@ fn rows(r: PixelRect, width: usize) -> impl Iterator<Item = (usize, usize)> {
 /// Flies `spec` once, rendering every observer's camera at `render_period_ns`.
 pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
     let mut world = World::with_formation(&spec.formation).context("building the scene")?;
+    if let Some((p, seed)) = &spec.air {
+        crate::harness::air::set_air(&mut world, p, *seed)?;
+    }
     let mut renderer =
         CameraRenderer::new(&world, spec.render).context("creating the offscreen renderer")?;
     let mut ideal = Modality::ALL

@@ -104,7 +104,11 @@ impl TrialsOptions {
         let (schedule, end_ns) = broadcast_schedule(&self.payloads, acquisition, 0)?;
         let mut formation = self.formation.clone();
         let mut gusts = None;
+        let mut air = None;
         if let Some(seed) = seed {
+            if self.perturbation.wind().is_some() || self.perturbation.cascade().is_some() {
+                air = Some((self.perturbation.clone(), seed));
+            }
             formation = jittered(&self.formation, &self.perturbation, seed)?;
             let sigma_n = self.perturbation.gust_sigma_n();
             if sigma_n > 0.0 {
@@ -124,6 +128,7 @@ impl TrialsOptions {
 
             rectification: self.rectification,
             gusts,
+            air,
         })
     }
 }

@@ -1,0 +1,48 @@
+//! Real air for a flown trial: the perturbation's wind (`wind.*`: MuJoCo-side Dryden turbulence
+//! and Crazyflie rotor drag, `sim::wind`) and the Crazyflie-like cascade controller
+//! (`flight.cascade`, `flight.estimate_*`: `sim::cascade`) set on a freshly built world, both
+//! seeded from the trial's seed. Neither term given: the world is left exactly as built (the
+//! paper's still air and ideal stabilisation).
+
+use anyhow::{Context, Result};
+use perturb::Perturbation;
+use serde::Serialize;
+use sim::cascade::CascadeConfig;
+use sim::wind::WindConfig;
+use sim::world::{ControllerKind, DroneIndex, World};
+
+/// Sets `p`'s wind and controller on `world` for the trial seeded `seed`; true when either was
+/// set (the flight then differs from the paper's).
+pub fn set_air(world: &mut World, p: &Perturbation, seed: u64) -> Result<bool> {
+    let wind = p.wind_of(seed);
+    if let Some(w) = &wind {
+        let config =
+            WindConfig::from_terms(w.mean_mps, w.direction_deg, w.sigma_mps, w.length_m, w.seed);
+        world.set_wind(Some(config)).context("the wind terms")?;
+    }
+    let cascade = p.cascade_of(seed);
+    if let Some(c) = &cascade {
+        let config = CascadeConfig::from_terms(c.estimate_sigma_m, c.estimate_latency_ns, c.seed);
+        world.set_controller(ControllerKind::Cascade(config));
+    }
+    Ok(wind.is_some() || cascade.is_some())
+}
+
+/// How closely a drone followed its reference over a flight (true position against the
+/// reference, every physics step).
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct Tracking {
+    pub rms_m: f64,
+    pub max_m: f64,
+}
+
+impl Tracking {
+    /// Drone `i`'s tracking so far.
+    pub fn of(world: &World, i: DroneIndex) -> Self {
+        let t = world.tracking_error(i);
+        Self {
+            rms_m: t.rms_m,
+            max_m: t.max_m,
+        }
+    }
+}
