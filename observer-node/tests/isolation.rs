@@ -69,6 +69,7 @@ fn no_observer_code_path_names_a_forbidden_key() {
     let mut files = Vec::new();
     sources(&root.join("src"), &mut files);
     sources(&root.join("../libs/perception/src"), &mut files);
+    sources(&root.join("../libs/node-args/src"), &mut files);
     assert!(files.len() > 5, "found only {files:?}");
     for f in &files {
         let text = non_test_source(f);
@@ -86,7 +87,7 @@ fn no_observer_code_path_names_a_forbidden_key() {
     assert_eq!(
         subs,
         [
-            "bus.subscribe(&keys.sensor_any(&args.id))?;",
+            "bus.subscribe(&keys.sensor_any(&args.own.id))?;",
             "bus.subscribe(&keys.clock())?;",
             "bus.subscribe(&keys.sched_session())?;",
         ]
@@ -114,16 +115,35 @@ fn no_observer_code_path_names_a_forbidden_key() {
             "observer-node depends on {crate_name}"
         );
     }
-    let lib_manifest = std::fs::read_to_string(root.join("../libs/perception/Cargo.toml")).unwrap();
-    let lib_deps = &lib_manifest[lib_manifest.find("[dependencies]").unwrap()..];
-    let lib_deps = &lib_deps[..lib_deps.find("\n[").unwrap_or(lib_deps.len())];
-    for crate_name in ["sim", "scheduler", "recording", "evaluation", "bus"] {
-        assert!(
-            !lib_deps
-                .lines()
-                .any(|l| l.starts_with(&format!("{crate_name}."))),
-            "the perception library depends on {crate_name}"
-        );
+    // Nor can the libraries it links beside the bus: perception, and the typed arguments
+    // (node-args, whose sensor model links perturb and event-camera only).
+    for (lib, forbidden) in [
+        (
+            "perception",
+            &["sim", "scheduler", "recording", "evaluation", "bus"][..],
+        ),
+        (
+            "node-args",
+            &["sim", "scheduler", "recording", "evaluation", "bus"][..],
+        ),
+        (
+            "perturb",
+            &["sim", "scheduler", "recording", "evaluation", "bus"][..],
+        ),
+    ] {
+        let manifest = std::fs::read_to_string(root.join(format!("../libs/{lib}/Cargo.toml")))
+            .unwrap_or_else(|e| panic!("libs/{lib}/Cargo.toml: {e}"));
+        let deps = &manifest[manifest.find("[dependencies]").unwrap()..];
+        let deps = &deps[..deps.find("\n[").unwrap_or(deps.len())];
+        for crate_name in forbidden {
+            assert!(
+                !deps
+                    .lines()
+                    .any(|l| l.starts_with(&format!("{crate_name}."))
+                        || l.starts_with(&format!("{crate_name} "))),
+                "the {lib} library depends on {crate_name}"
+            );
+        }
     }
 }
 
