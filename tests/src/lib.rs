@@ -192,3 +192,26 @@ pub fn assert_recording_validates(file: &Path) -> serde_json::Value {
     );
     serde_json::from_str(&report).expect("validate_mcap.mjs prints JSON")
 }
+
+/// A small link study for the shard and merge tests: two conditions (RGB read noise at two
+/// levels, one level of event shot noise) × both modalities, two trials per point, one shared
+/// flight (no term re-flies).
+pub fn two_condition_study(name: &str, seed: u64) -> String {
+    format!(
+        r#"
+name = "{name}"
+modalities = ["rgb", "events"]
+link = ["011010"]
+observers = 1
+trials = 2
+seed = {seed}
+criterion = "exact-payloads"
+[[vary]]
+key = "rgb.read_noise_grey"
+levels = [0.0, 30.0]
+[[vary]]
+key = "events.shot_noise_hz"
+levels = [0.0003]
+"#
+    )
+}

@@ -71,22 +71,6 @@ impl Drop for Cluster {
     }
 }
 
-const STUDY: &str = r#"
-name = "slurm"
-modalities = ["rgb", "events"]
-link = ["011010"]
-observers = 1
-trials = 2
-seed = 13
-criterion = "exact-payloads"
-[[vary]]
-key = "rgb.read_noise_grey"
-levels = [0.0, 30.0]
-[[vary]]
-key = "events.shot_noise_hz"
-levels = [0.0003]
-"#;
-
 #[test]
 #[ignore = "installs and starts Slurm (root), ≈ 3 min: deploy/test.sh --full"]
 fn a_study_as_a_slurm_array_merges_to_the_single_run_byte_for_byte() {
@@ -95,7 +79,7 @@ fn a_study_as_a_slurm_array_merges_to_the_single_run_byte_for_byte() {
     std::fs::create_dir_all(&root).unwrap();
     let cluster = Cluster::up(&root.join("cluster"));
     let file = root.join("slurm.toml");
-    std::fs::write(&file, STUDY).unwrap();
+    std::fs::write(&file, waggle_tests::two_condition_study("slurm", 13)).unwrap();
     let study = root.join("study");
     let submitted = waggle_tests::succeed(
         waggle_tests::waggle()

@@ -57,21 +57,9 @@ fn records(dir: &Path) -> Vec<String> {
 
 /// Two conditions × both modalities, two trials per point: 6 points, 12 trials, one shared
 /// flight (no term re-flies).
-const STUDY: &str = r#"
-name = "shards"
-modalities = ["rgb", "events"]
-link = ["011010"]
-observers = 1
-trials = 2
-seed = 11
-criterion = "exact-payloads"
-[[vary]]
-key = "rgb.read_noise_grey"
-levels = [0.0, 30.0]
-[[vary]]
-key = "events.shot_noise_hz"
-levels = [0.0003]
-"#;
+fn study() -> String {
+    waggle_tests::two_condition_study("shards", 11)
+}
 
 /// Starts shard `k`/3 of `file` into `out` and SIGKILLs it as soon as `point` holds one record.
 fn kill_after_first_record(file: &Path, out: &Path, k: u64, point: &str) {
@@ -108,7 +96,7 @@ fn kill_after_first_record(file: &Path, out: &Path, k: u64, point: &str) {
 fn shards_resumed_after_a_kill_merge_to_the_single_run_byte_for_byte() {
     let dir = tmp("study-shards");
     let file = dir.join("shards.toml");
-    std::fs::write(&file, STUDY).unwrap();
+    std::fs::write(&file, study()).unwrap();
     let single = dir.join("single");
     waggle(
         &["study", s(&file), "--jobs", "2", "--out", s(&single)],
@@ -395,7 +383,7 @@ fn shard_arguments_are_checked_and_cluster_files_written() {
 fn a_crossed_study_is_laid_out_per_factor_and_merges_byte_for_byte() {
     let dir = tmp("study-crossed");
     let file = dir.join("crossed.toml");
-    let crossed = STUDY
+    let crossed = study()
         .replace("name = \"shards\"", "name = \"crossed\"\ncross = true")
         .replace("levels = [0.0003]", "levels = [0.0, 0.0003]")
         .replace("trials = 2", "trials = 1");

@@ -21,6 +21,7 @@
 
 use crate::control::{DroneState, Reference, rotate};
 use crate::estimate::{EstimateConfig, Estimator};
+use crate::vec3::{cross, dot};
 
 /// Loop gains, SI.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -130,18 +131,6 @@ fn axes(q: [f64; 4]) -> [[f64; 3]; 3] {
         rotate(q, [1.0, 0.0, 0.0]),
         rotate(q, [0.0, 1.0, 0.0]),
         rotate(q, [0.0, 0.0, 1.0]),
-    ]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
     ]
 }
 

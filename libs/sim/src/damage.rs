@@ -14,6 +14,8 @@
 use mujoco_rs::wrappers::mj_visualization::{MjvGLCamera, MjvGeom, MjvLight};
 use proto::{FrameChange, PixelRect};
 
+use crate::vec3::{cross, dot};
+
 /// Pixels added around each projected sphere: covers rasterisation rules and the f32 rounding
 /// of MuJoCo's projection against this module's f64 one.
 const MARGIN_PX: f64 = 2.0;
@@ -228,18 +230,6 @@ impl View {
             y1: self.sy * ty1 + self.oy,
         })
     }
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {

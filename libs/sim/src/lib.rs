@@ -22,5 +22,6 @@ pub mod mjcf;
 pub mod noise;
 pub mod render;
 pub mod sensor;
+mod vec3;
 pub mod wind;
 pub mod world;
