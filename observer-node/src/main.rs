@@ -4,8 +4,8 @@
 //! clock and the session controls (`sched/session`) — plus liveliness tokens. It publishes its
 //! tokens, released frames, decisions and one `status{k}` per tick (docs/DESIGN.md §2–§3).
 //!
-//! The process is a thin shell around [`perception::tick::TickAssembler`] and
-//! [`perception::runtime::ObserverRuntime`]: tick k is processed once `clock{k}` has arrived,
+//! The process is a thin shell around [`perception::observer::ObserverCore`] (the tick
+//! assembler and the observer runtime, driven as one): tick k is processed once `clock{k}` has arrived,
 //! the session controls of tick k−1 are applied and packet k is in hand — or judged missing: a
 //! later packet arrived (decided by the assembler), the camera's liveliness token is gone, or
 //! `--grace-ms` of wall time passed since `clock{k}` (throttled publishers). The wall clock
@@ -20,8 +20,9 @@ use anyhow::{Context, Result};
 use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use clap::Parser;
 use node_args::ObserverArgs;
+use perception::observer::{ObserverCore, Processed};
 use perception::runtime::ObserverRuntime;
-use perception::tick::{MissingReason, SensorPacket, Step, TickAssembler, TickInput};
+use perception::tick::{MissingReason, SensorPacket};
 use proto::{
     ClockTick, EventPacket, Keys, Modality, ObserverId, RejectReason, RgbReassembler, RgbUpdate,
     Role, Roster, SessionTick,
@@ -65,7 +66,7 @@ fn main() -> Result<()> {
     observer.run(&mut bus)?;
     tracing::info!(
         observer = %args.own.id,
-        ticks = observer.assembler.next_tick(),
+        ticks = observer.core.next_tick(),
         missing = observer.missing,
         "observer done"
     );
@@ -79,14 +80,13 @@ fn main() -> Result<()> {
     Ok(())
 }
 
-/// The process's state: the pure assembler and runtime, plus what only a process has (keys,
-/// the wall-clock arrival time of each pending `clock{k}`).
+/// The process's state: the pure observer core, plus what only a process has (keys, the
+/// wall-clock arrival time of each pending `clock{k}`).
 struct Observer {
     id: ObserverId,
     modality: Modality,
     keys: Keys,
-    runtime: ObserverRuntime,
-    assembler: TickAssembler,
+    core: ObserverCore,
     /// Rebuilds RGB frames from the camera's updates.
     rgb: RgbReassembler,
     /// When each `clock{k}` not yet processed arrived (for the grace period).
@@ -113,8 +113,7 @@ impl Observer {
         Ok(Self {
             id: args.own.id.clone(),
             modality: args.own.modality,
-            runtime,
-            assembler: TickAssembler::new(),
+            core: ObserverCore::new(runtime),
             rgb: RgbReassembler::default(),
             clocks: BTreeMap::new(),
             grace: Duration::from_millis(args.own.grace_ms),
@@ -152,7 +151,7 @@ impl Observer {
     fn advance(&mut self, bus: &mut Bus) -> Result<bool> {
         loop {
             let (camera_alive, clocks, grace) = (&self.camera_alive, &self.clocks, self.grace);
-            let step = self.assembler.next_step(|tick| {
+            let processed = self.core.next(|tick| {
                 if !bus.is_alive(camera_alive) {
                     Some(MissingReason::CameraGone)
                 } else if clocks
@@ -164,29 +163,24 @@ impl Observer {
                     None
                 }
             });
-            match step {
-                None => return Ok(true),
-                Some(Step::Session { controls, .. }) => {
-                    self.runtime.apply_session(&controls);
-                    if self.runtime.ended() {
-                        return Ok(false);
-                    }
-                }
-                Some(Step::Tick { tick, input }) => self.process(bus, tick, &input)?,
+            match processed.context("processing a tick")? {
+                Some(p) => self.publish(bus, p)?,
+                None => return Ok(!self.core.ended()),
             }
         }
     }
 
-    /// Runs tick `tick` and publishes what it produced.
-    fn process(&mut self, bus: &mut Bus, tick: u64, input: &TickInput) -> Result<()> {
+    /// Publishes what tick `p.tick` produced.
+    fn publish(&mut self, bus: &mut Bus, p: Processed) -> Result<()> {
+        let Processed {
+            tick,
+            input,
+            report,
+        } = p;
         if let Some(why) = input.missing() {
             self.missing += 1;
             tracing::warn!(observer = %self.id, tick, why = why.as_str(), "packet missing");
         }
-        let report = self
-            .runtime
-            .step(tick, input.data())
-            .with_context(|| format!("tick {tick}"))?;
         let keys = &self.keys;
         for t in &report.tokens {
             bus.put(&keys.observer_tokens(&self.id), t)?;
@@ -209,7 +203,7 @@ impl Observer {
     /// expires (between 1 and 100 ms), or 100 ms when no clock is pending.
     fn wait(&self) -> Duration {
         self.clocks
-            .get(&self.assembler.next_tick())
+            .get(&self.core.next_tick())
             .map_or(Duration::from_millis(100), |since| {
                 self.grace
                     .saturating_sub(since.elapsed())
@@ -222,14 +216,14 @@ impl Observer {
     fn receive(&mut self, key: &str, payload: &[u8]) {
         if key == self.clock_key {
             if let Some(c) = self.rejects.decode::<ClockTick>(key, payload) {
-                if c.tick >= self.assembler.next_tick() {
+                if c.tick >= self.core.next_tick() {
                     self.clocks.insert(c.tick, Instant::now());
                 }
-                self.assembler.clock(c.tick);
+                self.core.clock(c.tick);
             }
         } else if key == self.session_key {
             if let Some(s) = self.rejects.decode::<SessionTick>(key, payload) {
-                self.assembler.session(s.tick, s.controls);
+                self.core.session(s.tick, s.controls);
             }
         } else if key == self.sensor_key {
             let packet: Option<SensorPacket> = match self.modality {
@@ -249,7 +243,7 @@ impl Observer {
                     .map(Into::into),
             };
             if let Some(p) = packet {
-                let (tick, kept) = self.assembler.packet(p);
+                let (tick, kept) = self.core.packet(p);
                 if !kept {
                     self.rejects.reject(
                         key,

@@ -11,12 +11,11 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use clap::Parser;
-use proto::scene::PERFORMER_HOVER_M;
 use proto::{
-    BroadcastTick, Kinematics, Offer, PerformerActivity, PerformerSetpoint, PerformerTruth,
-    RejectReason, Role, TICK_NS,
+    BroadcastTick, Offer, PerformerActivity, PerformerSetpoint, PerformerTruth, RejectReason, Role,
+    TICK_NS,
 };
-use proto::{GestureConfig, Schedule, broadcast};
+use proto::{GestureConfig, Schedule, broadcast, performer_setpoint};
 
 #[derive(Parser)]
 #[command(
@@ -36,7 +35,6 @@ fn answer(
     tick: u64,
 ) -> (PerformerSetpoint, PerformerTruth) {
     let t = tick * TICK_NS;
-    let kin = schedule.map_or(Kinematics::rest(PERFORMER_HOVER_M), |s| s.state_at(t));
     let span = schedule.and_then(|s| s.spans_at(t).next().copied());
     let truth = PerformerTruth {
         tick,
@@ -48,11 +46,7 @@ fn answer(
             .and_then(|slot| Offer::from_payload(slot.payload).ok()),
         frame_slot: span.and_then(|s| s.slot).map(|slot| slot.position),
     };
-    (
-        // The performer flies level, facing +x.
-        PerformerSetpoint::new(tick, kin, 0.0),
-        truth,
-    )
+    (performer_setpoint(schedule, tick), truth)
 }
 
 fn main() -> Result<()> {
@@ -134,6 +128,7 @@ fn main() -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proto::scene::PERFORMER_HOVER_M;
 
     #[test]
     fn idle_performer_hovers_and_a_broadcast_moves_it_with_labels() {

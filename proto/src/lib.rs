@@ -46,7 +46,7 @@ pub use sched::{
 };
 pub use schedule::{
     FrameSlot, Schedule, ScheduleBuilder, ScheduleError, ScheduledOffer, TruthSpan, TruthSymbol,
-    broadcast,
+    broadcast, performer_setpoint,
 };
 pub use segmenter::{
     Interruption, Sample, SegmentToken, Segmenter, SegmenterConfig, SegmenterError, TokenCause,

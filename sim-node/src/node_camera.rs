@@ -10,7 +10,7 @@
 
 use std::time::Duration;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use node_args::CameraArgs;
 use proto::clock::EVENT_RENDER_PERIOD_NS;
@@ -18,6 +18,7 @@ use proto::{
     Fault, FaultKind, FrameChange, ObserverId, PixelRect, RejectReason, RgbFrame, RgbUpdate, Role,
     SimState,
 };
+use sim::lockstep::mirror;
 use sim::render::{CameraRenderer, RenderCounts, RenderPath};
 use sim::sensor::{Modality, ObserverSensor, SensorOutput};
 use sim::world::World;
@@ -105,18 +106,6 @@ fn observer_index(observer: &ObserverId, observers: usize) -> Result<usize> {
     (0..observers)
         .find(|&i| proto::scene::observer_name(i) == observer.as_str())
         .with_context(|| format!("{observer} is not one of the {observers} observers"))
-}
-
-/// Poses every drone of `world` (named `names`, in index order) as in `state`, at its instant.
-fn pose_world(world: &mut World, names: &[String], state: &SimState) -> Result<()> {
-    for (i, name) in names.iter().enumerate() {
-        let Some(d) = state.drone(name) else {
-            bail!("sim/state at {} ns lacks drone {name}", state.stamp_ns);
-        };
-        world.set_pose(i, d.pos_m, d.quat_wxyz);
-    }
-    world.forward_at(state.stamp_ns);
-    Ok(())
 }
 
 /// Decodes a `sim/state`; the simulator publishes one per render instant, in order, from 0,
@@ -216,7 +205,6 @@ pub fn run(cli: CameraCli) -> Result<()> {
         }
     };
     let period_ns = sensor.render_period_ns();
-    let names: Vec<String> = world.drone_names().to_vec();
 
     let mut bus = Bus::open_node(&node).context("opening the Zenoh session")?;
     let keys = bus.keys().clone();
@@ -251,7 +239,7 @@ pub fn run(cli: CameraCli) -> Result<()> {
                 let Some(state) = admit_state(&mut rejects, &key, &payload, last_state_ns) else {
                     continue;
                 };
-                if let Err(e) = pose_world(&mut world, &names, &state) {
+                if let Err(e) = mirror(&mut world, &state) {
                     rejects.reject(&key, RejectReason::OutOfContract, &e);
                     continue;
                 }

@@ -18,10 +18,9 @@ use anyhow::{Context, Result, bail};
 use bus::{Bus, Inbound, NodeArgs, Rejects, handshake};
 use proto::clock::EVENT_RENDER_PERIOD_NS;
 use proto::{
-    ClockTick, Contact, DronePose, PerformerSetpoint, RejectReason, Role, SchedCommand,
-    SimContacts, SimState, TICK_NS,
+    ClockTick, Contact, PerformerSetpoint, RejectReason, Role, SchedCommand, SimContacts, TICK_NS,
 };
-use sim::control::Reference;
+use sim::lockstep::{TickReferences, sim_state};
 use sim::world::World;
 
 #[derive(Debug, clap::Args)]
@@ -52,12 +51,6 @@ pub fn run(args: RunArgs) -> Result<()> {
         "every process ready: starting the clock"
     );
 
-    let index: BTreeMap<String, usize> = world
-        .drone_names()
-        .iter()
-        .enumerate()
-        .map(|(i, n)| (n.clone(), i))
-        .collect();
     let peers = [
         keys.alive(Role::Performer, Role::Performer.as_str())?,
         keys.alive(Role::Scheduler, Role::Scheduler.as_str())?,
@@ -106,25 +99,12 @@ pub fn run(args: RunArgs) -> Result<()> {
             tracing::info!(tick, "mission end");
             break;
         }
+        let references = TickReferences::new(&world, &setpoint, &cmd);
         let t_k = world.time_ns();
-        let performer = Reference::new(setpoint.kinematics(), setpoint.yaw_rad);
-        let observers: Vec<(usize, Reference)> = cmd
-            .setpoints
-            .iter()
-            .filter_map(|s| {
-                index
-                    .get(s.observer.as_str())
-                    .map(|&i| (i, Reference::new(s.kinematics(), s.yaw_rad)))
-            })
-            .collect();
         let mut contacts = Vec::new();
         let next = tick + 1;
         while world.time_ns() < t_k + TICK_NS {
-            let dt_s = (world.time_ns() - t_k) as f64 * 1e-9;
-            world.set_reference(0, performer.extrapolated(dt_s));
-            for (i, r) in &observers {
-                world.set_reference(*i, r.extrapolated(dt_s));
-            }
+            references.apply(&mut world);
             let before = world.contact_stats().contact_steps;
             world.step();
             let t = world.time_ns();
@@ -182,29 +162,8 @@ fn admit<T>(
 }
 
 fn publish_state(bus: &mut Bus, world: &World, tick: u64) -> Result<()> {
-    let drones = world
-        .drone_names()
-        .iter()
-        .enumerate()
-        .map(|(i, name)| {
-            let (pos_m, quat_wxyz) = world.body_pose(i);
-            let s = world.state(i);
-            DronePose {
-                name: name.clone(),
-                pos_m,
-                quat_wxyz,
-                vel_mps: s.vel_mps,
-                ang_vel_radps: s.body_rate_radps,
-            }
-        })
-        .collect();
-    let state = SimState {
-        tick,
-        stamp_ns: world.time_ns(),
-        drones,
-    };
     let key = bus.keys().sim_state();
-    bus.put(&key, &state)?;
+    bus.put(&key, &sim_state(world, tick))?;
     Ok(())
 }
 

@@ -11,6 +11,10 @@
 //! The four `only-a` runs (≈ 1 min each) are in the default suite; the whole missions are
 //! `#[ignore]`d (`deploy/test.sh --full`).
 //!
+//! `waggle mission` runs the same observer core in one process and must write the very same
+//! `observers.json` as the processes: `only-a` in both modalities in the default suite
+//! (≈ 50 s and 20 s), the other golden cases under `--full`.
+//!
 //! The SHA-256 comes from the `sha2` crate rather than a `sha256sum` child process: it adds one
 //! small crate (its `digest` and `cpufeatures` dependencies are already in the tree) and keeps
 //! the test free of any assumption about the host's coreutils.
@@ -111,6 +115,67 @@ fn assert_frozen(case: &str, modality: &str, render: RenderPath) {
         context()
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Runs `waggle mission CASE --modality M --out DIR` and compares its `observers.json` with the
+/// golden entry of `waggle run`'s.
+fn assert_mission_matches_run(case: &str, modality: &str) {
+    let want = golden_entry(case, modality);
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir: PathBuf = std::env::temp_dir().join(format!(
+        "waggle-frozen-mission-{}-{case}-{modality}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = waggle_tests::waggle()
+        .args(["mission", case, "--modality", modality, "--json", "--out"])
+        .arg(&dir)
+        .stdin(Stdio::null())
+        .output()
+        .expect("run waggle");
+    let observers = std::fs::read(dir.join("observers.json")).unwrap_or_else(|e| {
+        panic!(
+            "{case} ({modality}): no observers.json ({e}); status {}\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        )
+    });
+    assert_eq!(
+        sha256_hex(&observers),
+        want["observers_sha256"].as_str().unwrap(),
+        "waggle mission {case} --modality {modality} differs from waggle run's golden \
+         observers.json (outputs in {})",
+        dir.display()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn mission_only_a_events_writes_the_runs_observers_json() {
+    assert_mission_matches_run("only-a", "events");
+}
+
+#[test]
+fn mission_only_a_rgb_writes_the_runs_observers_json() {
+    assert_mission_matches_run("only-a", "rgb");
+}
+
+#[test]
+#[ignore = "whole mission in one process, ≈ 4 min: deploy/test.sh --full"]
+fn mission_nominal_3_events_writes_the_runs_observers_json() {
+    assert_mission_matches_run("nominal-3", "events");
+}
+
+#[test]
+#[ignore = "whole mission in one process, ≈ 2 min: deploy/test.sh --full"]
+fn mission_nominal_3_rgb_writes_the_runs_observers_json() {
+    assert_mission_matches_run("nominal-3", "rgb");
+}
+
+#[test]
+#[ignore = "whole mission in one process, ≈ 4 min: deploy/test.sh --full"]
+fn mission_dropout_o2_events_writes_the_runs_observers_json() {
+    assert_mission_matches_run("dropout-o2", "events");
 }
 
 /// The (case, modality) pairs with a test below; every golden entry must have one.

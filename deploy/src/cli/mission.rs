@@ -7,9 +7,9 @@ use clap::Args;
 
 use crate::case::{Case, Receiver};
 use crate::eval::summary::print_summary;
-use crate::harness::mission::{MissionOptions, fly_case_with};
+use crate::harness::mission::{MissionOptions, MissionRun, fly_case_with};
 use crate::harness::mission_metrics::{MissionMetrics, Policy};
-use crate::run_dir::SUMMARY_FILE;
+use crate::run_dir::{OBSERVERS_FILE, SUMMARY_FILE};
 
 #[derive(Debug, Args)]
 pub struct MissionArgs {
@@ -32,7 +32,8 @@ pub struct MissionArgs {
     /// Seed of the perturbation's draws.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Write DIR/summary.json (and DIR/metrics.json) here.
+    /// Write DIR/summary.json, DIR/observers.json (every token, frame, decision and track
+    /// sample, as `waggle run` writes it) and DIR/metrics.json here.
     #[arg(long)]
     out: Option<PathBuf>,
     /// Print the summary as JSON.
@@ -57,12 +58,19 @@ pub fn run(args: MissionArgs) -> Result<()> {
         seed: args.seed,
         stop: None,
     };
-    let (summary, metrics) =
-        fly_case_with(&case, args.modality, &opts)?.context("the mission was interrupted")?;
+    let MissionRun {
+        summary,
+        metrics,
+        observers,
+    } = fly_case_with(&case, args.modality, &opts)?.context("the mission was interrupted")?;
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let path = dir.join(SUMMARY_FILE);
         std::fs::write(&path, serde_json::to_string_pretty(&summary)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+        // The same file, byte for byte, as `waggle run` writes for the same case.
+        let path = dir.join(OBSERVERS_FILE);
+        std::fs::write(&path, serde_json::to_string_pretty(&observers)?)
             .with_context(|| format!("writing {}", path.display()))?;
         let path = dir.join("metrics.json");
         std::fs::write(&path, serde_json::to_string_pretty(&metrics)? + "\n")

@@ -18,9 +18,10 @@
 use std::collections::BTreeMap;
 
 use anyhow::{Context, Result, bail};
+use perception::observer::{ObserverCore, Processed};
 use perception::perception::Modality;
 use perception::runtime::ObserverRuntime;
-use perception::tick::{MissingReason, Step, TickAssembler};
+use perception::tick::MissingReason;
 use proto::{
     Decision, EventPacket, FrameEvent, InputState, ObserverId, RgbReassembler, RgbUpdate, Roster,
     SessionControl, TICK_NS, TokenEvent,
@@ -71,13 +72,12 @@ pub struct ReplayReport {
 }
 
 /// One observer's receiver driven exactly as `observer-node`'s main loop drives it: the
-/// shared tick assembler ([`TickAssembler`]) orders the recorded session controls and sensor
+/// observer core ([`ObserverCore`]: the tick assembler and runtime) orders the recorded session controls and sensor
 /// packets, the recording's clock is its watermark, and its end judges a packet missing. Every
 /// output is kept with the tick that produced it, so a partial recording can be compared up to
 /// where it covers the run.
 struct Replayer {
-    runtime: ObserverRuntime,
-    assembler: TickAssembler,
+    core: ObserverCore,
     done: bool,
     tokens: Vec<(u64, TokenEvent)>,
     frames: Vec<(u64, FrameEvent)>,
@@ -94,9 +94,10 @@ struct Replayer {
 impl Replayer {
     fn new(id: ObserverId, observers: usize, modality: Modality) -> Result<Self> {
         Ok(Self {
-            runtime: ObserverRuntime::new(id, Roster::default_scene(observers), modality)
-                .context("building the receiver")?,
-            assembler: TickAssembler::new(),
+            core: ObserverCore::new(
+                ObserverRuntime::new(id, Roster::default_scene(observers), modality)
+                    .context("building the receiver")?,
+            ),
             done: false,
             tokens: Vec::new(),
             frames: Vec::new(),
@@ -113,7 +114,7 @@ impl Replayer {
     fn packet(&mut self, p: EventPacket) {
         self.packets_seen += 1;
         self.events_seen += p.len() as u64;
-        let (tick, _) = self.assembler.packet(p);
+        let (tick, _) = self.core.packet(p);
         self.last_packet_tick = self.last_packet_tick.max(Some(tick));
     }
 
@@ -121,7 +122,7 @@ impl Replayer {
         match self.rgb.apply(u) {
             Ok(frame) => {
                 self.packets_seen += 1;
-                let (tick, _) = self.assembler.packet(frame);
+                let (tick, _) = self.core.packet(frame);
                 self.last_packet_tick = self.last_packet_tick.max(Some(tick));
             }
             // Its base frame is not in the recording (damage): the tick is judged missing.
@@ -133,34 +134,27 @@ impl Replayer {
     /// clock tick; `eof`: nothing more will come).
     fn advance(&mut self, last_clock: Option<u64>, eof: bool) -> Result<()> {
         if let Some(c) = last_clock {
-            self.assembler.clocks_through(c);
+            self.core.clocks_through(c);
         }
         let judge = |_tick| eof.then_some(MissingReason::EndOfRecording);
         while !self.done {
-            let Some(step) = self.assembler.next_step(judge) else {
-                // Waiting for session controls or a clock the recording does not hold.
-                self.done = eof;
+            let Some(Processed {
+                tick,
+                input: _,
+                report,
+            }) = self.core.next(judge).context("replaying a tick")?
+            else {
+                // Ended, or waiting for session controls or a clock the recording does not hold.
+                self.done = eof || self.core.ended();
                 return Ok(());
             };
-            match step {
-                Step::Session { controls, .. } => {
-                    self.runtime.apply_session(&controls);
-                    self.done = self.runtime.ended();
-                }
-                Step::Tick { tick, input } => {
-                    let report = self
-                        .runtime
-                        .step(tick, input.data())
-                        .with_context(|| format!("replaying tick {tick}"))?;
-                    self.tokens
-                        .extend(report.tokens.into_iter().map(|t| (tick, t)));
-                    self.frames
-                        .extend(report.frames.into_iter().map(|f| (tick, f)));
-                    self.decisions
-                        .extend(report.decision.into_iter().map(|d| (tick, d)));
-                    self.inputs.insert(tick, report.status.input);
-                }
-            }
+            self.tokens
+                .extend(report.tokens.into_iter().map(|t| (tick, t)));
+            self.frames
+                .extend(report.frames.into_iter().map(|f| (tick, f)));
+            self.decisions
+                .extend(report.decision.into_iter().map(|d| (tick, d)));
+            self.inputs.insert(tick, report.status.input);
         }
         Ok(())
     }
@@ -201,7 +195,7 @@ pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
             Decoded::Clock(c) => last_clock = last_clock.max(Some(c.tick)),
             Decoded::SessionTick(s) => {
                 for r in replayers.values_mut() {
-                    r.assembler.session(s.tick, s.controls.clone());
+                    r.core.session(s.tick, s.controls.clone());
                 }
                 sessions_all.insert(s.tick, s.controls);
             }
@@ -303,7 +297,7 @@ fn replayer<'a>(
         // Session ticks recorded before this observer's first packet apply to it too.
         let mut r = Replayer::new(id.clone(), n, modality)?;
         for (tick, controls) in sessions {
-            r.assembler.session(*tick, controls.clone());
+            r.core.session(*tick, controls.clone());
         }
         replayers.insert(id.clone(), r);
     }
@@ -352,9 +346,7 @@ fn compare(r: &Replayer, mut l: Live, horizon: Option<u64>) -> ObserverReplay {
         tokens_replayed: tokens.len(),
         tokens_identical: live_tokens == tokens.as_slice(),
         decisions_identical: live_decisions == decisions.as_slice(),
-        ticks_replayed: horizon.map_or(r.assembler.next_tick(), |h| {
-            (h + 1).min(r.assembler.next_tick())
-        }),
+        ticks_replayed: horizon.map_or(r.core.next_tick(), |h| (h + 1).min(r.core.next_tick())),
         packets: r.packets_seen,
         events: r.events_seen,
         unassembled: r.unassembled,

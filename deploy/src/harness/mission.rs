@@ -1,15 +1,15 @@
 //! `waggle mission`: a whole case in one process (physics, cameras, performer, observers,
-//! scheduler), stepped in the lockstep order of docs/DESIGN.md §3. It is the reference the
-//! distributed runtime must reproduce, and the fast way to run a case while developing.
+//! scheduler), stepped in exactly the lockstep order of the processes (docs/DESIGN.md §3), so
+//! that `waggle mission CASE` and `waggle run CASE` write the same `observers.json`:
 //!
-//! Per tick k (40 ms): the scheduler consumes the decisions observers made from data up to t_k
-//! and emits session controls, a broadcast and flight setpoints; then physics steps to t_{k+1},
-//! and at every render instant in (t_k, t_{k+1}] each observer's sensor delivers its own data to
-//! its own perception and agent only.
-//!
-//! Perception is fed at every render instant (several per tick with event cameras) and gated
-//! by the agent's reception window, so this harness does not go through the process runtime's
-//! per-tick assembly (`perception::tick`); `waggle replay` and `observer-node` do.
+//! Per tick k (40 ms): every observer processes tick k through the one observer core
+//! (`perception::observer`) — its packet k, or the knowledge that it is missing — and its
+//! decision goes to the scheduler; the scheduler steps with the truth at t_k and emits session
+//! controls (applied by the observers before packet k+1), a broadcast to the performer and
+//! the observers' setpoints; physics steps to t_{k+1} with the performer's and the scheduler's
+//! references of t_k extrapolated inside the tick (`sim::lockstep`), and at every render
+//! instant the cameras render the published truth mirrored into their own world, as the camera
+//! processes do.
 
 pub use crate::harness::mission_options::MissionOptions;
 use std::collections::{BTreeMap, BTreeSet};
@@ -17,169 +17,33 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use perception::agent::{AgentFrame, FrameOutcome, ObserverAgent};
-use perception::perception::SensorInput;
-use perturb::link::LinkNoise;
-use perturb::rgb::RgbSensor;
-use perturb::seed::{Stream, rng, stream_seed};
-use proto::Rectification;
-use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, ObserverCamera, observer_name};
-use proto::{ClockTick, Modality, ObserverId, RenderPath, Roster, Site, TICK_NS};
-use proto::{DecodeStep, Decoder, Sample, SegmentToken, SegmenterConfig};
-use proto::{GestureConfig, Schedule, broadcast};
+use perturb::seed::{Stream, rng};
+use proto::clock::EVENT_RENDER_PERIOD_NS;
+use proto::{ClockTick, Modality, ObserverId, RenderPath, Site, TICK_NS};
+use proto::{GestureConfig, Schedule, broadcast, performer_setpoint};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use scheduler::{DecisionNotice, EndReason, EventKind, Scheduler, SchedulerConfig};
-use sim::control::Reference;
+use scheduler::{
+    DecisionNotice, EndReason, EventKind, Scheduler, SchedulerConfig, observer_positions,
+};
+use sim::lockstep::{TickReferences, mirror, sim_state};
 use sim::render::CameraRenderer;
-use sim::sensor::{ObserverSensor, SensorOutput};
 use sim::world::World;
 
 use crate::case::{Case, Receiver};
-use crate::eval::summary::{check_expected, decision_label, ns_s};
+use crate::eval::summary::{check_expected, ns_s, provenance_violations};
 use crate::harness::air::{Tracking, set_air};
 use crate::harness::mission_metrics::{MissionMetrics, Policy, measure};
-use crate::harness::performer_flight::performer_reference;
-use crate::run_dir::{MissionSummary, ObserverSummary};
+use crate::harness::mission_observer::MissionObserver;
+use crate::run_dir::{MissionSummary, ObserverRecord, ObserverSummary};
 
-/// One observer's perception chain.
-enum Perception {
-    /// Ground truth projected into the home camera (evaluation baseline).
-    Ideal {
-        camera: ObserverCamera,
-        decoder: Box<Decoder>,
-    },
-    /// The observer's real receiver, fed only by its own sensor.
-    Sensor(Box<perception::perception::Perception>),
-}
-
-impl Perception {
-    fn reset(&mut self) {
-        match self {
-            Perception::Ideal { decoder, .. } => decoder.reset(),
-            Perception::Sensor(p) => p.reset(),
-        }
-    }
-
-    /// The sensor stream is gone (dropout): perception must not confirm anything on silence.
-    fn missing(&mut self, stamp_ns: u64) -> Result<DecodeStep> {
-        match self {
-            Perception::Ideal { decoder, .. } => Ok(decoder.interrupt(stamp_ns)?),
-            Perception::Sensor(p) => Ok(p.missing(stamp_ns)),
-        }
-    }
-}
-
-struct Slot {
-    name: String,
-    id: ObserverId,
-    agent: ObserverAgent,
-    perception: Perception,
-    sensor: Option<ObserverSensor>,
-    /// RGB read noise / exposure applied to every frame (`None`: the ideal sensor).
-    rgb_noise: Option<RgbSensor>,
-    /// The sensor link's loss, and the stream it draws from.
-    link: (LinkNoise, ChaCha8Rng),
-    black: bool,
-    dropout_ns: Option<u64>,
-    dropped: bool,
-    tokens: Vec<SegmentToken>,
-    frames: Vec<AgentFrame>,
-    pending: Vec<DecisionNotice>,
-    decisions: Vec<proto::Decision>,
-}
-
-impl Slot {
-    /// Observer `i` of `case` on `modality`'s receiver, its sensor perturbed as `opts` says.
-    fn new(case: &Case, modality: Receiver, i: usize, opts: &MissionOptions) -> Result<Self> {
-        let n = case.observers;
-        let name = observer_name(i);
-        let id = ObserverId::new(name.clone())?;
-        let black = case.black(&name);
-        let camera = ObserverCamera::at_home(i, n);
-        let rectification = Rectification::default();
-        let (perception, sensor) = match modality.sensor() {
-            None => (
-                Perception::Ideal {
-                    camera,
-                    decoder: Box::new(Decoder::new(
-                        SegmenterConfig::rgb().rectified(camera, rectification),
-                    )?),
-                },
-                None,
-            ),
-            Some(kind) => (
-                Perception::Sensor(Box::new(perception::perception::Perception::for_camera(
-                    kind,
-                    camera,
-                    rectification,
-                )?)),
-                Some(ObserverSensor::with_event_sensor(
-                    kind,
-                    i,
-                    black,
-                    opts.perturbation
-                        .event_sensor(stream_seed(opts.seed, Stream::EventSensor, i)),
-                )?),
-            ),
-        };
-        Ok(Self {
-            agent: ObserverAgent::new(id.clone(), Roster::default_scene(n)),
-            dropout_ns: case.dropout_ns(&name),
-            name,
-            id,
-            perception,
-            sensor,
-            rgb_noise: {
-                let noise = opts.perturbation.rgb();
-                (!noise.is_ideal()).then(|| noise.sensor(&mut rng(opts.seed, Stream::RgbSensor, i)))
-            },
-            link: (opts.perturbation.link(), rng(opts.seed, Stream::Link, i)),
-            black,
-            dropped: false,
-            tokens: Vec::new(),
-            frames: Vec::new(),
-            pending: Vec::new(),
-            decisions: Vec::new(),
-        })
-    }
-
-    /// This observer's line of the summary (a complete message is a cached offer).
-    fn summary(&self, services: Vec<String>) -> ObserverSummary {
-        ObserverSummary {
-            complete_messages: self
-                .frames
-                .iter()
-                .filter(|f| matches!(f.outcome, FrameOutcome::Cached(_)))
-                .count(),
-            payloads: self
-                .frames
-                .iter()
-                .map(|f| format!("{:06b}", f.frame.payload))
-                .collect(),
-            final_null_s: self
-                .frames
-                .iter()
-                .map(|f| ns_s(f.frame.final_null_ns()))
-                .collect(),
-            decisions: self.decisions.iter().map(decision_label).collect(),
-            services,
-            tokens: self.tokens.len(),
-        }
-    }
-
-    fn absorb(&mut self, step: DecodeStep, now_ns: u64) {
-        self.tokens.extend(step.tokens);
-        if step.frames.is_empty() {
-            return;
-        }
-        let (frames, decision) = self.agent.on_frames(&step.frames, now_ns);
-        self.frames.extend(frames);
-        if let Some(d) = decision {
-            self.pending.push(DecisionNotice::from(&d));
-            self.decisions.push(d);
-        }
-    }
+/// What a flown mission gives: its summary, its outcome measures and every observer's record
+/// (`observers.json`).
+#[derive(Debug, Clone)]
+pub struct MissionRun {
+    pub summary: MissionSummary,
+    pub metrics: MissionMetrics,
+    pub observers: BTreeMap<String, ObserverRecord>,
 }
 
 /// Flies `case` with every observer on `modality`'s receiver, in one process.
@@ -190,16 +54,16 @@ pub fn fly_case(case: &Case, modality: Receiver, render: RenderPath) -> Result<M
     };
     Ok(fly_case_with(case, modality, &opts)?
         .context("the mission was interrupted")?
-        .0)
+        .summary)
 }
 
-/// [`fly_case`] under `opts`; also the mission's outcome measures. `None` when `opts.stop`
-/// was raised before the mission ended.
+/// [`fly_case`] under `opts`, with the outcome measures and the observers' records. `None`
+/// when `opts.stop` was raised before the mission ended.
 pub fn fly_case_with(
     case: &Case,
     modality: Receiver,
     opts: &MissionOptions,
-) -> Result<Option<(MissionSummary, MissionMetrics)>> {
+) -> Result<Option<MissionRun>> {
     opts.check()?;
     let started = Instant::now();
     let mut mission = Mission::new(case, modality, opts)?;
@@ -210,10 +74,25 @@ pub fn fly_case_with(
     if mission.air {
         metrics.performer_tracking = Some(Tracking::of(&mission.world, 0));
     }
-    Ok(Some((
-        mission.summarise(case, modality, end_reason, started),
+    let summary = mission.summarise(case, modality, end_reason, started);
+    let observers = mission
+        .observers
+        .into_iter()
+        .map(|o| (o.name, o.record))
+        .collect();
+    Ok(Some(MissionRun {
+        summary,
         metrics,
-    )))
+        observers,
+    }))
+}
+
+/// What the scheduler's tick leads to.
+enum Scheduled {
+    /// Physics steps on with these references.
+    Fly(TickReferences),
+    /// The mission ended in this tick.
+    End(EndReason),
 }
 
 /// The gusts on the performer: σ, hold time, their stream and when the next one is drawn.
@@ -227,15 +106,15 @@ struct GustState {
 /// A mission in flight: physics, cameras, the performer, the observers and the scheduler.
 struct Mission {
     world: World,
+    /// The cameras' copy of the world, posed from the published truth at each render instant.
+    camera_world: Option<World>,
     scheduler: Scheduler,
     renderer: Option<CameraRenderer>,
-    slots: Vec<Slot>,
+    observers: Vec<MissionObserver>,
     alive: BTreeSet<ObserverId>,
     gesture: GestureConfig,
     /// The performer's current broadcast.
     performer: Option<Schedule>,
-    /// Render instants are the multiples of this.
-    sample_period_ns: u64,
     tick: u64,
     policy: Policy,
     /// Fixed policy: the round whose decisions fall due, and when.
@@ -249,29 +128,27 @@ struct Mission {
 
 impl Mission {
     fn new(case: &Case, modality: Receiver, opts: &MissionOptions) -> Result<Self> {
-        let render = opts.render;
         let n = case.observers;
         let mut world = World::new(n).context("building the scene")?;
         let air = set_air(&mut world, &opts.perturbation, opts.seed)?;
         // The ideal baseline flies the RGB broadcast (no acquisition preamble).
         let sched_modality = modality.sensor().unwrap_or(Modality::Rgb);
         let scheduler = scheduler_for(case, sched_modality)?;
-        let renderer = match modality {
+        let (camera_world, renderer) = match modality {
             // The fixed policy reads no sensor: nothing to render.
-            _ if opts.policy == Policy::Fixed => None,
-            Receiver::Ideal => None,
-            Receiver::Rgb | Receiver::Events => Some(
-                CameraRenderer::new(&world, render).context("creating the offscreen renderer")?,
-            ),
+            _ if opts.policy == Policy::Fixed => (None, None),
+            Receiver::Ideal => (None, None),
+            Receiver::Rgb | Receiver::Events => {
+                let camera_world = World::new(n).context("building the cameras' scene")?;
+                let renderer = CameraRenderer::new(&camera_world, opts.render)
+                    .context("creating the offscreen renderer")?;
+                (Some(camera_world), Some(renderer))
+            }
         };
-        let slots = (0..n)
-            .map(|i| Slot::new(case, modality, i, opts))
+        let observers = (0..n)
+            .map(|i| MissionObserver::new(case, modality, i, opts))
             .collect::<Result<Vec<_>>>()?;
-        let sample_period_ns = slots
-            .first()
-            .and_then(|s| s.sensor.as_ref())
-            .map_or(TICK_NS, ObserverSensor::render_period_ns);
-        let alive = slots.iter().map(|s| s.id.clone()).collect();
+        let alive = observers.iter().map(|o| o.id.clone()).collect();
         let offer_sites = &scheduler.config().offer_sites;
         let fixed_sites = (0..n)
             .map(|i| (!offer_sites.is_empty()).then(|| offer_sites[i % offer_sites.len()]))
@@ -294,13 +171,13 @@ impl Mission {
             gusts,
             air,
             world,
+            camera_world,
             scheduler,
             renderer,
-            slots,
+            observers,
             alive,
             gesture: GestureConfig::default(),
             performer: None,
-            sample_period_ns,
             tick: 0,
         })
     }
@@ -311,29 +188,36 @@ impl Mission {
             if stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
                 return Ok(None);
             }
-            if let Some(reason) = self.schedule()? {
-                return Ok(Some(reason));
+            let decisions = self.observe()?;
+            match self.schedule(decisions)? {
+                Scheduled::Fly(references) => self.physics_and_sensing(&references)?,
+                Scheduled::End(reason) => return Ok(Some(reason)),
             }
-            self.physics_and_sensing()?;
             self.tick += 1;
         }
     }
 
-    /// The scheduler at t_k with the decisions made from data up to t_k: session controls to
-    /// the agents, a new broadcast to the performer; the end reason once the mission ends.
-    fn schedule(&mut self) -> Result<Option<EndReason>> {
-        let positions: BTreeMap<ObserverId, [f64; 3]> = self
-            .slots
-            .iter()
-            .enumerate()
-            .map(|(i, s)| (s.id.clone(), self.world.position_m(i + 1)))
-            .collect();
-        self.fixed_decisions();
-        let decisions: Vec<DecisionNotice> = self
-            .slots
-            .iter_mut()
-            .flat_map(|s| s.pending.drain(..))
-            .collect();
+    /// Every observer processes the current tick; their decisions, sorted as the scheduler
+    /// process sorts what the statuses carry.
+    fn observe(&mut self) -> Result<Vec<DecisionNotice>> {
+        let mut decisions = Vec::new();
+        if self.policy == Policy::Waggle {
+            for o in &mut self.observers {
+                if let Some(d) = o.tick(self.tick)? {
+                    decisions.push(DecisionNotice::from(&d));
+                }
+            }
+        }
+        self.fixed_decisions(&mut decisions);
+        decisions.sort();
+        Ok(decisions)
+    }
+
+    /// The scheduler at t_k with the tick's decisions: session controls to the observers, a
+    /// new broadcast to the performer; the tick's references, or the end of the mission.
+    fn schedule(&mut self, decisions: Vec<DecisionNotice>) -> Result<Scheduled> {
+        let truth = sim_state(&self.world, self.tick);
+        let positions = observer_positions(&truth);
         let clock = ClockTick::at(self.tick).context("tick overflow")?;
         let out = self.scheduler.step(&scheduler::TickInput {
             clock,
@@ -341,12 +225,8 @@ impl Mission {
             decisions: &decisions,
             alive: &self.alive,
         })?;
-        for control in &out.session {
-            for slot in &mut self.slots {
-                if slot.agent.on_session(control.event) {
-                    slot.perception.reset();
-                }
-            }
+        for o in &mut self.observers {
+            o.session(self.tick, out.session.clone());
         }
         if let Some(plan) = &out.broadcast {
             if self.policy == Policy::Fixed {
@@ -361,11 +241,19 @@ impl Mission {
                 &self.gesture,
             )?);
         }
-        Ok(out.mission_end)
+        if let Some(reason) = out.mission_end {
+            return Ok(Scheduled::End(reason));
+        }
+        let setpoint = performer_setpoint(self.performer.as_ref(), self.tick);
+        Ok(Scheduled::Fly(TickReferences::new(
+            &self.world,
+            &setpoint,
+            &out.command(),
+        )))
     }
 
     /// Fixed policy: once a round's decisions fall due, every live observer takes its site.
-    fn fixed_decisions(&mut self) {
+    fn fixed_decisions(&mut self, decisions: &mut Vec<DecisionNotice>) {
         let Some((round, due_ns)) = self.fixed_due else {
             return;
         };
@@ -373,9 +261,9 @@ impl Mission {
             return;
         }
         self.fixed_due = None;
-        for (slot, site) in self.slots.iter_mut().zip(&self.fixed_sites) {
-            slot.pending.push(DecisionNotice {
-                observer: slot.id.clone(),
+        for (o, site) in self.observers.iter().zip(&self.fixed_sites) {
+            decisions.push(DecisionNotice {
+                observer: o.id.clone(),
                 round,
                 assignment: *site,
                 decided_ns: due_ns,
@@ -399,24 +287,35 @@ impl Mission {
     }
 
     /// Physics and sensing over (t_k, t_{k+1}].
-    fn physics_and_sensing(&mut self) -> Result<()> {
+    fn physics_and_sensing(&mut self, references: &TickReferences) -> Result<()> {
         let tick_end = self.world.time_ns() + TICK_NS;
+        let next = self.tick + 1;
         while self.world.time_ns() < tick_end {
-            let t = self.world.time_ns();
-            let performer_ref = self.performer.as_ref().map_or(
-                Reference::hover(proto::scene::PERFORMER_HOVER_M, 0.0),
-                |s| performer_reference(s.state_at(t)),
-            );
-            self.world.set_reference(0, performer_ref);
-            for (i, sp) in self.scheduler.setpoints_at(t).iter().enumerate() {
-                self.world
-                    .set_reference(i + 1, Reference::new(sp.kinematics(), sp.yaw_rad));
-            }
-            self.gust(t);
+            references.apply(&mut self.world);
+            self.gust(self.world.time_ns());
             self.world.step();
             let t = self.world.time_ns();
-            if self.policy == Policy::Waggle && t.is_multiple_of(self.sample_period_ns) {
-                sense(&mut self.world, self.renderer.as_mut(), &mut self.slots, t)?;
+            if self.policy == Policy::Waggle && t.is_multiple_of(EVENT_RENDER_PERIOD_NS) {
+                self.sense(next)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Every observer's sensor at the current render instant (part of tick `tick`).
+    fn sense(&mut self, tick: u64) -> Result<()> {
+        let truth = sim_state(&self.world, tick);
+        if let Some(camera_world) = self.camera_world.as_mut() {
+            mirror(camera_world, &truth)?;
+        }
+        for o in &mut self.observers {
+            match (self.camera_world.as_mut(), self.renderer.as_mut()) {
+                (Some(w), Some(r)) => o.sense(&truth, w, Some(r))?,
+                _ => {
+                    // The ideal baseline renders nothing; it reads the truth alone.
+                    let w = &mut self.world;
+                    o.sense(&truth, w, None)?
+                }
             }
         }
         Ok(())
@@ -433,13 +332,18 @@ impl Mission {
         let stats = self.scheduler.stats();
         let contact = self.world.contact_stats();
         let observers = self
-            .slots
+            .observers
             .iter()
-            .map(|s| {
-                let services = stats.services.get(&s.id).map_or(Vec::new(), |v| {
-                    v.iter().map(|(_, site)| site.to_string()).collect()
-                });
-                (s.name.clone(), s.summary(services))
+            .map(|o| {
+                let services = stats.services.get(&o.id).cloned().unwrap_or_default();
+                let frames: Vec<_> = o.record.frames.iter().map(|f| f.frame.clone()).collect();
+                let summary = ObserverSummary::from_record(
+                    &frames,
+                    &o.record.decisions,
+                    &services,
+                    o.record.tokens.len(),
+                );
+                (o.name.clone(), summary)
             })
             .collect();
         let mut summary = MissionSummary {
@@ -478,17 +382,10 @@ impl Mission {
                 _ => None,
             })
             .collect();
-        let mut violations = Vec::new();
-        for slot in &self.slots {
-            for d in slot.decisions.iter().filter(|d| d.assignment.is_some()) {
-                if let Some(dep) = departures.get(&(slot.id.clone(), d.round))
-                    && let Err(v) = proto::audit_assignment(d, *dep)
-                {
-                    violations.push(v.to_string());
-                }
-            }
-        }
-        violations
+        self.observers
+            .iter()
+            .flat_map(|o| provenance_violations(&o.record.decisions, &departures))
+            .collect()
     }
 }
 
@@ -506,73 +403,4 @@ fn scheduler_for(case: &Case, modality: Modality) -> Result<Scheduler> {
         config.time_limit_ns = Some((limit * 1e9).round() as u64);
     }
     Scheduler::new(config).context("configuring the scheduler")
-}
-
-fn sense(
-    world: &mut World,
-    mut renderer: Option<&mut CameraRenderer>,
-    slots: &mut [Slot],
-    t: u64,
-) -> Result<()> {
-    let performer_m = world.position_m(0);
-    for slot in slots.iter_mut() {
-        // The camera keeps running during flights (its events are part of the record); only
-        // perception pauses outside reception windows.
-        let outputs = match (&mut slot.sensor, renderer.as_deref_mut()) {
-            (Some(sensor), Some(renderer)) => sensor.capture(world, renderer)?,
-            _ => Vec::new(),
-        };
-        if slot.dropout_ns.is_some_and(|d| t > d) {
-            // The stream is gone: nothing arrives. Perception learns of it once (in the
-            // distributed runtime from the camera's liveliness token).
-            if !slot.dropped && slot.agent.receiving() {
-                let step = slot.perception.missing(t)?;
-                slot.absorb(step, t);
-            }
-            slot.dropped = true;
-            continue;
-        }
-        if !slot.agent.receiving() {
-            continue;
-        }
-        let steps = match &mut slot.perception {
-            Perception::Ideal { camera, decoder } => {
-                let inside = camera.project_px(performer_m).filter(|p| {
-                    p[0] >= 0.0
-                        && p[1] >= 0.0
-                        && p[0] < f64::from(IMAGE_WIDTH_PX)
-                        && p[1] < f64::from(IMAGE_HEIGHT_PX)
-                });
-                let sample = match inside {
-                    Some(p) if !slot.black => Sample::tracked(t, p),
-                    _ => Sample::lost(t),
-                };
-                vec![decoder.push(sample)?]
-            }
-            Perception::Sensor(p) => {
-                let mut steps = Vec::new();
-                for output in outputs {
-                    let output = match (output, slot.rgb_noise.as_mut()) {
-                        (SensorOutput::Rgb(mut f), Some(noise)) => {
-                            f.rgb = noise.apply(&[&f.rgb]);
-                            SensorOutput::Rgb(f)
-                        }
-                        (o, _) => o,
-                    };
-                    if !slot.link.0.keeps(&mut slot.link.1) {
-                        continue;
-                    }
-                    steps.push(match &output {
-                        SensorOutput::Rgb(f) => p.push(SensorInput::Rgb(f))?,
-                        SensorOutput::Events(e) => p.push(SensorInput::Events(e))?,
-                    });
-                }
-                steps
-            }
-        };
-        for step in steps {
-            slot.absorb(step, t);
-        }
-    }
-    Ok(())
 }

@@ -14,7 +14,7 @@ use proto::RenderPath;
 use serde::Serialize;
 
 use crate::case::{Case, Receiver};
-use crate::harness::mission::{MissionOptions, fly_case_with};
+use crate::harness::mission::{MissionOptions, MissionRun, fly_case_with};
 use crate::harness::mission_metrics::{MissionMetrics, Policy};
 use crate::harness::pool::{Outcome, Tally, run_pool};
 use crate::run_dir::ObserverSummary;
@@ -106,7 +106,9 @@ pub fn run_mission_trials(
                 seed,
                 stop: Some(Arc::clone(stop)),
             };
-            let Some((summary, metrics)) = fly_case_with(&opts.case, opts.modality, &mission)?
+            let Some(MissionRun {
+                summary, metrics, ..
+            }) = fly_case_with(&opts.case, opts.modality, &mission)?
             else {
                 return Ok(None);
             };

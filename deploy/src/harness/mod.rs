@@ -14,6 +14,7 @@ pub mod decode;
 pub mod link;
 pub mod mission;
 pub mod mission_metrics;
+pub mod mission_observer;
 pub mod mission_options;
 pub mod mission_trials;
 pub mod performer_flight;

@@ -101,14 +101,7 @@ impl IdealReceiver {
             });
         }
         for chain in &mut self.chains {
-            let sample = match chain
-                .camera
-                .project_px(performer_m)
-                .filter(|p| in_image(*p))
-            {
-                Some(p) => Sample::tracked(stamp_ns, p),
-                None => Sample::lost(stamp_ns),
-            };
+            let sample = ideal_sample(&chain.camera, stamp_ns, performer_m);
             let step = chain.decoder.push(sample)?;
             chain.output.tokens.extend(step.tokens);
             chain.output.frames.extend(step.frames);
@@ -156,6 +149,16 @@ impl IdealReceiver {
             t += period_ns;
         }
         Ok(())
+    }
+}
+
+/// What a perfect tracker on `camera` reports at `stamp_ns` with the performer at
+/// `performer_m`: its projection, or a lost sample when it falls outside the image. The one
+/// projection of the ideal baseline (this receiver and the in-process mission's observers).
+pub fn ideal_sample(camera: &ObserverCamera, stamp_ns: u64, performer_m: [f64; 3]) -> Sample {
+    match camera.project_px(performer_m).filter(|p| in_image(*p)) {
+        Some(p) => Sample::tracked(stamp_ns, p),
+        None => Sample::lost(stamp_ns),
     }
 }
 

@@ -8,13 +8,16 @@
 //! - [`agent`]: offer cache, allocation and the observer's decisions;
 //! - [`runtime`]: perception + frame parser + agent, one step per tick;
 //! - [`tick`]: the sans-IO tick assembler that decides which tick the runtime processes next
-//!   and with what (session controls, packet, or a missing packet).
+//!   and with what (session controls, packet, or a missing packet);
+//! - [`observer`]: the one observer core — assembler and runtime driven as one — that
+//!   `observer-node`, `waggle replay` and the in-process mission all run.
 //!
 //! The segmenter and decoder the receivers share with the ideal receiver live in
 //! [`proto::logic`].
 
 pub mod agent;
 pub mod events;
+pub mod observer;
 pub mod perception;
 pub mod rgb;
 pub mod runtime;

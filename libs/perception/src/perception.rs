@@ -1,9 +1,16 @@
 //! One observer's perception, whichever sensor it carries: its own RGB frames or its own event
 //! packets in, tokens and released frames out. This is all an observer process is allowed to
 //! see of the world.
+//!
+//! A third kind of input, [`SensorInput::Track`], is a sensor that already delivers the
+//! target's image position: the evaluation's ideal baseline (ground truth projected into the
+//! camera, `evaluation::ideal_receiver`) feeds it, so the baseline runs through the very
+//! segmenter, parser and observer loop the real receivers do. No observer process builds one.
 
 use proto::scene::ObserverCamera;
-use proto::{EventPacket, Rectification, RgbFrame, SegmenterConfig};
+use proto::{
+    Decoder, EventPacket, Rectification, RgbFrame, Sample, SegmenterConfig, SegmenterError,
+};
 
 use crate::events::{EventReceiver, EventReceiverConfig, EventReceiverError};
 use crate::rgb::{RgbReceiver, RgbReceiverConfig, RgbReceiverError};
@@ -16,6 +23,28 @@ pub use proto::Modality;
 pub enum SensorInput<'a> {
     Rgb(&'a RgbFrame),
     Events(&'a EventPacket),
+    /// The target's image position as already tracked (the ideal baseline's input).
+    Track(&'a Sample),
+}
+
+impl SensorInput<'_> {
+    /// The input's kind, for errors.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            SensorInput::Rgb(_) => "rgb",
+            SensorInput::Events(_) => "events",
+            SensorInput::Track(_) => "track",
+        }
+    }
+
+    /// False when the sensor marked the input as not to be trusted.
+    pub fn valid(&self) -> bool {
+        match self {
+            SensorInput::Rgb(f) => f.valid,
+            SensorInput::Events(e) => e.valid,
+            SensorInput::Track(_) => true,
+        }
+    }
 }
 
 /// Why perception could not be built or fed.
@@ -30,6 +59,8 @@ pub enum PerceptionError {
     Rgb(#[from] RgbReceiverError),
     #[error(transparent)]
     Events(#[from] EventReceiverError),
+    #[error(transparent)]
+    Segmenter(#[from] SegmenterError),
 }
 
 /// The receiving chain of one observer.
@@ -37,6 +68,8 @@ pub enum PerceptionError {
 pub enum Perception {
     Rgb(Box<RgbReceiver>),
     Events(Box<EventReceiver>),
+    /// Segmenter and parser only, fed [`SensorInput::Track`] (the ideal baseline).
+    Tracked(Box<Decoder>),
 }
 
 impl Perception {
@@ -53,6 +86,22 @@ impl Perception {
         mode: Rectification,
     ) -> Result<Self, PerceptionError> {
         Self::build(modality, |s| s.rectified(camera, mode))
+    }
+
+    /// Segmenter and parser only, for an already tracked target seen by `camera` (the ideal
+    /// baseline's chain: the RGB receiver's segmenter settings, as the baseline always used).
+    pub fn tracked(camera: ObserverCamera, mode: Rectification) -> Result<Self, PerceptionError> {
+        let config = SegmenterConfig::rgb().rectified(camera, mode);
+        Ok(Self::Tracked(Box::new(Decoder::new(config)?)))
+    }
+
+    /// The sensor input this chain reads.
+    pub fn expects(&self) -> &'static str {
+        match self {
+            Self::Rgb(_) => "rgb",
+            Self::Events(_) => "events",
+            Self::Tracked(_) => "track",
+        }
     }
 
     fn build(
@@ -93,30 +142,28 @@ impl Perception {
                 let out = r.push_frame(f);
                 Ok((out.step, out.track.and_then(|t| t.point_px)))
             }
-            (Self::Rgb(_), SensorInput::Events(_)) => Err(PerceptionError::WrongSensor {
-                expected: "rgb",
-                got: "events",
-            }),
-            (Self::Events(_), SensorInput::Rgb(_)) => Err(PerceptionError::WrongSensor {
-                expected: "events",
-                got: "rgb",
+            (Self::Tracked(d), SensorInput::Track(s)) => Ok((d.push(*s)?, s.point_px)),
+            (chain, input) => Err(PerceptionError::WrongSensor {
+                expected: chain.expects(),
+                got: input.kind(),
             }),
         }
     }
 
     /// The sensor stream is known to be missing at `stamp_ns` (publisher gone, grace expired).
-    pub fn missing(&mut self, stamp_ns: u64) -> DecodeStep {
-        match self {
+    pub fn missing(&mut self, stamp_ns: u64) -> Result<DecodeStep, PerceptionError> {
+        Ok(match self {
             Self::Events(r) => r.interrupt(stamp_ns).step,
             Self::Rgb(r) => r.interrupt(stamp_ns).step,
-        }
+            Self::Tracked(d) => d.interrupt(stamp_ns)?,
+        })
     }
 
     /// Events seen and removed by the event receiver's noise front end (`None` for RGB).
     pub fn denoise_counts(&self) -> Option<crate::events::DenoiseCounts> {
         match self {
             Self::Events(r) => Some(r.denoise_counts()),
-            Self::Rgb(_) => None,
+            Self::Rgb(_) | Self::Tracked(_) => None,
         }
     }
 
@@ -125,6 +172,7 @@ impl Perception {
         match self {
             Self::Events(r) => r.reset(),
             Self::Rgb(r) => r.reset(),
+            Self::Tracked(d) => d.reset(),
         }
     }
 }

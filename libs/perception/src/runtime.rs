@@ -9,7 +9,7 @@
 
 use proto::Rectification;
 use proto::frame::FrameParser;
-use proto::scene::Placement;
+use proto::scene::{ObserverCamera, Placement};
 use proto::{
     Decision, FrameEvent, InputState, ObserverId, ObserverPhase, ObserverStatus, ObserverTrack,
     Roster, SessionControl, SessionEvent, Site, TICK_NS, TokenEvent, TrackSample,
@@ -63,20 +63,26 @@ impl ObserverRuntime {
         modality: Modality,
     ) -> Result<Self, PerceptionError> {
         // The observer knows the map: its own home, hence its camera's pose.
-        let home = roster
-            .entries()
-            .iter()
-            .find(|e| e.observer == id)
-            .map(|e| e.home_m);
-        let perception = match home {
-            Some(home) => Perception::for_camera(
-                modality,
-                Placement::aimed_from(home).camera(),
-                Rectification::default(),
-            )?,
+        let perception = match Self::home_camera(&id, &roster) {
+            Some(camera) => Perception::for_camera(modality, camera, Rectification::default())?,
             None => Perception::new(modality)?,
         };
-        Ok(Self {
+        Ok(Self::with_perception(id, roster, perception))
+    }
+
+    /// The camera of observer `id` at its home on `roster`'s map (`None`: not on the roster).
+    pub fn home_camera(id: &ObserverId, roster: &Roster) -> Option<ObserverCamera> {
+        roster
+            .entries()
+            .iter()
+            .find(|e| e.observer == *id)
+            .map(|e| Placement::aimed_from(e.home_m).camera())
+    }
+
+    /// An observer whose receiving chain is `perception` (e.g. the ideal baseline's
+    /// [`Perception::tracked`]).
+    pub fn with_perception(id: ObserverId, roster: Roster, perception: Perception) -> Self {
+        Self {
             agent: ObserverAgent::new(id.clone(), roster),
             id,
             perception,
@@ -86,7 +92,7 @@ impl ObserverRuntime {
             stream_broken: false,
             assignment: None,
             ended: false,
-        })
+        }
     }
 
     pub fn id(&self) -> &ObserverId {
@@ -133,10 +139,7 @@ impl ObserverRuntime {
             TickData::Nothing => InputState::Received,
             TickData::Packet(p) => {
                 self.stream_broken = false;
-                let valid = match p {
-                    SensorInput::Rgb(f) => f.valid,
-                    SensorInput::Events(e) => e.valid,
-                };
+                let valid = p.valid();
                 if self.agent.receiving() {
                     let (step, pos_px) = self.perception.push_tracked(p)?;
                     report.track = Some(ObserverTrack {
@@ -157,7 +160,7 @@ impl ObserverRuntime {
             }
             TickData::Missing => {
                 if !self.stream_broken && self.agent.receiving() {
-                    let step = self.perception.missing(now_ns);
+                    let step = self.perception.missing(now_ns)?;
                     self.parser.interrupt();
                     self.absorb(step, now_ns, &mut report);
                 }

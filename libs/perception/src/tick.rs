@@ -79,7 +79,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 
-use proto::{EventPacket, RgbFrame, SessionControl, TICK_NS};
+use proto::{EventPacket, RgbFrame, Sample, SessionControl, TICK_NS};
 
 use crate::perception::SensorInput;
 use crate::runtime::TickData;
@@ -89,6 +89,8 @@ use crate::runtime::TickData;
 pub enum SensorPacket {
     Rgb(RgbFrame),
     Events(EventPacket),
+    /// An already tracked target position at a tick boundary (the ideal baseline).
+    Track(Sample),
 }
 
 impl SensorPacket {
@@ -98,6 +100,7 @@ impl SensorPacket {
         match self {
             SensorPacket::Rgb(f) => f.stamp_ns / TICK_NS,
             SensorPacket::Events(p) => p.end_ns / TICK_NS,
+            SensorPacket::Track(s) => s.stamp_ns / TICK_NS,
         }
     }
 
@@ -106,6 +109,7 @@ impl SensorPacket {
         match self {
             SensorPacket::Rgb(f) => SensorInput::Rgb(f),
             SensorPacket::Events(p) => SensorInput::Events(p),
+            SensorPacket::Track(s) => SensorInput::Track(s),
         }
     }
 }
@@ -113,6 +117,12 @@ impl SensorPacket {
 impl From<RgbFrame> for SensorPacket {
     fn from(f: RgbFrame) -> Self {
         SensorPacket::Rgb(f)
+    }
+}
+
+impl From<Sample> for SensorPacket {
+    fn from(s: Sample) -> Self {
+        SensorPacket::Track(s)
     }
 }
 
@@ -135,6 +145,8 @@ pub enum MissingReason {
     EndOfRecording,
     /// The sensor stream dropped out (in-process mission fault).
     Dropout,
+    /// The sensor link lost it (in-process mission, a lossy-link perturbation).
+    Lost,
 }
 
 impl MissingReason {
@@ -146,6 +158,7 @@ impl MissingReason {
             MissingReason::GraceExpired => "grace period expired",
             MissingReason::EndOfRecording => "the recording ended",
             MissingReason::Dropout => "the sensor stream dropped out",
+            MissingReason::Lost => "the link lost it",
         }
     }
 }

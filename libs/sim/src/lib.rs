@@ -8,6 +8,8 @@
 //!   keeps each drone's tracking error.
 //! - [`noise`] is the seeded Gaussian source of those random processes.
 //! - [`render`] renders observer cameras headlessly (EGL; Mesa's CPU rasteriser here).
+//! - [`lockstep`] is the simulator's side of the lockstep (published truth, a camera's mirror
+//!   of it, one tick's extrapolated references), shared by `sim-node` and `waggle mission`.
 //!
 //! The MuJoCo FFI and its `unsafe` live in the `mujoco-rs` crate; this crate has none.
 
@@ -18,6 +20,7 @@ pub mod cascade;
 pub mod control;
 pub mod damage;
 pub mod estimate;
+pub mod lockstep;
 pub mod mjcf;
 pub mod noise;
 pub mod render;

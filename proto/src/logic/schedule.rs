@@ -445,6 +445,17 @@ pub fn broadcast(
     Ok(b.build())
 }
 
+/// The performer's `setpoint{k}`: where `schedule` (the last broadcast it was given, if any)
+/// has it at t_k, flown level and facing +x; at rest at the hover point before any broadcast.
+/// One function for the performer process and the in-process mission, so both fly the same.
+pub fn performer_setpoint(schedule: Option<&Schedule>, tick: u64) -> crate::PerformerSetpoint {
+    let t_ns = tick.saturating_mul(crate::TICK_NS);
+    let kin = schedule.map_or(Kinematics::rest(crate::scene::PERFORMER_HOVER_M), |s| {
+        s.state_at(t_ns)
+    });
+    crate::PerformerSetpoint::new(tick, kin, 0.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

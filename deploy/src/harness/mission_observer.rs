@@ -1,0 +1,202 @@
+//! One observer of the in-process mission: its own sensor (or the ideal baseline's projection
+//! of the truth), the sensor's perturbations, and the one observer core
+//! ([`perception::observer::ObserverCore`]) that `observer-node` and `waggle replay` run too.
+//! Everything it publishes is kept as the process's would be in `observers.json`.
+
+use anyhow::{Context, Result};
+use evaluation::ideal_receiver::ideal_sample;
+use perception::observer::{ObserverCore, Processed};
+use perception::perception::Perception;
+use perception::runtime::ObserverRuntime;
+use perception::tick::{MissingReason, SensorPacket};
+use perturb::link::LinkNoise;
+use perturb::rgb::RgbSensor;
+use perturb::seed::{Stream, rng, stream_seed};
+use proto::scene::{ObserverCamera, observer_name};
+use proto::{Fault, FaultKind, ObserverId, Rectification, Roster, SimState, TICK_NS};
+use rand_chacha::ChaCha8Rng;
+use sim::render::CameraRenderer;
+use sim::sensor::{ObserverSensor, SensorOutput};
+use sim::world::World;
+
+use crate::case::{Case, Receiver};
+use crate::harness::mission_options::MissionOptions;
+use crate::run_dir::ObserverRecord;
+
+/// Where an observer's input comes from.
+enum Source {
+    /// Its own camera, rendered from the mirrored truth (the process's camera).
+    Sensor(Box<ObserverSensor>),
+    /// Ground truth projected into its home camera (the evaluation baseline).
+    Ideal(ObserverCamera),
+}
+
+/// One observer of the mission.
+pub struct MissionObserver {
+    pub name: String,
+    pub id: ObserverId,
+    core: ObserverCore,
+    source: Source,
+    black: bool,
+    /// The stream stops for good from this instant on (the case's dropout fault).
+    dropout: Option<Fault>,
+    /// RGB read noise / exposure applied to every frame (`None`: the ideal sensor).
+    rgb_noise: Option<RgbSensor>,
+    /// The sensor link's loss, and the stream it draws from.
+    link: (LinkNoise, ChaCha8Rng),
+    /// Why the packet of the tick being sensed did not arrive, if it did not.
+    gap: Option<MissingReason>,
+    /// What it published, as `observers.json` holds it.
+    pub record: ObserverRecord,
+}
+
+impl MissionObserver {
+    /// Observer `i` of `case` on `modality`'s receiver, its sensor perturbed as `opts` says.
+    pub fn new(case: &Case, modality: Receiver, i: usize, opts: &MissionOptions) -> Result<Self> {
+        let n = case.observers;
+        let name = observer_name(i);
+        let id = ObserverId::new(name.clone())?;
+        let roster = Roster::default_scene(n);
+        let camera = ObserverRuntime::home_camera(&id, &roster)
+            .with_context(|| format!("{name} is not on the roster"))?;
+        let black = case.black(&name);
+        let (perception, source) = match modality.sensor() {
+            None => (
+                Perception::tracked(camera, Rectification::default())?,
+                Source::Ideal(camera),
+            ),
+            Some(kind) => (
+                Perception::for_camera(kind, camera, Rectification::default())?,
+                Source::Sensor(Box::new(ObserverSensor::with_event_sensor(
+                    kind,
+                    i,
+                    black,
+                    opts.perturbation
+                        .event_sensor(stream_seed(opts.seed, Stream::EventSensor, i)),
+                )?)),
+            ),
+        };
+        let rgb = opts.perturbation.rgb();
+        Ok(Self {
+            core: ObserverCore::new(ObserverRuntime::with_perception(
+                id.clone(),
+                roster,
+                perception,
+            )),
+            dropout: case.dropout_ns(&name).map(|from_ns| Fault {
+                observer: id.clone(),
+                kind: FaultKind::StreamDropout,
+                from_ns,
+                until_ns: None,
+            }),
+            rgb_noise: (modality == Receiver::Rgb && !rgb.is_ideal())
+                .then(|| rgb.sensor(&mut rng(opts.seed, Stream::RgbSensor, i))),
+            link: (opts.perturbation.link(), rng(opts.seed, Stream::Link, i)),
+            name,
+            id,
+            source,
+            black,
+            gap: None,
+            record: ObserverRecord::default(),
+        })
+    }
+
+    /// The render period of its sensor (`None`: the ideal baseline, sampled every tick).
+    pub fn render_period_ns(&self) -> Option<u64> {
+        match &self.source {
+            Source::Sensor(s) => Some(s.render_period_ns()),
+            Source::Ideal(_) => None,
+        }
+    }
+
+    /// Senses at the render instant of `state` (the truth as published; `camera_world` is
+    /// posed from it): the camera renders and delivers, or the truth is projected at tick
+    /// boundaries. What arrives goes to the core; what does not is remembered as the gap.
+    pub fn sense(
+        &mut self,
+        state: &SimState,
+        camera_world: &mut World,
+        renderer: Option<&mut CameraRenderer>,
+    ) -> Result<()> {
+        let t = state.stamp_ns;
+        let outputs = match (&mut self.source, renderer) {
+            (Source::Sensor(sensor), Some(renderer)) => {
+                if t == 0 || !t.is_multiple_of(sensor.render_period_ns()) {
+                    return Ok(());
+                }
+                // A dropped-out camera renders nothing more, as its killed process would.
+                if self.dropout.as_ref().is_some_and(|f| f.active_at(t)) {
+                    self.gap = Some(MissingReason::Dropout);
+                    return Ok(());
+                }
+                sensor.capture(camera_world, renderer)?
+            }
+            (Source::Sensor(_), None) => return Ok(()),
+            (Source::Ideal(camera), _) => {
+                if !t.is_multiple_of(TICK_NS) {
+                    return Ok(());
+                }
+                if self.dropout.as_ref().is_some_and(|f| f.active_at(t)) {
+                    self.gap = Some(MissingReason::Dropout);
+                    return Ok(());
+                }
+                let performer_m = state
+                    .drone("performer")
+                    .context("the truth lacks the performer")?
+                    .pos_m;
+                let mut sample = ideal_sample(camera, t, performer_m);
+                if self.black {
+                    sample = proto::Sample::lost(t);
+                }
+                self.core.packet(sample);
+                return Ok(());
+            }
+        };
+        for output in outputs {
+            let packet: SensorPacket = match output {
+                SensorOutput::Rgb(mut f) => {
+                    if let Some(noise) = self.rgb_noise.as_mut() {
+                        f.rgb = noise.apply(&[&f.rgb]);
+                    }
+                    f.into()
+                }
+                SensorOutput::Events(p) => p.into(),
+            };
+            if self.link.0.keeps(&mut self.link.1) {
+                self.core.packet(packet);
+            } else {
+                self.gap = Some(MissingReason::Lost);
+            }
+        }
+        Ok(())
+    }
+
+    /// Processes tick `tick` (everything for it has been delivered: a packet not in hand is
+    /// missing) and returns its decision, if any.
+    pub fn tick(&mut self, tick: u64) -> Result<Option<proto::Decision>> {
+        self.core.clocks_through(tick);
+        let gap = self.gap.take().unwrap_or(MissingReason::Lost);
+        let mut decision = None;
+        while let Some(Processed { report, .. }) = self
+            .core
+            .next(|_| Some(gap))
+            .with_context(|| format!("{} at tick {tick}", self.name))?
+        {
+            let rec = &mut self.record;
+            rec.tokens.extend(report.tokens);
+            rec.frames.extend(report.frames);
+            rec.track
+                .extend(report.track.into_iter().flat_map(|t| t.samples));
+            if let Some(d) = report.decision {
+                rec.decisions.push(d.clone());
+                decision = Some(d);
+            }
+        }
+        Ok(decision)
+    }
+
+    /// The scheduler's session controls of tick `tick`.
+    pub fn session(&mut self, tick: u64, controls: Vec<proto::SessionControl>) {
+        self.core.session(tick, controls);
+    }
+}

@@ -1,0 +1,171 @@
+//! One observer, exactly as every caller runs it: the tick assembler ([`crate::tick`]) decides
+//! which tick is next and with what, the runtime ([`crate::runtime`]) applies the session and
+//! runs perception and the agent. `observer-node`, `waggle replay` and the in-process mission
+//! (`waggle mission`, trials, studies) all drive this one type, so a change to observer
+//! behaviour is made here once and every one of them sees it.
+//!
+//! Feed it what arrived ([`ObserverCore::clock`], [`ObserverCore::session`],
+//! [`ObserverCore::packet`]); pull processed ticks with [`ObserverCore::next`] until it returns
+//! `None`, then [`ObserverCore::ended`] says whether the session ended the mission or more
+//! input is needed.
+
+use crate::perception::PerceptionError;
+use crate::runtime::{ObserverRuntime, TickReport};
+use crate::tick::{MissingReason, SensorPacket, Step, TickAssembler, TickInput, Waiting};
+use proto::{ObserverId, SessionControl};
+
+/// One processed tick: what it was processed with and what the observer publishes for it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Processed {
+    pub tick: u64,
+    pub input: TickInput,
+    pub report: TickReport,
+}
+
+/// An observer's assembler and runtime, driven as one.
+#[derive(Debug)]
+pub struct ObserverCore {
+    runtime: ObserverRuntime,
+    assembler: TickAssembler,
+}
+
+impl ObserverCore {
+    pub fn new(runtime: ObserverRuntime) -> Self {
+        Self {
+            runtime,
+            assembler: TickAssembler::new(),
+        }
+    }
+
+    pub fn id(&self) -> &ObserverId {
+        self.runtime.id()
+    }
+
+    /// True once the session's `MissionEnd` was applied: nothing more is processed.
+    pub fn ended(&self) -> bool {
+        self.runtime.ended()
+    }
+
+    /// The next tick to process.
+    pub fn next_tick(&self) -> u64 {
+        self.assembler.next_tick()
+    }
+
+    /// What the assembler waits for before it can go on.
+    pub fn waiting(&self) -> Waiting {
+        self.assembler.waiting()
+    }
+
+    /// `clock{tick}` arrived.
+    pub fn clock(&mut self, tick: u64) {
+        self.assembler.clock(tick);
+    }
+
+    /// Every clock up to `tick` is known (a recording's watermark, the in-process lockstep).
+    pub fn clocks_through(&mut self, tick: u64) {
+        self.assembler.clocks_through(tick);
+    }
+
+    /// The session controls of tick `tick`.
+    pub fn session(&mut self, tick: u64, controls: Vec<SessionControl>) {
+        self.assembler.session(tick, controls);
+    }
+
+    /// One packet of this observer's own sensor: its tick, and false when that tick was
+    /// already processed (stale, dropped).
+    pub fn packet(&mut self, packet: impl Into<SensorPacket>) -> (u64, bool) {
+        self.assembler.packet(packet)
+    }
+
+    /// Processes up to the next tick that what has arrived allows, applying the session controls
+    /// on the way; `None` when it must wait for more input or the mission ended. `judge` decides
+    /// whether a packet that has not arrived (and no later one has) is missing.
+    pub fn next(
+        &mut self,
+        mut judge: impl FnMut(u64) -> Option<MissingReason>,
+    ) -> Result<Option<Processed>, PerceptionError> {
+        while !self.runtime.ended() {
+            match self.assembler.next_step(&mut judge) {
+                None => return Ok(None),
+                Some(Step::Session { controls, .. }) => self.runtime.apply_session(&controls),
+                Some(Step::Tick { tick, input }) => {
+                    let report = self.runtime.step(tick, input.data())?;
+                    return Ok(Some(Processed {
+                        tick,
+                        input,
+                        report,
+                    }));
+                }
+            }
+        }
+        Ok(None)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proto::{EventPacket, Modality, Roster, SessionEvent, TICK_NS};
+
+    fn core() -> ObserverCore {
+        ObserverCore::new(
+            ObserverRuntime::new(
+                ObserverId::new("O2").unwrap(),
+                Roster::default_scene(3),
+                Modality::Events,
+            )
+            .unwrap(),
+        )
+    }
+
+    fn packet(tick: u64) -> EventPacket {
+        EventPacket::from_events(
+            tick - 1,
+            ((tick - 1) * TICK_NS, tick * TICK_NS),
+            (proto::scene::IMAGE_WIDTH_PX, proto::scene::IMAGE_HEIGHT_PX),
+            &[],
+        )
+    }
+
+    fn control(tick: u64, event: SessionEvent) -> Vec<SessionControl> {
+        vec![SessionControl {
+            tick,
+            stamp_ns: tick * TICK_NS,
+            event,
+        }]
+    }
+
+    #[test]
+    fn ticks_come_out_in_order_and_the_session_ends_it() {
+        let mut c = core();
+        let never = |_| None;
+        assert_eq!(c.next(never).unwrap(), None, "no clock yet");
+        assert!(!c.ended());
+        c.clocks_through(2);
+        c.session(0, control(0, SessionEvent::RoundReset { round: 1 }));
+        c.packet(packet(2));
+        c.packet(packet(1));
+        let ticks: Vec<u64> = std::iter::from_fn(|| c.next(never).unwrap())
+            .map(|p| p.tick)
+            .collect();
+        assert_eq!(ticks, [0, 1], "tick 2 waits for the session of tick 1");
+        assert_eq!(c.waiting(), Waiting::Session(1));
+        c.session(1, control(1, SessionEvent::MissionEnd));
+        assert_eq!(c.next(never).unwrap(), None);
+        assert!(c.ended(), "the end is applied before tick 2");
+        assert_eq!(c.next_tick(), 2);
+    }
+
+    #[test]
+    fn the_judge_is_asked_for_a_packet_that_never_came() {
+        let mut c = core();
+        c.clocks_through(1);
+        c.session(0, Vec::new());
+        let p = c.next(|_| None).unwrap().unwrap();
+        assert_eq!(p.tick, 0);
+        assert_eq!(c.next(|_| None).unwrap(), None);
+        let p = c.next(|_| Some(MissingReason::Lost)).unwrap().unwrap();
+        assert_eq!((p.tick, p.input.missing()), (1, Some(MissingReason::Lost)));
+        assert_eq!(p.report.status.input, proto::InputState::Missing);
+    }
+}
