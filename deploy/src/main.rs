@@ -60,6 +60,9 @@ enum Cli {
     Replay(cli::replay::ReplayArgs),
     /// The paper's tables, provenance audit and expected outcome from a recording alone.
     Audit(cli::audit::AuditArgs),
+    /// Export a run's recording for other tools: `export ros2 RUN_DIR --out BAG_DIR` writes a
+    /// ROS 2 bag (rosbag2 of ROS 2 Jazzy, MCAP storage).
+    Export(cli::export::ExportArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -78,6 +81,7 @@ fn main() -> anyhow::Result<()> {
         Cli::Bench(args) => cli::bench::run(args),
         Cli::Replay(args) => cli::replay::run(args),
         Cli::Audit(args) => cli::audit::run(args),
+        Cli::Export(args) => cli::export::run(args),
         Cli::Sweep(args) => cli::sweep::run(args),
         Cli::Report(args) => cli::report::run(args),
         Cli::Viewpoints(args) => cli::viewpoints::run(args),

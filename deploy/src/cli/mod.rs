@@ -8,6 +8,7 @@ pub mod bundle;
 pub mod compose;
 pub mod decode;
 pub mod events;
+pub mod export;
 pub mod link;
 pub mod mission;
 pub mod payload;

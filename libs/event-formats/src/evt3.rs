@@ -96,34 +96,95 @@ pub fn write(
     height: u16,
     events: &[Event],
 ) -> Result<(), Evt3Error> {
-    if width == 0 || height == 0 || width > MAX_COORD + 1 || height > MAX_COORD + 1 {
-        return Err(Evt3Error::SensorTooLarge { width, height });
-    }
-    write!(
-        out,
-        "% camera_integrator_name Waggle\n% evt 3.0\n% format EVT3;height={height};width={width}\n\
-         % geometry {width}x{height}\n% end\n"
-    )?;
+    let mut encoder = StreamEncoder::new(width, height)?;
+    out.write_all(encoder.header().as_bytes())?;
     let mut buf = Vec::with_capacity(events.len() * 2 + 16);
-    let (mut high, mut low, mut y_last): (Option<u64>, Option<u16>, Option<u16>) =
-        (None, None, None);
-    let mut previous_ns = 0u64;
-    for e in events {
-        if e.x >= width || e.y >= height {
-            return Err(Evt3Error::Outside {
-                x: e.x,
-                y: e.y,
-                width,
-                height,
-            });
+    encoder.encode(events, &mut buf)?;
+    out.write_all(&buf)?;
+    Ok(())
+}
+
+/// One EVT 3.0 word stream written in pieces: the pieces, concatenated, are exactly the data
+/// [`write`] writes for all their events (after the header). A piece can be made a place where
+/// a decoder may start ([`StreamEncoder::restart`]): its first event then repeats `TIME_HIGH`,
+/// `TIME_LOW` and `ADDR_Y`, as a camera's USB buffer does — ROS 2 `event_camera_msgs` packets
+/// with `encoding: "evt3"` are such pieces.
+#[derive(Debug, Clone)]
+pub struct StreamEncoder {
+    width: u16,
+    height: u16,
+    /// The last time-high written, as a monotone count (the 24-bit wraps are `high >> 12`).
+    high: Option<u64>,
+    low: Option<u16>,
+    y_last: Option<u16>,
+    previous_ns: u64,
+    /// Repeat the time and row words before the next event.
+    restart: bool,
+}
+
+impl StreamEncoder {
+    /// An encoder for a `width`×`height` sensor (at most 2048×2048).
+    pub fn new(width: u16, height: u16) -> Result<Self, Evt3Error> {
+        if width == 0 || height == 0 || width > MAX_COORD + 1 || height > MAX_COORD + 1 {
+            return Err(Evt3Error::SensorTooLarge { width, height });
         }
-        if e.t_ns < previous_ns {
-            return Err(Evt3Error::NotSorted {
-                t_ns: e.t_ns,
-                previous_ns,
-            });
+        Ok(Self {
+            width,
+            height,
+            high: None,
+            low: None,
+            y_last: None,
+            previous_ns: 0,
+            restart: false,
+        })
+    }
+
+    /// The `.raw` file header (`% …` lines through `% end`) for this sensor.
+    pub fn header(&self) -> String {
+        let (width, height) = (self.width, self.height);
+        format!(
+            "% camera_integrator_name Waggle\n% evt 3.0\n% format EVT3;height={height};width={width}\n\
+             % geometry {width}x{height}\n% end\n"
+        )
+    }
+
+    /// The next event written repeats `TIME_HIGH`, `TIME_LOW` and `ADDR_Y`, so a decoder that
+    /// starts there (inside the same 16.78 s wrap) reads it right.
+    pub fn restart(&mut self) {
+        self.restart = true;
+    }
+
+    /// Appends the words of `events` (in time order, also after the events encoded before) to
+    /// `buf`. On an error nothing of `events` is appended.
+    pub fn encode(&mut self, events: &[Event], buf: &mut Vec<u8>) -> Result<(), Evt3Error> {
+        let mut previous_ns = self.previous_ns;
+        for e in events {
+            if e.x >= self.width || e.y >= self.height {
+                return Err(Evt3Error::Outside {
+                    x: e.x,
+                    y: e.y,
+                    width: self.width,
+                    height: self.height,
+                });
+            }
+            if e.t_ns < previous_ns {
+                return Err(Evt3Error::NotSorted {
+                    t_ns: e.t_ns,
+                    previous_ns,
+                });
+            }
+            previous_ns = e.t_ns;
         }
-        previous_ns = e.t_ns;
+        buf.reserve(events.len() * 2 + 8);
+        for e in events {
+            self.push(e, buf);
+        }
+        self.previous_ns = previous_ns;
+        Ok(())
+    }
+
+    /// The words of one checked event.
+    fn push(&mut self, e: &Event, buf: &mut Vec<u8>) {
         let t_us = e.t_ns / 1000;
         // The high part as a monotone count (wraps every 2^24 µs are implied by it decreasing).
         let h = t_us >> 12;
@@ -131,32 +192,35 @@ pub fn write(
         // decrease of the high part, so a reader counting decreases cannot miss one, however
         // long the silence.
         // The stream starts at wrap 0 (readers start counting there).
-        if high.is_none() && h >> 12 > 0 {
+        if self.high.is_none() && h >> 12 > 0 {
             buf.extend_from_slice(&word(TIME_HIGH, 0));
         }
-        for _ in (high.unwrap_or(0) >> 12)..(h >> 12) {
+        for _ in (self.high.unwrap_or(0) >> 12)..(h >> 12) {
             buf.extend_from_slice(&word(TIME_HIGH, 0xFFF));
             buf.extend_from_slice(&word(TIME_HIGH, 0));
         }
-        if high != Some(h) {
+        if self.restart {
+            self.low = None;
+            self.y_last = None;
+        }
+        if self.high != Some(h) || self.restart {
             buf.extend_from_slice(&word(TIME_HIGH, (h & 0xFFF) as u16));
-            high = Some(h);
-            low = None;
+            self.high = Some(h);
+            self.low = None;
         }
+        self.restart = false;
         let l = (t_us & 0xFFF) as u16;
-        if low != Some(l) {
+        if self.low != Some(l) {
             buf.extend_from_slice(&word(TIME_LOW, l));
-            low = Some(l);
+            self.low = Some(l);
         }
-        if y_last != Some(e.y) {
+        if self.y_last != Some(e.y) {
             buf.extend_from_slice(&word(ADDR_Y, e.y));
-            y_last = Some(e.y);
+            self.y_last = Some(e.y);
         }
         let p = u16::from(e.polarity == Polarity::On) << 11;
         buf.extend_from_slice(&word(ADDR_X, e.x | p));
     }
-    out.write_all(&buf)?;
-    Ok(())
 }
 
 /// The header's geometry and where the data starts. A header is optional (raw word streams

@@ -1,0 +1,38 @@
+//! ROS 2 bags from Waggle recordings (`waggle export ros2`).
+//!
+//! A bag here is what rosbag2 of ROS 2 **Jazzy Jalisco** (the LTS release current in 2026) writes
+//! with its MCAP storage plugin: a directory holding `<name>_0.mcap` (profile `ros2`, messages in
+//! `cdr`, schemas in `ros2msg` with every dependency concatenated as rosbag2 does, channel
+//! metadata `offered_qos_profiles` and `topic_type_hash`, a `rosbag2` metadata record) and a
+//! `metadata.yaml` (rosbag2 metadata version 9) laid out byte for byte as rosbag2's yaml-cpp
+//! emitter lays it out.
+//!
+//! - [`cdr`]: the CDR encoder (XCDR1, little-endian, 4-byte encapsulation header `00 01 00 00`);
+//! - [`definitions`]: the `.msg` definitions the bag carries (upstream Jazzy files and Waggle's
+//!   own `waggle_msgs`, kept in `libs/ros2/msg/`), their `ros2msg` full text and RIHS01 type
+//!   hashes;
+//! - [`messages`], [`waggle_msgs`]: the message structs and their CDR encoding;
+//! - [`bag`]: the bag writer ([`BagWriter`]) and `metadata.yaml`;
+//! - [`geometry`]: camera intrinsics (`CameraInfo`) and the camera's optical frame from Waggle's
+//!   camera model;
+//! - [`export`]: a recording (`session.mcap`) → a bag, deterministic (the same run gives the same
+//!   bytes) and sorted by time.
+//!
+//! Pure apart from the files it reads and writes; errors are [`Ros2Error`].
+
+pub mod bag;
+pub mod cdr;
+pub mod definitions;
+pub mod error;
+pub mod export;
+pub mod geometry;
+pub mod messages;
+pub mod waggle_msgs;
+
+pub use bag::{BagSummary, BagWriter, QosProfile, TopicSpec};
+pub use cdr::{CdrEncode, CdrWriter, RosMessage};
+pub use error::Ros2Error;
+pub use export::{ExportOptions, ExportReport, ImageFormat, export_run};
+
+/// The ROS 2 release whose rosbag2 format the bags follow (`ros_distro` in `metadata.yaml`).
+pub const ROS_DISTRO: &str = "jazzy";
