@@ -144,13 +144,15 @@ impl LeakModel {
         let exact = if self.jitter == 0.0 {
             t
         } else {
-            let (mut m, mut p) = match (cache.m.get(i), cache.at_m.get(i)) {
-                (Some(&m), Some(&p)) => (m, p),
-                _ => (0, 0.0),
+            // The cache holds the slope of its own period: the same bits `weight` would give,
+            // without the hash and Box–Muller of a fresh draw.
+            let (mut m, mut p, mut cached) = match (cache.m.get(i), cache.at_m.get(i)) {
+                (Some(&m), Some(&p)) => (m, p, cache.w_m.get(i).copied()),
+                _ => (0, 0.0, None),
             };
             let mut found = None;
             for _ in 0..MAX_WALK {
-                let w = self.weight(i, m);
+                let w = cached.take().unwrap_or_else(|| self.weight(i, m));
                 if p + w > t {
                     found = Some(f64::from(m) + (t - p).max(0.0) / w);
                     break;

@@ -16,15 +16,17 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::event::Polarity;
 
-/// Radix digit width of the shot-event sort.
-const RADIX_BITS: u32 = 11;
+/// Most bucket-index bits of the shot-event sort (2²⁰ counters at most: 4 MB).
+const MAX_BUCKET_BITS: u32 = 20;
 
 /// Walker alias table of the pixels' relative shot rates `C / C_i`.
 #[derive(Clone, Debug)]
 struct Alias {
-    /// Probability (scaled to 2³²) that a column keeps its own pixel.
-    keep: Vec<u64>,
-    alias: Vec<u32>,
+    /// Per column: the probability (scaled to 2³², saturated at `u32::MAX`) that it keeps its
+    /// own pixel, and the pixel it aliases to. One 8-byte entry, so a draw costs one cache
+    /// miss, not two. A column that always keeps its pixel (2³²) aliases to itself, so
+    /// saturating its probability changes no draw.
+    entries: Vec<[u32; 2]>,
 }
 
 impl Alias {
@@ -46,7 +48,21 @@ impl Alias {
                 small.push(l);
             }
         }
-        Self { keep, alias }
+        let entries = keep
+            .iter()
+            .zip(&alias)
+            .map(|(&k, &a)| [u32::try_from(k).unwrap_or(u32::MAX), a])
+            .collect();
+        Self { entries }
+    }
+
+    /// The pixel of column `column` given 32 random bits `coin`.
+    #[inline(always)]
+    fn pixel(&self, column: u64, coin: u64) -> u64 {
+        let [keep, alias] = self.entries[column as usize];
+        // A select, not a branch: the coin is unpredictable by construction.
+        let to_alias = u64::from(coin >= u64::from(keep)).wrapping_neg();
+        column ^ ((column ^ u64::from(alias)) & to_alias)
     }
 }
 
@@ -79,14 +95,64 @@ impl ShotMap {
     }
 }
 
+impl ShotMap {
+    /// The candidate's pixel from its first draw `a`: the column from its high 32 bits, the
+    /// alias coin from its low 32.
+    #[inline(always)]
+    fn pixel(&self, a: u64, pixels: u32) -> u64 {
+        let column = column(a, pixels);
+        match &self.alias {
+            Some(alias) => alias.pixel(column, a & 0xFFFF_FFFF),
+            None => column,
+        }
+    }
+
+    /// Whether the candidate at `pixel` survives the brightness thinning, from bits 1–31 of its
+    /// second draw `b` (always, without the term).
+    #[inline(always)]
+    fn keeps(&self, b: u64, pixel: u64, luminance_keys: &[u32]) -> bool {
+        if self.bright_drop <= 0.0 {
+            return true;
+        }
+        let y = f64::from(luminance_keys[pixel as usize]) / 1000.0;
+        let keep = 1.0 - self.bright_drop * (y + 20.0) / 275.0;
+        let coin = ((b >> 1) & 0x7FFF_FFFF) as f64 / f64::from(1u32 << 31);
+        coin < keep
+    }
+}
+
+/// Multiply-shift: a uniform column below `pixels` from the high 32 bits of `a` (bias below
+/// pixels / 2³², negligible for a sensor's pixels).
+#[inline(always)]
+fn column(a: u64, pixels: u32) -> u64 {
+    ((a >> 32) * u64::from(pixels)) >> 32
+}
+
+/// Asks the CPU to bring the cache line of `slice[index]` towards L1 ahead of use: a hint that
+/// changes no result.
+#[inline(always)]
+fn prefetch<T>(slice: &[T], index: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let p = slice.as_ptr().wrapping_add(index);
+        // SAFETY: a prefetch is only a hint: it never faults and reads nothing observable, even
+        // at an address outside the slice; SSE is part of the x86_64 baseline.
+        unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (slice, index);
+}
+
 /// One interval's shot events as sortable keys `(t − t0, pixel, polarity)`, packed into a u64
-/// (`t − t0` highest), sorted by an LSD radix sort: linear in the count, where a comparison
-/// sort of the ≈ 15 000 events of a 10 ms interval at 5 Hz per pixel cost more than drawing
-/// them.
+/// (`t − t0` highest), sorted by buckets of their top bits (see [`ShotDraws::sort`]): linear
+/// in the count, where a comparison sort of the ≈ 15 000 events of a 10 ms interval at 5 Hz
+/// per pixel cost more than drawing them.
 #[derive(Clone, Default)]
 pub(super) struct ShotDraws {
     pub keys: Vec<u64>,
     scratch: Vec<u64>,
+    /// The sort's bucket counters.
+    counts: Vec<u32>,
     /// Bits of the pixel index field.
     pixel_bits: u32,
 }
@@ -108,59 +174,109 @@ impl ShotDraws {
         self.pixel_bits = 32 - pixels.saturating_sub(1).leading_zeros();
         let time_bits = 64 - dt.leading_zeros();
         let bits = time_bits + self.pixel_bits + 1;
-        for _ in 0..count {
-            let (a, b) = (rng.next_u64(), rng.next_u64());
-            // Multiply-shift: a uniform value below the bound from 32 random bits (bias below
-            // bound / 2³², negligible for a sensor's pixels); times beyond 32 bits draw exactly.
-            let column = ((a >> 32) * u64::from(pixels)) >> 32;
-            let pixel = match &map.alias {
-                Some(alias) if (a & 0xFFFF_FFFF) >= alias.keep[column as usize] => {
-                    u64::from(alias.alias[column as usize])
-                }
-                _ => column,
-            };
-            if map.bright_drop > 0.0 {
-                let y = f64::from(luminance_keys[pixel as usize]) / 1000.0;
-                let keep = 1.0 - map.bright_drop * (y + 20.0) / 275.0;
-                let coin = ((b >> 1) & 0x7FFF_FFFF) as f64 / f64::from(1u32 << 31);
-                if coin >= keep {
-                    continue;
+        if dt <= u64::from(u32::MAX) {
+            self.draw_batched(rng, count, pixels, dt, map, luminance_keys);
+        } else {
+            for _ in 0..count {
+                let (a, b) = (rng.next_u64(), rng.next_u64());
+                let pixel = map.pixel(a, pixels);
+                if map.keeps(b, pixel, luminance_keys) {
+                    let offset = rng.gen_range(1..=dt);
+                    self.keys
+                        .push((offset << (self.pixel_bits + 1)) | (pixel << 1) | (b & 1));
                 }
             }
-            let offset = if dt <= u64::from(u32::MAX) {
-                1 + (((b >> 32) * dt) >> 32)
-            } else {
-                rng.gen_range(1..=dt)
-            };
-            self.keys
-                .push((offset << (self.pixel_bits + 1)) | (pixel << 1) | (b & 1));
         }
         self.sort(bits);
     }
 
-    fn sort(&mut self, bits: u32) {
-        let radix = 1usize << RADIX_BITS;
-        let mut counts = vec![0usize; radix];
-        let mask = (radix - 1) as u64;
-        let mut shift = 0;
-        while shift < bits {
-            counts.fill(0);
-            for &k in &self.keys {
-                counts[((k >> shift) & mask) as usize] += 1;
+    /// [`ShotDraws::draw`]'s candidates for `dt` within 32 bits (every candidate then uses
+    /// exactly two draws), in batches: a batch's table entries are prefetched before any is
+    /// read, so their cache misses overlap instead of following one another, and a candidate
+    /// is appended without a branch (thinning is a coin flip no predictor can learn). Same
+    /// draws, same keys as one candidate at a time.
+    fn draw_batched(
+        &mut self,
+        rng: &mut ChaCha8Rng,
+        count: u64,
+        pixels: u32,
+        dt: u64,
+        map: &ShotMap,
+        luminance_keys: &[u32],
+    ) {
+        const BATCH: usize = 128;
+        let (mut a, mut b, mut pixel) = ([0u64; BATCH], [0u64; BATCH], [0u64; BATCH]);
+        let mut left = count;
+        while left > 0 {
+            let m = left.min(BATCH as u64) as usize;
+            left -= m as u64;
+            for j in 0..m {
+                (a[j], b[j]) = (rng.next_u64(), rng.next_u64());
+                pixel[j] = column(a[j], pixels);
             }
-            let mut sum = 0;
-            for c in &mut counts {
-                (*c, sum) = (sum, sum + *c);
+            if let Some(alias) = &map.alias {
+                for &c in &pixel[..m] {
+                    prefetch(&alias.entries, c as usize);
+                }
+                for j in 0..m {
+                    pixel[j] = alias.pixel(pixel[j], a[j] & 0xFFFF_FFFF);
+                }
             }
-            self.scratch.resize(self.keys.len(), 0);
-            for &k in &self.keys {
-                let d = ((k >> shift) & mask) as usize;
-                self.scratch[counts[d]] = k;
-                counts[d] += 1;
+            if map.bright_drop > 0.0 {
+                for &p in &pixel[..m] {
+                    prefetch(luminance_keys, p as usize);
+                }
             }
-            std::mem::swap(&mut self.keys, &mut self.scratch);
-            shift += RADIX_BITS;
+            let start = self.keys.len();
+            self.keys.resize(start + m, 0);
+            let mut kept = start;
+            for j in 0..m {
+                let offset = 1 + (((b[j] >> 32) * dt) >> 32);
+                self.keys[kept] = (offset << (self.pixel_bits + 1)) | (pixel[j] << 1) | (b[j] & 1);
+                kept += usize::from(map.keeps(b[j], pixel[j], luminance_keys));
+            }
+            self.keys.truncate(kept);
         }
+    }
+
+    /// Sorts the keys (`bits` wide): a counting sort on their top bits into about one bucket
+    /// per key, then one insertion sort over the whole, which only moves keys within their
+    /// bucket. Times are uniform, so buckets hold one or two keys: two passes over the keys
+    /// where an LSD radix sort made eight.
+    fn sort(&mut self, bits: u32) {
+        let n = self.keys.len();
+        if n < 64 {
+            self.keys.sort_unstable();
+            return;
+        }
+        let bucket_bits = (usize::BITS - n.leading_zeros())
+            .min(bits)
+            .min(MAX_BUCKET_BITS);
+        let shift = bits - bucket_bits;
+        self.counts.clear();
+        self.counts.resize((1 << bucket_bits) + 1, 0);
+        for &k in &self.keys {
+            self.counts[(k >> shift) as usize + 1] += 1;
+        }
+        for b in 1..self.counts.len() {
+            self.counts[b] += self.counts[b - 1];
+        }
+        self.scratch.resize(n, 0);
+        for &k in &self.keys {
+            let slot = &mut self.counts[(k >> shift) as usize];
+            self.scratch[*slot as usize] = k;
+            *slot += 1;
+        }
+        for i in 1..n {
+            let k = self.scratch[i];
+            let mut j = i;
+            while j > 0 && self.scratch[j - 1] > k {
+                self.scratch[j] = self.scratch[j - 1];
+                j -= 1;
+            }
+            self.scratch[j] = k;
+        }
+        std::mem::swap(&mut self.keys, &mut self.scratch);
     }
 
     /// (time, pixel index, polarity) of a key of the interval starting at `t0`.
@@ -188,9 +304,11 @@ mod tests {
         let n = weights.len() as f64;
         let mut p = [0.0; 5];
         for col in 0..weights.len() {
-            let keep = alias.keep[col] as f64 / (1u64 << 32) as f64;
+            let [keep, to] = alias.entries[col];
+            // Saturated entries alias to themselves: either way the column's own pixel.
+            let keep = f64::from(keep) / (1u64 << 32) as f64;
             p[col] += keep / n;
-            p[alias.alias[col] as usize] += (1.0 - keep) / n;
+            p[to as usize] += (1.0 - keep) / n;
         }
         for (i, w) in weights.iter().enumerate() {
             assert!(

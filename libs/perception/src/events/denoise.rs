@@ -36,157 +36,14 @@ use proto::EventPacket;
 use crate::events::background::BackgroundEstimate;
 use crate::events::error::EventReceiverError;
 
+mod bands;
+mod config;
+
+use bands::{Bands, Entry, prefetch};
+pub use config::{Adaptive, DenoiseConfig, DenoiseCounts, MAX_DEPTH, MAX_RADIUS_PX};
+
 /// Packets (40 ms each) the background estimate spans: one second.
 const BACKGROUND_PACKETS: usize = 25;
-
-/// Largest supported neighbourhood radius.
-pub const MAX_RADIUS_PX: u16 = 2;
-/// Most events remembered per pixel.
-pub const MAX_DEPTH: usize = 2;
-
-/// Noise front-end settings.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DenoiseConfig {
-    /// Neighbourhood radius r (Chebyshev), pixels: `(2r+1)² − 1` neighbours. 1 or 2.
-    pub radius_px: u16,
-    /// Two neighbours' events are correlated when at most this far apart in time.
-    pub window_ns: u64,
-    /// Fewest correlated neighbour events that make an event a *core* event, kept (0: filter
-    /// off). With [`DenoiseConfig::adaptive`], the most the filter will ask for.
-    pub min_neighbours: u8,
-    /// Also keep *border* events: those with a core event among their neighbours within the
-    /// window (density clustering's border points: the ends and corners of an edge).
-    pub border: bool,
-    /// Events remembered per neighbour pixel, 1 or 2: with 2, a neighbour that fired twice
-    /// within the window counts twice (a strong edge fires several events per pixel; noise
-    /// rarely fires twice).
-    pub depth: u8,
-    /// Ask only for the support the measured background needs (see [`Adaptive`]); `None`: always
-    /// `min_neighbours`.
-    pub adaptive: Option<Adaptive>,
-}
-
-/// How the receiver sets its support from the measured background rate r
-/// ([`crate::events::background`]): the least k (up to [`DenoiseConfig::min_neighbours`]) for
-/// which the noise expected to survive inside the tracking window stays within the budget,
-/// `r · window_px · T · P(Poisson(2·W·r·N) ≥ k) ≤ budget_events` (T the packet period, W the
-/// correlation window, N the neighbours). With no background the support is 0 and every event
-/// passes: a noiseless sensor's stream reaches the tracker untouched.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Adaptive {
-    /// Noise events the tracker may see inside its window per packet.
-    pub budget_events: f64,
-    /// Pixels of the tracking window.
-    pub window_px: u32,
-}
-
-impl DenoiseConfig {
-    /// The receiver's front end: 8 neighbours, two events each, ±15 ms, borders, and a support
-    /// set from the measured background (at most 8), so that one noise event per hundred
-    /// packets (4 s) is expected to survive inside the ±64×±48 px tracking window: a couple of
-    /// stray pixels are enough to turn a target's sparse tail into a supported, displaced
-    /// estimate (measured: unfiltered, 0.0003 Hz per pixel already cost 11 of 100 trials).
-    ///
-    /// Chosen on the receiver's own terms, not on any sensor preset. Support 8 is the most a
-    /// patch of pixels that each fire once can give, and at 5 Hz per pixel (the top of published
-    /// dim-light figures) it is what the budget asks for: on generated streams
-    /// (`libs/perception/tests/denoise.rs`, whose ROC it prints) it removes 99.98 % of the noise,
-    /// and a smaller support let clumps survive that moved the tracker's percentile centre by up
-    /// to 18 px. A fixed support 8 also removed 5.6 % of a real drone's noiseless events and lost
-    /// every message of an observer at 40°: the adaptive support is 0 on a noiseless sensor.
-    pub fn receiver() -> Self {
-        Self {
-            radius_px: 1,
-            window_ns: 15_000_000,
-            min_neighbours: 8,
-            border: true,
-            depth: 2,
-            adaptive: Some(Adaptive {
-                budget_events: 0.01,
-                window_px: 129 * 97,
-            }),
-        }
-    }
-
-    /// No filtering at all (every event kept).
-    pub fn off() -> Self {
-        Self {
-            radius_px: 1,
-            window_ns: 0,
-            min_neighbours: 0,
-            border: false,
-            depth: 1,
-            adaptive: None,
-        }
-    }
-
-    /// The support this configuration asks for against a background of `rate_hz` per pixel
-    /// with packets of `packet_ns`.
-    pub fn support_for(&self, rate_hz: f64, packet_ns: u64) -> u8 {
-        let Some(a) = self.adaptive else {
-            return self.min_neighbours;
-        };
-        let arriving = rate_hz * f64::from(a.window_px) * packet_ns as f64 * 1e-9;
-        let mean = 2.0 * self.window_ns as f64 * 1e-9 * rate_hz * self.neighbours() as f64;
-        // P(Poisson(mean) ≥ k) for k = 0, 1, …: 1 minus the running sum of the terms.
-        let (mut term, mut below): (f64, f64) = ((-mean).exp(), 0.0);
-        for k in 0..self.min_neighbours {
-            if arriving * (1.0 - below).max(0.0) <= a.budget_events {
-                return k;
-            }
-            below += term;
-            term *= mean / f64::from(k + 1);
-        }
-        self.min_neighbours
-    }
-
-    /// Neighbours in the neighbourhood: `(2r+1)² − 1`.
-    pub fn neighbours(&self) -> usize {
-        let side = 2 * usize::from(self.radius_px) + 1;
-        side * side - 1
-    }
-
-    /// Rejects settings the filter cannot run with.
-    pub fn validate(&self) -> Result<(), EventReceiverError> {
-        if self.radius_px == 0 || self.radius_px > MAX_RADIUS_PX {
-            return Err(EventReceiverError::BadSetting {
-                setting: "denoise.radius_px",
-                reason: format!("{} is outside 1..={MAX_RADIUS_PX}", self.radius_px),
-            });
-        }
-        if !(1..=MAX_DEPTH).contains(&usize::from(self.depth)) {
-            return Err(EventReceiverError::BadSetting {
-                setting: "denoise.depth",
-                reason: format!("{} is outside 1..={MAX_DEPTH}", self.depth),
-            });
-        }
-        if usize::from(self.min_neighbours) > usize::from(self.depth) * self.neighbours() {
-            return Err(EventReceiverError::BadSetting {
-                setting: "denoise.min_neighbours",
-                reason: format!(
-                    "{} exceeds the {} neighbours of radius {}",
-                    self.min_neighbours,
-                    self.neighbours(),
-                    self.radius_px
-                ),
-            });
-        }
-        Ok(())
-    }
-}
-
-impl Default for DenoiseConfig {
-    fn default() -> Self {
-        Self::receiver()
-    }
-}
-
-/// Events seen and removed by the front end.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct DenoiseCounts {
-    pub seen: u64,
-    pub removed: u64,
-}
 
 /// Age beyond which a stored time is refreshed to [`Cell::stale`]: times are kept as wrapping
 /// u32 microseconds, so every stored age must stay below 2³¹ µs (≈ 36 min) to be read right.
@@ -194,6 +51,10 @@ const STALE_US: u32 = 1 << 30;
 /// How often (stream time) stored times are swept for staleness: an age read between sweeps is
 /// at most `STALE_US + SWEEP_US` < 2³¹ µs, so wrapping subtraction gives it exactly.
 const SWEEP_US: u32 = 1 << 29;
+
+/// How many events ahead of the one being judged a pass asks for its neighbourhood's cache
+/// lines: far enough for the lines to arrive, near enough that they are still there.
+const PREFETCH_AHEAD: usize = 16;
 
 /// One pixel's times, microseconds (wrapping u32; see [`STALE_US`]). Kept together so a
 /// neighbourhood lookup touches three short runs of memory, not five maps.
@@ -227,29 +88,35 @@ enum Side {
 }
 
 /// The correlation filter's state: recent event times of every pixel.
+///
+/// The map of times is cut into horizontal bands with halo rows (module `bands`) and each
+/// band's events are judged together, so that one band's cells stay in cache through every
+/// pass; the events kept are exactly those of the one-map filter
+/// (`tests/denoise_equivalence.rs` checks it against that filter, kept there as the reference).
 #[derive(Debug, Clone)]
 pub struct NoiseFilter {
     config: DenoiseConfig,
     width: u16,
     height: u16,
-    /// Row stride of the padded map (`width + 2r`).
-    stride: usize,
-    /// Every pixel's times, padded by r on every side (the border never fires). Empty until the
-    /// first packet gives a time to be stale against.
+    /// The map's layout and the packet's events in band order.
+    bands: Bands,
+    /// Every band's cells with their halo rows, padded by r columns (padding never fires).
+    /// Empty until the first packet gives a time to be stale against.
     map: Vec<Cell>,
     /// Stream time of the last staleness sweep and of the last packet, ns (full width: a gap
     /// longer than the wrapping times can tell is seen here).
     swept_ns: u64,
     last_ns: u64,
-    /// Padded-map offsets of the neighbours.
+    /// Map offsets of the neighbours.
     offsets: Vec<isize>,
-    /// Per event of the packet being filtered: its time (µs), padded cell (`usize::MAX`: off
-    /// the sensor), neighbour events within the window, kept.
-    times: Vec<u32>,
-    cells: Vec<usize>,
+    /// Per event of the packet being filtered: on the sensor, neighbour events within the
+    /// window, kept, core.
+    on_sensor: Vec<bool>,
     support: Vec<u32>,
     keep: Vec<bool>,
     core: Vec<bool>,
+    /// The packet's first event's time, µs (what a cleared later-event time is stale against).
+    first_us: u32,
     background: BackgroundEstimate,
     /// The support asked of the last packet.
     support_now: u8,
@@ -274,16 +141,16 @@ impl NoiseFilter {
             config,
             width,
             height,
-            stride,
+            bands: Bands::new(width, height, r),
             map: Vec::new(),
             swept_ns: 0,
             last_ns: 0,
             offsets,
-            times: Vec::new(),
-            cells: Vec::new(),
+            on_sensor: Vec::new(),
             support: Vec::new(),
             keep: Vec::new(),
             core: Vec::new(),
+            first_us: 0,
             background: BackgroundEstimate::new(width, height, BACKGROUND_PACKETS),
             support_now: 0,
             counts: DenoiseCounts::default(),
@@ -333,7 +200,7 @@ impl NoiseFilter {
         self.background.add(
             period_ns,
             (0..n)
-                .filter(|&i| self.cells[i] != usize::MAX)
+                .filter(|&i| self.on_sensor[i])
                 .map(|i| (packet.xs[i], packet.ys[i])),
         );
         let k = if self.config.min_neighbours == 0 {
@@ -347,10 +214,10 @@ impl NoiseFilter {
         self.support_now = k as u8;
         self.keep.clear();
         self.keep.extend(
-            self.cells
+            self.on_sensor
                 .iter()
                 .zip(&self.support)
-                .map(|(&cell, &support)| cell != usize::MAX && support >= k),
+                .map(|(&on, &support)| on && support >= k),
         );
         if self.config.border && k > 0 {
             self.grow_borders();
@@ -374,19 +241,17 @@ impl NoiseFilter {
         self.counts.removed += (n - kept) as u64;
     }
 
-    /// The packet's event times and cells; the map made (first packet) or swept for stale
-    /// times (every [`SWEEP_US`] of stream time).
+    /// The map made (first packet) or swept for stale times (every [`SWEEP_US`] of stream
+    /// time); the packet's events sorted into their bands.
     fn prepare(&mut self, packet: &EventPacket) {
         let now_us = (packet.start_ns / 1_000) as u32;
-        let r = usize::from(self.config.radius_px);
         let stale_ns = u64::from(STALE_US) * 1_000;
         let jumped = packet.start_ns < self.last_ns || packet.start_ns - self.last_ns > stale_ns;
         if self.map.is_empty() || jumped {
             // First packet, time going back (a restarted stream) or a silence longer than any
             // stored time can be aged over: nothing stored is in reach.
-            let rows = usize::from(self.height) + 2 * r;
             self.map.clear();
-            self.map.resize(self.stride * rows, Cell::stale(now_us));
+            self.map.resize(self.bands.cells(), Cell::stale(now_us));
             self.background.clear();
             self.swept_ns = packet.start_ns;
         } else if packet.start_ns - self.swept_ns >= u64::from(SWEEP_US) * 1_000 {
@@ -403,67 +268,88 @@ impl NoiseFilter {
             self.swept_ns = packet.start_ns;
         }
         self.last_ns = packet.start_ns;
-        self.times.clear();
-        self.times.extend(
+        self.first_us = packet.dt_ns.first().map_or(0, |&dt| {
+            (packet.start_ns.wrapping_add(u64::from(dt)) / 1_000) as u32
+        });
+        let (w, h) = (self.width, self.height);
+        self.on_sensor.clear();
+        self.on_sensor.extend(
             packet
-                .dt_ns
+                .xs
                 .iter()
-                .map(|&dt| (packet.start_ns.wrapping_add(u64::from(dt)) / 1_000) as u32),
+                .zip(&packet.ys)
+                .map(|(&x, &y)| x < w && y < h),
         );
-        self.cells.clear();
-        self.cells
-            .extend(packet.xs.iter().zip(&packet.ys).map(|(&x, &y)| {
-                if x < self.width && y < self.height {
-                    (usize::from(y) + r) * self.stride + usize::from(x) + r
-                } else {
-                    usize::MAX
-                }
-            }));
+        self.bands.sort(packet, &self.on_sensor);
+    }
+
+    /// Prefetches the neighbourhood rows of entry `k` of a band starting at `base`.
+    #[inline(always)]
+    fn prefetch_entry(&self, k: usize, base: usize) {
+        if let Some(e) = self.bands.get(k) {
+            let (cell, r) = (e.cell(base), usize::from(self.config.radius_px));
+            let stride = self.bands.stride();
+            for row in [cell.wrapping_sub(r * stride), cell, cell + r * stride] {
+                prefetch(&self.map, row.wrapping_sub(r));
+                prefetch(&self.map, row + r);
+            }
+        }
     }
 
     fn window_us(&self) -> u32 {
         (self.config.window_ns / 1_000).min(u64::from(STALE_US / 2)) as u32
     }
 
-    /// Counts every event's support (both passes) and updates the past times.
+    /// Counts every event's support (both passes, band by band) and updates the past times.
     fn mark(&mut self) {
-        let n = self.cells.len();
+        let n = self.on_sensor.len();
         self.support.clear();
         self.support.resize(n, 0);
         // Forward: neighbours' latest events (this packet's earlier ones included) within the
         // window before; then backward: their later events of this packet within the window
         // after.
-        for i in 0..n {
-            self.support[i] = self.count_and_record(i, Side::Past);
+        for b in 0..self.bands.count() {
+            let (entries, base) = self.bands.band(b);
+            let (lo, hi) = (entries.start, entries.end);
+            // A halo entry counts nothing (0): its own band counts it.
+            for k in lo..hi {
+                self.prefetch_entry(k + PREFETCH_AHEAD, base);
+                let e = self.bands.entry(k);
+                let support = self.count_and_record(e, base, Side::Past);
+                self.support[e.index] += support;
+            }
+            for k in (lo..hi).rev() {
+                self.prefetch_entry(k.wrapping_sub(PREFETCH_AHEAD), base);
+                let e = self.bands.entry(k);
+                let support = self.count_and_record(e, base, Side::Next);
+                self.support[e.index] += support;
+            }
+            self.clear_next(lo..hi, base);
         }
-        for i in (0..n).rev() {
-            self.support[i] += self.count_and_record(i, Side::Next);
-        }
-        self.clear_next();
     }
 
-    /// Neighbour events of event `i` within the window on `side` (at most `depth` per pixel),
-    /// then `i` recorded on that side of its own pixel.
-    fn count_and_record(&mut self, i: usize, side: Side) -> u32 {
-        let cell = self.cells[i];
-        if cell == usize::MAX {
-            return 0;
-        }
-        let (t, window) = (self.times[i], self.window_us());
+    /// Neighbour events of an own event within the window on `side` (at most `depth` per
+    /// pixel), then the event recorded on that side of its pixel's copy.
+    #[inline]
+    fn count_and_record(&mut self, e: Entry, base: usize, side: Side) -> u32 {
+        let cell = e.cell(base);
+        let (t, window) = (e.t, self.window_us());
         let depth = usize::from(self.config.depth);
         let mut support = 0u32;
-        for &off in &self.offsets {
-            let c = &self.map[cell.wrapping_add_signed(off)];
-            support += match side {
-                Side::Past => c.past[..depth]
-                    .iter()
-                    .map(|&p| u32::from(t.wrapping_sub(p) <= window))
-                    .sum::<u32>(),
-                Side::Next => c.next[..depth]
-                    .iter()
-                    .map(|&later| u32::from(later.wrapping_sub(t) <= window))
-                    .sum(),
-            };
+        if e.own() {
+            for &off in &self.offsets {
+                let c = &self.map[cell.wrapping_add_signed(off)];
+                support += match side {
+                    Side::Past => c.past[..depth]
+                        .iter()
+                        .map(|&p| u32::from(t.wrapping_sub(p) <= window))
+                        .sum::<u32>(),
+                    Side::Next => c.next[..depth]
+                        .iter()
+                        .map(|&later| u32::from(later.wrapping_sub(t) <= window))
+                        .sum(),
+                };
+            }
         }
         let times = match side {
             Side::Past => &mut self.map[cell].past,
@@ -474,44 +360,48 @@ impl NoiseFilter {
         support
     }
 
-    /// Forgets this packet's later-event times (they belong to the backward passes only).
-    fn clear_next(&mut self) {
-        let never = self.times.first().map_or(0, |&t| t.wrapping_sub(STALE_US));
-        for &cell in &self.cells {
-            if cell != usize::MAX {
-                self.map[cell].next = [never; MAX_DEPTH];
-            }
+    /// Forgets this packet's later-event times in one band (they belong to the backward passes
+    /// only).
+    fn clear_next(&mut self, entries: std::ops::Range<usize>, base: usize) {
+        let never = self.first_us.wrapping_sub(STALE_US);
+        for k in entries {
+            let cell = self.bands.entry(k).cell(base);
+            self.map[cell].next = [never; MAX_DEPTH];
         }
     }
 
     /// Marks as kept every event with a core event among its neighbours within the window
     /// (forward: this and earlier packets; backward: this packet), and records this packet's
-    /// core events.
+    /// core events; band by band.
     fn grow_borders(&mut self) {
         self.core.clear();
         self.core.extend_from_slice(&self.keep);
-        for i in 0..self.cells.len() {
-            self.border_step(i, Side::Past);
+        for b in 0..self.bands.count() {
+            let (entries, base) = self.bands.band(b);
+            let (lo, hi) = (entries.start, entries.end);
+            for k in lo..hi {
+                self.prefetch_entry(k + PREFETCH_AHEAD, base);
+                self.border_step(self.bands.entry(k), base, Side::Past);
+            }
+            for k in (lo..hi).rev() {
+                self.prefetch_entry(k.wrapping_sub(PREFETCH_AHEAD), base);
+                self.border_step(self.bands.entry(k), base, Side::Next);
+            }
+            self.clear_next(lo..hi, base);
         }
-        for i in (0..self.cells.len()).rev() {
-            self.border_step(i, Side::Next);
-        }
-        self.clear_next();
     }
 
-    /// Event `i` kept if a neighbour's core event on `side` is within the window; a core event
-    /// recorded on that side of its own pixel.
-    fn border_step(&mut self, i: usize, side: Side) {
-        let cell = self.cells[i];
-        if cell == usize::MAX {
-            return;
-        }
-        let (t, window) = (self.times[i], self.window_us());
+    /// An own event kept if a neighbour's core event on `side` is within the window; a core
+    /// event recorded on that side of its pixel's copy.
+    #[inline]
+    fn border_step(&mut self, e: Entry, base: usize, side: Side) {
+        let (cell, i) = (e.cell(base), e.index);
+        let (t, window) = (e.t, self.window_us());
         let core_time = |c: &Cell| match side {
             Side::Past => t.wrapping_sub(c.core),
             Side::Next => c.next[0].wrapping_sub(t),
         };
-        if !self.keep[i] {
+        if e.own() && !self.keep[i] {
             self.keep[i] = self
                 .offsets
                 .iter()
