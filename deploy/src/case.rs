@@ -57,7 +57,7 @@ pub fn case_source(name_or_path: &str) -> Result<String> {
 /// What a case's fault does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum FaultKind {
+pub enum CaseFaultKind {
     /// Black frames from start-up, before event conversion.
     Black,
     /// The sensor stream stops at `at_s` (`waggle run`: the camera process is killed).
@@ -72,7 +72,7 @@ pub enum FaultKind {
 #[serde(deny_unknown_fields)]
 pub struct FaultSpec {
     pub observer: String,
-    pub kind: FaultKind,
+    pub kind: CaseFaultKind,
     #[serde(default)]
     pub at_s: f64,
     /// Throttle only: packets dropped per thousand.
@@ -227,7 +227,7 @@ impl Case {
             if f.drop_per_mille > 1000 {
                 bail!("fault drop_per_mille = {} exceeds 1000", f.drop_per_mille);
             }
-            if f.kind != FaultKind::Throttle && (f.drop_per_mille != 0 || f.delay_ms != 0) {
+            if f.kind != CaseFaultKind::Throttle && (f.drop_per_mille != 0 || f.delay_ms != 0) {
                 bail!("drop_per_mille and delay_ms apply to throttle faults only");
             }
         }
@@ -280,7 +280,7 @@ impl Case {
     pub fn dropout_ns(&self, observer: &str) -> Option<u64> {
         self.faults
             .iter()
-            .find(|f| f.observer == observer && f.kind == FaultKind::Dropout)
+            .find(|f| f.observer == observer && f.kind == CaseFaultKind::Dropout)
             .map(|f| (f.at_s * 1e9).round() as u64)
     }
 
@@ -288,7 +288,7 @@ impl Case {
     pub fn black(&self, observer: &str) -> bool {
         self.faults
             .iter()
-            .any(|f| f.observer == observer && f.kind == FaultKind::Black)
+            .any(|f| f.observer == observer && f.kind == CaseFaultKind::Black)
     }
 }
 

@@ -7,7 +7,7 @@ use std::str::FromStr;
 use proto::scene::observer_name;
 use proto::{Fault, FaultKind, KeyError, ObserverId};
 
-use crate::case::{Case, FaultKind as CaseFault};
+use crate::case::{Case, CaseFaultKind as CaseFault};
 
 /// A fault specification on the command line that does not parse.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

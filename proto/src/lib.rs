@@ -20,14 +20,17 @@ pub use logic::{
     schedule, segmenter, task,
 };
 pub use wire::{
-    clock, codec, fault, keys, modality, observer, rejects, sched, sensor, token, track, world,
+    camera, clock, codec, end_reason, fault, keys, modality, observer, rejects, sched, sensor,
+    token, track, world,
 };
 
 pub use allocation::{Allocation, CachedOffer, OfferCache, Roster, RosterEntry, allocate};
 pub use alphabet::{Classification, MatchSettings, Rejection, classify};
+pub use camera::CameraReport;
 pub use clock::{ClockTick, TICK_NS};
 pub use codec::{DecodeError, FORMAT_VERSION, Validate, decode, encode};
 pub use decoder::{DecodeStep, Decoder};
+pub use end_reason::EndReason;
 pub use fault::{Fault, FaultKind};
 pub use frame::{FrameParser, ReleasedFrame};
 pub use gesture::{GestureConfig, MotionProfile, NS_PER_MS, NS_PER_S};

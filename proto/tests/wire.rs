@@ -91,7 +91,7 @@ fn mission_report() -> MissionReport {
     MissionReport {
         tick: 12_345,
         end_ns: 493_800_000_000,
-        end_reason: "RoundsComplete".into(),
+        end_reason: proto::EndReason::RoundsComplete,
         work_units: 2,
         services: [(oid("O1"), vec![(1, Site::A), (2, Site::B)])]
             .into_iter()

@@ -21,7 +21,9 @@ use proto::{
     BroadcastTick, ClockTick, Departure, MissionReport, ObserverId, ObserverStatus, RejectReason,
     Role, SessionTick, SimState, Site, TICK_NS,
 };
-use scheduler::{DecisionNotice, EventKind, Scheduler, SchedulerConfig, observer_positions};
+use scheduler::{
+    DecisionNotice, EndReason, EventKind, Scheduler, SchedulerConfig, observer_positions,
+};
 
 #[derive(Parser)]
 #[command(
@@ -121,7 +123,7 @@ fn main() -> Result<()> {
             .collect();
         decisions.sort();
         let positions = observer_positions(&state);
-        let out = scheduler.step(&scheduler::TickInput {
+        let out = scheduler.step(&scheduler::SchedulerInput {
             clock: ClockTick::at(tick).context("tick overflow")?,
             positions_m: &positions,
             decisions: &decisions,
@@ -146,7 +148,7 @@ fn main() -> Result<()> {
         )?;
         bus.put(&keys.sched_cmd(), &out.command())?;
         if let Some(reason) = out.mission_end {
-            let report = report(&scheduler, tick, format!("{reason:?}"));
+            let report = report(&scheduler, tick, reason);
             bus.put(&keys.sched_report(), &report)?;
             tracing::info!(tick, ?reason, work_units = report.work_units, "mission end");
             break;
@@ -259,7 +261,7 @@ fn in_window(msg_tick: u64, current: u64) -> std::result::Result<(), String> {
     Ok(())
 }
 
-fn report(scheduler: &Scheduler, tick: u64, end_reason: String) -> MissionReport {
+fn report(scheduler: &Scheduler, tick: u64, end_reason: EndReason) -> MissionReport {
     let stats = scheduler.stats();
     MissionReport {
         tick,

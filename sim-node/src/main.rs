@@ -27,7 +27,7 @@ struct Cli {
 enum Command {
     /// The physics process of a distributed session: steps the world in lockstep with the
     /// performer and scheduler, publishing the clock, ground-truth state and contacts.
-    Run(node_run::RunArgs),
+    Run(node_run::SimRunArgs),
     /// One observer's camera process: renders its view from `sim/state` and publishes RGB
     /// frames or event packets.
     Camera(node_camera::CameraCli),

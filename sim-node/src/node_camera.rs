@@ -15,8 +15,8 @@ use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use node_args::CameraArgs;
 use proto::clock::EVENT_RENDER_PERIOD_NS;
 use proto::{
-    Fault, FaultKind, FrameChange, ObserverId, PixelRect, RejectReason, RgbFrame, RgbUpdate, Role,
-    SimState,
+    CameraReport, Fault, FaultKind, FrameChange, ObserverId, PixelRect, RejectReason, RgbFrame,
+    RgbUpdate, Role, SimState,
 };
 use sim::lockstep::mirror;
 use sim::render::{CameraRenderer, RenderCounts, RenderPath};
@@ -49,23 +49,37 @@ pub fn digest(mut h: u64, bytes: &[u8]) -> u64 {
     (h ^ bytes.len() as u64).wrapping_mul(K)
 }
 
-/// The machine-readable lines the launcher reads from a camera's stdout.
-fn closing_lines(
+/// The camera's account of its run, for the launcher (`camera/<o>/report`); the same figures
+/// go to stdout for whoever reads the log.
+fn camera_report(
     observer: &ObserverId,
     render: RenderPath,
     (published, dropped, digest): (u64, u64, u64),
     counts: RenderCounts,
-) {
+) -> CameraReport {
+    let report = CameraReport {
+        observer: observer.clone(),
+        packets: published,
+        dropped,
+        digest,
+        render,
+        full_renders: counts.full,
+        damage_renders: counts.damage,
+        skipped_renders: counts.skipped,
+        damage_px: counts.damage_px,
+        scissored: sim::render::scissor_interposed(),
+    };
     // Determinism evidence: equal across fault-free runs and across render paths.
-    println!("sensor-digest {observer} packets={published} dropped={dropped} digest={digest:016x}");
+    println!("sensor-digest {observer} {}", report.digest_line());
     println!(
         "render-counts {observer} path={render} full={} damage={} skipped={} damage_px={} scissored={}",
-        counts.full,
-        counts.damage,
-        counts.skipped,
-        counts.damage_px,
-        sim::render::scissor_interposed()
+        report.full_renders,
+        report.damage_renders,
+        report.skipped_renders,
+        report.damage_px,
+        report.scissored
     );
+    report
 }
 
 /// The wire form of RGB frame `f` (the reconstruction contract of [`RgbUpdate`]): only
@@ -295,12 +309,13 @@ pub fn run(cli: CameraCli) -> Result<()> {
             Inbound::Liveliness { .. } => {}
         }
     }
-    closing_lines(
+    let report = camera_report(
         &args.observer,
         args.render,
         (published, dropped, sensor_digest),
         renderer.counts(),
     );
+    bus.put(&keys.camera_report(&args.observer), &report)?;
     bus.put(
         &keys.rejects(Role::Camera, args.observer.as_str())?,
         &rejects.report(),

@@ -24,12 +24,12 @@ use sim::lockstep::{TickReferences, sim_state};
 use sim::world::World;
 
 #[derive(Debug, clap::Args)]
-pub struct RunArgs {
+pub struct SimRunArgs {
     #[command(flatten)]
     node: NodeArgs,
 }
 
-pub fn run(args: RunArgs) -> Result<()> {
+pub fn run(args: SimRunArgs) -> Result<()> {
     let node = args.node;
     let mut world = World::new(node.observers).context("building the scene")?;
     let mut bus = Bus::open_node(&node).context("opening the Zenoh session")?;

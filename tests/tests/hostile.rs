@@ -44,6 +44,7 @@ fn target_keys(session: &str, observers: usize) -> Vec<String> {
             k.observer_frames(&o),
             k.observer_decision(&o),
             k.observer_track(&o),
+            k.camera_report(&o),
         ]);
     }
     out
@@ -336,6 +337,7 @@ fn junk_on_every_key_leaves_the_run_passing_with_identical_observers_and_counted
         ("launcher", "observer/O2/status"),
         ("launcher", "fault/O3"),
         ("launcher", "rejects/sim/sim"),
+        ("launcher", "camera/O2/report"),
     ] {
         assert!(
             count(s, process, key, undecodable) > 0,

@@ -416,6 +416,13 @@ fn assert_golden(ended: &[(String, Ended, PathBuf)], a: &Path) {
         digests, golden,
         "a camera's stream differs from the golden run"
     );
+    // The supervising launcher on host a ran no camera: it has the digests from the cameras'
+    // reports on the bus.
+    let reported: Vec<(String, String)> = summary(a).sensor_digests.into_iter().collect();
+    assert_eq!(
+        reported, golden,
+        "summary.json's sensor digests (the cameras' bus reports) differ from the golden run"
+    );
     for (h, _, dir) in ended.iter().filter(|(h, ..)| h == "b" || h == "c") {
         let record: serde_json::Value =
             serde_json::from_slice(&std::fs::read(dir.join("host.json")).expect("host.json"))

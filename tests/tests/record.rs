@@ -145,7 +145,7 @@ fn constructed(decided_ns: u64) -> Vec<u8> {
     let report = MissionReport {
         tick: 2500,
         end_ns: 2500 * TICK_NS,
-        end_reason: "RoundsComplete".into(),
+        end_reason: proto::EndReason::RoundsComplete,
         work_units: 1,
         services: BTreeMap::from([(o1.clone(), vec![(1, Site::A)])]),
         departures: vec![Departure {

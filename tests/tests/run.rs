@@ -122,7 +122,10 @@ fn no_broadcast_runs_as_separate_processes_in_lockstep() {
     assert_eq!(r.messages(), [0, 0, 0]);
     assert_eq!(r.summary.mission.work_units, 0);
     assert_eq!(r.summary.mission.mission_time_s, 15.0);
-    assert_eq!(r.summary.mission.end_reason, "NoBroadcast");
+    assert_eq!(
+        r.summary.mission.end_reason,
+        Some(proto::EndReason::NoBroadcast)
+    );
     assert_eq!(r.summary.mission.contact_steps, 0);
     assert!(r.summary.missing_packets.is_empty());
     // One packet per tick 1..=375 from every camera, none dropped.

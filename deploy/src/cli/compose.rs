@@ -9,7 +9,7 @@ use clap::Args;
 
 use crate::compose::Compose;
 use crate::compose::build::compose;
-use crate::compose::place::Placement;
+use crate::compose::place::HostPlacement;
 
 #[derive(Debug, Args)]
 pub struct ComposeArgs {
@@ -19,7 +19,7 @@ pub struct ComposeArgs {
     /// `performer`, `recorder`, `camera-O1`, `observer-O1`, `router`) or a glob of them
     /// (`camera-*`, `*-O2`); applied in order, later ones win. Unplaced nodes run on `local`.
     #[arg(long = "place", value_name = "ROLE=HOST")]
-    place: Vec<Placement>,
+    place: Vec<HostPlacement>,
     /// Endpoint the router listens on and other hosts dial, e.g. `tcp/192.168.1.10:7447`
     /// (default `tcp/127.0.0.1:0`, one host); repeatable.
     #[arg(long = "router", value_name = "ENDPOINT")]

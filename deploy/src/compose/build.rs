@@ -6,7 +6,7 @@ use node_args::{
 };
 use proto::{Modality, ObserverId, RenderPath, Role};
 
-use super::place::{Placement, place};
+use super::place::{HostPlacement, place};
 use super::{COMPOSE_VERSION, Compose, Faults, Node, Router};
 use crate::case::Case;
 use crate::fault::{ExtraFaults, Injected, injected_faults};
@@ -44,7 +44,7 @@ pub struct ComposeOptions {
     pub router_listen: Vec<String>,
     pub router_connect: Vec<String>,
     /// `ROLE=HOST` placements, applied in order (default: every node on [`DEFAULT_HOST`]).
-    pub placements: Vec<Placement>,
+    pub placements: Vec<HostPlacement>,
 }
 
 /// The compose file of `case` with `opts`.

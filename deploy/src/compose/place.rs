@@ -12,7 +12,7 @@ pub const ROUTER: &str = "router";
 
 /// One `PATTERN=HOST` placement.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Placement {
+pub struct HostPlacement {
     /// A process name, with `*` (any run of characters) and `?` (one character).
     pub pattern: String,
     pub host: String,
@@ -26,7 +26,7 @@ pub struct PlacementError {
     pub why: String,
 }
 
-impl FromStr for Placement {
+impl FromStr for HostPlacement {
     type Err = PlacementError;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
@@ -74,7 +74,7 @@ pub fn glob_matches(pattern: &str, name: &str) -> bool {
 }
 
 /// Applies `placements` in order; a pattern that matches nothing is an error naming it.
-pub fn place(compose: &mut Compose, placements: &[Placement]) -> Result<()> {
+pub fn place(compose: &mut Compose, placements: &[HostPlacement]) -> Result<()> {
     for p in placements {
         let mut matched = false;
         for n in compose
@@ -133,11 +133,11 @@ mod tests {
 
     #[test]
     fn placements_parse_and_bad_ones_name_the_input() {
-        let p: Placement = "camera-*=b".parse().unwrap();
+        let p: HostPlacement = "camera-*=b".parse().unwrap();
         assert_eq!(p.pattern, "camera-*");
         assert_eq!(p.host, "b");
         for bad in ["camera-*", "=b", "sim=", "sim=a b", "sim=a/b"] {
-            let e = bad.parse::<Placement>().unwrap_err();
+            let e = bad.parse::<HostPlacement>().unwrap_err();
             assert!(e.to_string().contains(bad), "{e}");
         }
     }

@@ -1,5 +1,5 @@
 use super::build::{ComposeOptions, compose};
-use super::place::Placement;
+use super::place::HostPlacement;
 use super::*;
 use crate::fault::KillSpec;
 
@@ -163,11 +163,11 @@ fn unknown_keys_are_rejected() {
 #[test]
 fn a_placement_that_matches_nothing_is_an_error() {
     let (c, mut o) = options("one-observer", &[], &[]);
-    o.placements = vec!["camera-O2=b".parse::<Placement>().unwrap()];
+    o.placements = vec!["camera-O2=b".parse::<HostPlacement>().unwrap()];
     o.extra_faults = ExtraFaults::default();
     let e = compose(&c, &o).unwrap_err().to_string();
     assert!(e.contains("camera-O2") && e.contains("camera-O1"), "{e}");
-    o.placements = vec!["router=r".parse::<Placement>().unwrap()];
+    o.placements = vec!["router=r".parse::<HostPlacement>().unwrap()];
     let placed = compose(&c, &o).unwrap();
     assert_eq!(placed.router.host, "r");
     assert_eq!(placed.hosts(), ["local", "r"]);

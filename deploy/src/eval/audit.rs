@@ -15,7 +15,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use proto::{
     Broadcast, Decision, FrameEvent, MissionReport, ObserverId, Offer, SimContacts, TICK_NS,
 };
@@ -24,7 +24,9 @@ use recording::Decoded;
 
 use crate::case::Case;
 use crate::eval::recording::{Item, Scan, scan, topic_observer};
-use crate::eval::summary::{check_expected, ns_s, provenance_violations};
+use crate::eval::summary::{
+    check_expected, end_reason_text, ns_s, provenance_violations, receiver_text,
+};
 use crate::run_dir::audit::{AuditReport, AuditTiming};
 use crate::run_dir::{MissionSummary, ObserverSummary};
 
@@ -183,9 +185,6 @@ fn reasons(
     reasons
 }
 
-/// `end_reason` when the recording holds no mission report.
-const NO_REPORT: &str = "none (no mission report)";
-
 /// Audits the recording at `path` (a run directory or an `.mcap` file).
 pub fn audit_recording(path: &Path) -> Result<AuditReport> {
     let mut g = Gathered::default();
@@ -199,6 +198,12 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
         (0, Some(c)) => c.observers,
         (n, _) => n,
     };
+    let modality: Option<proto::Receiver> = info
+        .modality
+        .as_deref()
+        .map(str::parse)
+        .transpose()
+        .with_context(|| format!("{}: the recording's session metadata", path.display()))?;
     let obs = g.observers(n);
     let report = g.report.clone();
     let end_ns = report.as_ref().map_or(g.last_tick * TICK_NS, |r| r.end_ns);
@@ -208,13 +213,11 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
             .clone()
             .or_else(|| case.as_ref().map(|c| c.name.clone()))
             .unwrap_or_default(),
-        modality: info.modality.clone().unwrap_or_default(),
+        modality,
         observers: obs.summaries,
         work_units: report.as_ref().map_or(0, |r| r.work_units),
         mission_time_s: ns_s(end_ns),
-        end_reason: report
-            .as_ref()
-            .map_or(NO_REPORT.to_string(), |r| r.end_reason.clone()),
+        end_reason: report.as_ref().map(|r| r.end_reason),
         contact_steps: g.contacts.as_ref().map_or(0, |c| c.contact_steps),
         min_separation_m: g.contacts.as_ref().map_or(f64::NAN, |c| c.min_separation_m),
         provenance_violations: obs.violations,
@@ -322,7 +325,7 @@ pub fn print_audit(r: &AuditReport) {
     println!(
         "audit of case {} ({}) session {} — {}{}",
         r.case,
-        r.modality,
+        receiver_text(r.modality),
         r.session,
         if r.pass { "PASS" } else { "FAIL" },
         if r.partial {
@@ -334,7 +337,7 @@ pub fn print_audit(r: &AuditReport) {
     println!(
         "mission time {:.2} s ({}) · work units {} {:?} · contact steps {} · minimum separation {:.3} m",
         r.mission_time_s,
-        r.end_reason,
+        end_reason_text(r.end_reason),
         r.work_units,
         r.work_units_by_site,
         r.contact_steps,

@@ -10,6 +10,16 @@ use serde::Serialize;
 use crate::case::Case;
 use crate::run_dir::{MissionSummary, ObserverSummary, ObserverViewpoint};
 
+/// How a summary prints its receiver.
+pub fn receiver_text(r: Option<proto::Receiver>) -> &'static str {
+    r.map_or("modality not recorded", proto::Receiver::as_str)
+}
+
+/// How a summary prints its end reason.
+pub fn end_reason_text(r: Option<proto::EndReason>) -> &'static str {
+    r.map_or("none (no mission report)", proto::EndReason::as_str)
+}
+
 /// Nanoseconds to seconds (a division, so whole milliseconds print exactly).
 pub fn ns_s(ns: u64) -> f64 {
     ns as f64 / 1e9
@@ -131,10 +141,10 @@ pub fn print_summary(s: &MissionSummary) {
     println!(
         "case {} ({}) — {}: mission time {:.2} s ({}), {:.1} s wall",
         s.case,
-        s.modality,
+        receiver_text(s.modality),
         if s.pass { "PASS" } else { "FAIL" },
         s.mission_time_s,
-        s.end_reason,
+        end_reason_text(s.end_reason),
         s.wall_seconds
     );
     println!(

@@ -219,7 +219,7 @@ impl Mission {
         let truth = sim_state(&self.world, self.tick);
         let positions = observer_positions(&truth);
         let clock = ClockTick::at(self.tick).context("tick overflow")?;
-        let out = self.scheduler.step(&scheduler::TickInput {
+        let out = self.scheduler.step(&scheduler::SchedulerInput {
             clock,
             positions_m: &positions,
             decisions: &decisions,
@@ -348,11 +348,11 @@ impl Mission {
             .collect();
         let mut summary = MissionSummary {
             case: case.name.clone(),
-            modality: format!("{modality:?}").to_lowercase(),
+            modality: Some(modality),
             observers,
             work_units: stats.work_units,
             mission_time_s: ns_s(self.world.time_ns()),
-            end_reason: format!("{end_reason:?}"),
+            end_reason: Some(end_reason),
             contact_steps: contact.contact_steps,
             min_separation_m: contact.min_separation_m,
             provenance_violations: self.provenance_violations(),

@@ -40,7 +40,7 @@ pub struct MissionTrial {
     pub success: bool,
     /// Why the case's expected outcome was missed (empty on success).
     pub reasons: Vec<String>,
-    pub end_reason: String,
+    pub end_reason: Option<proto::EndReason>,
     pub metrics: MissionMetrics,
     pub observers: BTreeMap<String, ObserverSummary>,
     pub min_separation_m: f64,
@@ -61,7 +61,7 @@ impl Outcome for MissionTrial {
 pub struct MissionTrialsOut {
     pub criterion: String,
     pub case: String,
-    pub modality: String,
+    pub modality: Receiver,
     pub policy: Policy,
     pub perturb: BTreeMap<String, f64>,
     pub seed: u64,
@@ -130,7 +130,7 @@ pub fn run_mission_trials(
     Ok(MissionTrialsOut {
         criterion: mission_criterion(opts),
         case: opts.case.name.clone(),
-        modality: opts.modality.to_string(),
+        modality: opts.modality,
         policy: opts.policy,
         perturb: opts.perturbation.recorded(),
         seed: opts.seed,

@@ -8,9 +8,9 @@ use std::time::Instant;
 use bus::Rejects;
 use proto::scene::distance_m;
 use proto::{
-    ClockTick, Decision, Fault, FrameEvent, Key, Keys, MissionReport, ObserverId, ObserverStatus,
-    ObserverTrack, PerformerTruth, RejectReason, RejectReport, Role, SessionEvent, SessionTick,
-    SimContacts, SimState, TokenEvent,
+    CameraReport, ClockTick, Decision, Fault, FrameEvent, Key, Keys, MissionReport, ObserverId,
+    ObserverStatus, ObserverTrack, PerformerTruth, RejectReason, RejectReport, Role, SessionEvent,
+    SessionTick, SimContacts, SimState, TokenEvent,
 };
 
 use crate::eval::summary::ns_s;
@@ -35,6 +35,7 @@ pub fn subscriptions(observers: &[ObserverId]) -> Vec<Key> {
             Key::ObserverTokens(o.clone()),
             Key::ObserverFrames(o.clone()),
             Key::ObserverDecision(o.clone()),
+            Key::CameraReport(o.clone()),
         ]);
     }
     keys
@@ -63,6 +64,8 @@ pub struct Gathered {
     pub reports: BTreeMap<String, RejectReport>,
     /// Every fault message that reached the bus.
     pub faults_seen: Vec<SeenFault>,
+    /// Each camera's closing report (a camera killed by a fault sends none).
+    pub cameras: BTreeMap<ObserverId, CameraReport>,
 }
 
 /// A fault message seen on the bus.
@@ -251,6 +254,19 @@ impl Gathered {
                 {
                     self.record(&d.observer.clone()).decisions.push(d);
                 }
+            }
+            Key::CameraReport(_) => {
+                let Some(r) = rejects.decode::<CameraReport>(key, payload) else {
+                    return;
+                };
+                if mismatch(&r.observer, rejects) {
+                    return;
+                }
+                if self.cameras.contains_key(&r.observer) {
+                    rejects.reject(key, RejectReason::OutOfContract, &"a second camera report");
+                    return;
+                }
+                self.cameras.insert(r.observer.clone(), r);
             }
             Key::Fault(_) => {
                 let Some(f) = rejects.decode::<Fault>(key, payload) else {

@@ -2,7 +2,6 @@
 //! (exit status and CPU time from `/proc` through `procfs`), stopping it gracefully (SIGTERM
 //! through `nix`) or at once.
 
-use crate::run_dir::CameraRenders;
 use std::fs::File;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
@@ -129,29 +128,6 @@ impl Proc {
         let text = text.split("\nStack backtrace:").next().unwrap_or_default();
         let lines: Vec<&str> = text.lines().collect();
         lines[lines.len().saturating_sub(5)..].join("\n")
-    }
-
-    /// `render-counts <observer> <fields…>` lines it printed on stdout.
-    pub fn render_counts(&self) -> Vec<(String, CameraRenders)> {
-        let out = std::fs::read_to_string(&self.stdout_path).unwrap_or_default();
-        out.lines()
-            .filter_map(|line| {
-                let (o, fields) = line.strip_prefix("render-counts ")?.split_once(' ')?;
-                Some((o.to_string(), CameraRenders::parse(fields)?))
-            })
-            .collect()
-    }
-
-    /// `sensor-digest <observer> <digest…>` lines it printed on stdout.
-    pub fn sensor_digests(&self) -> Vec<(String, String)> {
-        let out = std::fs::read_to_string(&self.stdout_path).unwrap_or_default();
-        out.lines()
-            .filter_map(|line| {
-                let mut parts = line.strip_prefix("sensor-digest ")?.split_whitespace();
-                let o = parts.next()?;
-                Some((o.to_string(), parts.collect::<Vec<_>>().join(" ")))
-            })
-            .collect()
     }
 }
 

@@ -14,7 +14,9 @@ use crate::case::Case;
 use crate::eval::summary::{check_expected, ns_s, provenance_violations};
 use crate::fault::Injected;
 use crate::run_dir::session::SessionRecord;
-use crate::run_dir::{MissionSummary, ObserverRecord, ObserverSummary, ProcessFigures, RunSummary};
+use crate::run_dir::{
+    CameraRenders, MissionSummary, ObserverRecord, ObserverSummary, ProcessFigures, RunSummary,
+};
 
 /// What a run writes into its directory.
 pub struct RunOutputs {
@@ -49,15 +51,11 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
     let (records, observers, violations) = observer_records(case.observers, &mut g, &report);
     let mut mission = MissionSummary {
         case: case.name.clone(),
-        modality: info.modality.as_str().to_string(),
+        modality: Some(info.modality.into()),
         observers,
         work_units: report.as_ref().map_or(0, |r| r.work_units),
         mission_time_s: report.as_ref().map_or(ns_s(g.now_ns()), |r| ns_s(r.end_ns)),
-        end_reason: report
-            .as_ref()
-            .map_or("none (no mission report)".to_string(), |r| {
-                r.end_reason.clone()
-            }),
+        end_reason: report.as_ref().map(|r| r.end_reason),
         contact_steps: g.contacts.as_ref().map_or(0, |c| c.contact_steps),
         min_separation_m: g.contacts.as_ref().map_or(f64::NAN, |c| c.min_separation_m),
         provenance_violations: violations,
@@ -76,14 +74,23 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
             .push("no mission report from the scheduler".into());
     }
     let home_error_m = home_errors(case.observers, &g, &mut mission.reasons);
-    let (processes, sensor_digests) = process_figures(procs, interrupted, &mut mission.reasons);
+    let processes = process_figures(procs, interrupted, &mut mission.reasons);
     let faults_seen = seen_faults(&g.faults_seen, info.injected, &mut mission.reasons);
     let rejects = g
         .reject_reports()
         .into_iter()
         .map(|(p, r)| (p, r.counts))
         .collect();
-    let camera_renders = procs.iter().flat_map(Proc::render_counts).collect();
+    let sensor_digests = g
+        .cameras
+        .iter()
+        .map(|(o, r)| (o.to_string(), r.digest_line()))
+        .collect();
+    let camera_renders = g
+        .cameras
+        .iter()
+        .map(|(o, r)| (o.to_string(), CameraRenders::from(r)))
+        .collect();
     mission.pass = mission.reasons.is_empty() && !interrupted;
     let sim_s = ns_s(g.now_ns());
     let wall_over_sim = match (g.clock_started, g.last_tick_at) {
@@ -218,14 +225,13 @@ fn home_errors(n: usize, g: &Gathered, reasons: &mut Vec<String>) -> BTreeMap<St
     out
 }
 
-/// Per-process figures and the cameras' sensor digests; a reason for each failed process.
+/// Per-process figures; a reason for each failed process.
 fn process_figures(
     procs: &[Proc],
     interrupted: bool,
     reasons: &mut Vec<String>,
-) -> (BTreeMap<String, ProcessFigures>, BTreeMap<String, String>) {
+) -> BTreeMap<String, ProcessFigures> {
     let mut processes = BTreeMap::new();
-    let mut sensor_digests = BTreeMap::new();
     for p in procs {
         if !p.success && !p.killed_by_fault && !interrupted {
             reasons.push(format!(
@@ -235,7 +241,6 @@ fn process_figures(
             ));
         }
         processes.insert(p.name.clone(), p.figures());
-        sensor_digests.extend(p.sensor_digests());
     }
-    (processes, sensor_digests)
+    processes
 }

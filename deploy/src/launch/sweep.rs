@@ -332,10 +332,10 @@ mod tests {
             partial: false,
             partial_reason: None,
             case: "only-a".into(),
-            modality: "events".into(),
+            modality: Some(proto::Receiver::Events),
             session: "s".into(),
             mission_time_s: 120.0,
-            end_reason: "NoDecision".into(),
+            end_reason: Some(proto::EndReason::NoDecision),
             messages: ["O1", "O2", "O3"]
                 .iter()
                 .zip(messages)
@@ -371,7 +371,7 @@ mod tests {
         RunEntry {
             name: "only-a-events".into(),
             case: a.case.clone(),
-            modality: a.modality.clone(),
+            modality: a.modality.map_or_else(String::new, |m| m.to_string()),
             files: None,
             failures: check_against_case(&case, &a),
             audit: Some(a),

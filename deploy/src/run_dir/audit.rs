@@ -37,11 +37,13 @@ pub struct AuditReport {
     pub partial_reason: Option<String>,
     pub case: String,
     /// `rgb` or `events`.
-    pub modality: String,
+    /// `null` when the recording was cut before its session metadata.
+    pub modality: Option<proto::Receiver>,
     #[serde(default)]
     pub session: String,
     pub mission_time_s: f64,
-    pub end_reason: String,
+    /// Why the mission ended; `null` when the recording holds no mission report.
+    pub end_reason: Option<proto::EndReason>,
     /// Complete messages per observer.
     pub messages: BTreeMap<String, usize>,
     #[serde(default)]

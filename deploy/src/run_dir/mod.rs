@@ -68,11 +68,13 @@ pub struct ObserverViewpoint {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MissionSummary {
     pub case: String,
-    pub modality: String,
+    /// The receiver; `null` only in the audit of a recording cut before its session metadata.
+    pub modality: Option<proto::Receiver>,
     pub observers: BTreeMap<String, ObserverSummary>,
     pub work_units: u32,
     pub mission_time_s: f64,
-    pub end_reason: String,
+    /// Why the mission ended; `null` when no mission report arrived.
+    pub end_reason: Option<proto::EndReason>,
     pub contact_steps: u64,
     #[serde(deserialize_with = "null_as_nan")]
     pub min_separation_m: f64,
@@ -101,7 +103,7 @@ pub struct ProcessFigures {
     pub killed_by_fault: bool,
 }
 
-/// The routes one camera's renders took (its `render-counts` line).
+/// The routes one camera's renders took (from its [`proto::CameraReport`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct CameraRenders {
     pub full: u64,
@@ -113,22 +115,15 @@ pub struct CameraRenders {
     pub scissored: bool,
 }
 
-impl CameraRenders {
-    /// Parses `full=… damage=… skipped=… damage_px=… scissored=…` (other fields ignored).
-    pub fn parse(fields: &str) -> Option<Self> {
-        let mut out = Self::default();
-        for field in fields.split_whitespace() {
-            let (k, v) = field.split_once('=')?;
-            match k {
-                "full" => out.full = v.parse().ok()?,
-                "damage" => out.damage = v.parse().ok()?,
-                "skipped" => out.skipped = v.parse().ok()?,
-                "damage_px" => out.damage_px = v.parse().ok()?,
-                "scissored" => out.scissored = v.parse().ok()?,
-                _ => {}
-            }
+impl From<&proto::CameraReport> for CameraRenders {
+    fn from(r: &proto::CameraReport) -> Self {
+        Self {
+            full: r.full_renders,
+            damage: r.damage_renders,
+            skipped: r.skipped_renders,
+            damage_px: r.damage_px,
+            scissored: r.scissored,
         }
-        Some(out)
     }
 }
 

@@ -48,7 +48,7 @@ pub struct SiteStay {
 
 /// One trip of an observer beyond [`AWAY_M`] of its home.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Trip {
+pub struct TripRecord {
     pub observer: String,
     pub leave_ns: u64,
     pub back_ns: Option<u64>,
@@ -59,7 +59,7 @@ pub struct Trip {
 pub struct SessionRecord {
     pub performer: Vec<PerformerSpan>,
     pub controls: Vec<ControlRecord>,
-    pub trips: Vec<Trip>,
+    pub trips: Vec<TripRecord>,
     pub stays: Vec<SiteStay>,
     pub report: Option<MissionReport>,
 }
@@ -134,7 +134,7 @@ impl SessionRecorder {
                 .find(|t| t.observer == d.name)
                 .filter(|t| t.back_ns.is_none());
             match (away, open_trip) {
-                (true, None) => self.record.trips.push(Trip {
+                (true, None) => self.record.trips.push(TripRecord {
                     observer: d.name.clone(),
                     leave_ns: s.stamp_ns,
                     back_ns: None,
@@ -284,7 +284,7 @@ mod tests {
         assert_eq!(rec.offer_starts_ns(), [((1, Site::B), 3 * TICK_NS)].into());
         assert_eq!(
             rec.trips,
-            [Trip {
+            [TripRecord {
                 observer: "O1".into(),
                 leave_ns: 2 * TICK_NS,
                 back_ns: Some(6 * TICK_NS)

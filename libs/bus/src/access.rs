@@ -53,7 +53,11 @@ pub fn access_of(keys: &Keys, p: &Process) -> RoleAccess {
         Role::Camera => {
             let o = observer(&p.id);
             (
-                vec![keys.sensor_events(&o), keys.sensor_rgb(&o)],
+                vec![
+                    keys.sensor_events(&o),
+                    keys.sensor_rgb(&o),
+                    keys.camera_report(&o),
+                ],
                 vec![keys.sim_state(), keys.fault(&o)],
             )
         }

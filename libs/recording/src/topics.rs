@@ -5,10 +5,10 @@
 //! type (`waggle.EventPacket`, …) with schema encoding [`RAW_ENCODING`].
 
 use proto::{
-    BroadcastTick, ClockTick, Decision, DecodeError, EventPacket, Fault, FrameEvent, Key,
-    MissionReport, ObserverId, ObserverStatus, ObserverTrack, PerformerSetpoint, PerformerTruth,
-    RejectReport, RgbFrame, RgbUpdate, SchedCommand, SessionTick, SimContacts, SimState, TICK_NS,
-    TokenEvent,
+    BroadcastTick, CameraReport, ClockTick, Decision, DecodeError, EventPacket, Fault, FrameEvent,
+    Key, MissionReport, ObserverId, ObserverStatus, ObserverTrack, PerformerSetpoint,
+    PerformerTruth, RejectReport, RgbFrame, RgbUpdate, SchedCommand, SessionTick, SimContacts,
+    SimState, TICK_NS, TokenEvent,
 };
 
 /// Message (and schema) encoding of raw channels: the exact bytes of [`proto::encode`].
@@ -36,10 +36,11 @@ pub enum MessageKind {
     Fault,
     RejectReport,
     RgbUpdate,
+    CameraReport,
 }
 
 impl MessageKind {
-    pub const ALL: [MessageKind; 19] = [
+    pub const ALL: [MessageKind; 20] = [
         MessageKind::Clock,
         MessageKind::SimState,
         MessageKind::SimContacts,
@@ -59,6 +60,7 @@ impl MessageKind {
         MessageKind::Fault,
         MessageKind::RejectReport,
         MessageKind::RgbUpdate,
+        MessageKind::CameraReport,
     ];
 
     /// Schema name of the raw channel (`waggle.<Rust type>`).
@@ -83,6 +85,7 @@ impl MessageKind {
             MessageKind::Fault => "waggle.Fault",
             MessageKind::RejectReport => "waggle.RejectReport",
             MessageKind::RgbUpdate => "waggle.RgbUpdate",
+            MessageKind::CameraReport => "waggle.CameraReport",
         }
     }
 
@@ -127,6 +130,7 @@ impl MessageKind {
             Key::SchedReport => MessageKind::MissionReport,
             Key::Fault(_) => MessageKind::Fault,
             Key::Rejects(..) => MessageKind::RejectReport,
+            Key::CameraReport(_) => MessageKind::CameraReport,
             Key::Alive(..) | Key::Ready(..) => return None,
         })
     }
@@ -176,6 +180,7 @@ pub enum Decoded {
     Fault(Fault),
     RejectReport(RejectReport),
     RgbUpdate(RgbUpdate),
+    CameraReport(CameraReport),
 }
 
 /// Decodes `bytes` as a message of `kind` with the one [`proto::decode`].
@@ -201,12 +206,13 @@ pub fn decode(kind: MessageKind, bytes: &[u8]) -> Result<Decoded, DecodeError> {
         MessageKind::Fault => Decoded::Fault(d(bytes)?),
         MessageKind::RejectReport => Decoded::RejectReport(d(bytes)?),
         MessageKind::RgbUpdate => Decoded::RgbUpdate(d(bytes)?),
+        MessageKind::CameraReport => Decoded::CameraReport(d(bytes)?),
     })
 }
 
 impl Decoded {
-    /// The message's own sim time, ns (its stamp, or the end of its tick); `None` for faults
-    /// and reject reports, which carry no time of publication.
+    /// The message's own sim time, ns (its stamp, or the end of its tick); `None` for faults,
+    /// reject and camera reports, which carry no time of publication.
     pub fn sim_time_ns(&self) -> Option<u64> {
         let tick = |k: u64| k.checked_mul(TICK_NS);
         match self {
@@ -227,7 +233,7 @@ impl Decoded {
             Decoded::BroadcastTick(b) => tick(b.tick),
             Decoded::SessionTick(s) => tick(s.tick),
             Decoded::MissionReport(r) => Some(r.end_ns),
-            Decoded::Fault(_) | Decoded::RejectReport(_) => None,
+            Decoded::Fault(_) | Decoded::RejectReport(_) | Decoded::CameraReport(_) => None,
         }
     }
 }
@@ -325,6 +331,12 @@ mod tests {
             ),
             (k.fault(&o2), MessageKind::Fault, "/fault/O2", Some("O2")),
             (
+                k.camera_report(&o2),
+                MessageKind::CameraReport,
+                "/camera/O2/report",
+                Some("O2"),
+            ),
+            (
                 k.rejects(proto::Role::Camera, "O2").unwrap(),
                 MessageKind::RejectReport,
                 "/rejects/camera/O2",
@@ -342,6 +354,11 @@ mod tests {
                 Some(kind)
             );
         }
+    }
+
+    #[test]
+    fn keys_outside_the_grammar_have_no_topic() {
+        let k = Keys::new("s1").unwrap();
         for bad in [
             "waggle/s1/unknown",
             "waggle/s1/sensor/O1/depth",

@@ -1,5 +1,5 @@
 //! Typed errors. Bad *inputs* from observers (unknown names, wrong rounds, …) are not errors:
-//! they are counted rejections, see [`crate::log::RejectReason`].
+//! they are counted rejections, see [`crate::log::DecisionReject`].
 
 use proto::{ObserverId, Site};
 

@@ -10,7 +10,7 @@
 //! let mut s = Scheduler::new(SchedulerConfig::new(3, Modality::Events))?;
 //! for k in 0.. {
 //!     // after every live observer's status{k} (docs/DESIGN.md §3, step 4):
-//!     let out = s.step(&TickInput { clock: ClockTick::at(k), positions_m, decisions, alive })?;
+//!     let out = s.step(&SchedulerInput { clock: ClockTick::at(k), positions_m, decisions, alive })?;
 //!     // publish, in this order: out.session (RoundReset before WindowOpen …),
 //!     // out.broadcast_message() (the performer starts it at t_k), out.command() (sched/cmd{k});
 //!     // record out.events. Stop after the tick with out.mission_end.is_some().
@@ -37,7 +37,7 @@
 //! made after the round's broadcast started and not after the tick's sim time, arrives no later
 //! than the deadline, and is that observer's first in the round. `assignment: None` means the
 //! observer decided that nothing is assigned to it. Anything else is a counted rejection
-//! ([`RejectReason`]), never an error. An observer that never decides (black input, dead
+//! ([`DecisionReject`]), never an error. An observer that never decides (black input, dead
 //! camera) simply stays home. Within a tick decisions are processed in sorted order, so
 //! transport arrival order cannot change the outcome.
 //!
@@ -95,10 +95,10 @@ pub mod trajectory;
 
 pub use config::{FlightLimits, FlightMode, Modality, SchedulerConfig, Timing};
 pub use error::{ConfigError, NavError, SchedulerError};
-pub use log::{EndReason, EventKind, LogEvent, PoseReject, RejectReason};
+pub use log::{DecisionReject, EndReason, EventKind, LogEvent, PoseReject};
 pub use proto::Kinematics;
 pub use scheduler::{
-    BroadcastPlan, DecisionNotice, Scheduler, Stats, TickInput, TickOutput, observer_positions,
+    BroadcastPlan, DecisionNotice, Scheduler, SchedulerInput, Stats, TickOutput, observer_positions,
 };
 pub use trajectory::Leg;
 

@@ -3,24 +3,11 @@
 
 use proto::{ObserverId, Offer, Site};
 
-/// Why the mission ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum EndReason {
-    /// Rule (a): the last round settled (every trip back home).
-    RoundsComplete,
-    /// Rule (a): a round settled with no work left anywhere, so no further round can help.
-    AllWorkDone,
-    /// Rule (b): a round's decision deadline passed without any observer deciding.
-    NoDecision,
-    /// Rule (c): a round broadcast nothing and its idle period elapsed.
-    NoBroadcast,
-    /// The case's hard time limit.
-    TimeLimit,
-}
+pub use proto::EndReason;
 
 /// Why a decision was not accepted. Each is counted, none is an error.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum RejectReason {
+pub enum DecisionReject {
     /// The name is not in the roster.
     UnknownObserver,
     /// The decision names another round than the current one.
@@ -78,7 +65,7 @@ pub enum EventKind {
     DecisionRejected {
         observer: ObserverId,
         round: u32,
-        reason: RejectReason,
+        reason: DecisionReject,
     },
     /// The safety router queued an assigned observer.
     TripQueued {

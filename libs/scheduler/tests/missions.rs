@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use harness::{Case, NS_PER_S, Run, run, secs};
 use proto::sched::SessionEvent;
 use proto::{ObserverId, Site};
-use scheduler::{DecisionNotice, EndReason, EventKind, Modality, RejectReason};
+use scheduler::{DecisionNotice, DecisionReject, EndReason, EventKind, Modality};
 
 use Site::{A, B};
 
@@ -277,10 +277,10 @@ fn bad_decisions_are_counted_and_change_nothing() {
     case.injected.insert(0, vec![notice("O3", 1, Some(B), 0)]);
     let r = run(&case);
     let rejected = &r.sched.stats().rejected_decisions;
-    assert_eq!(rejected.get(&RejectReason::UnknownObserver), Some(&1));
-    assert_eq!(rejected.get(&RejectReason::WrongRound), Some(&1));
-    assert_eq!(rejected.get(&RejectReason::FromTheFuture), Some(&1));
-    assert_eq!(rejected.get(&RejectReason::BeforeBroadcast), Some(&2));
+    assert_eq!(rejected.get(&DecisionReject::UnknownObserver), Some(&1));
+    assert_eq!(rejected.get(&DecisionReject::WrongRound), Some(&1));
+    assert_eq!(rejected.get(&DecisionReject::FromTheFuture), Some(&1));
+    assert_eq!(rejected.get(&DecisionReject::BeforeBroadcast), Some(&2));
     assert_eq!(r.sched.stats().rejections(), 5);
     // The mission is exactly the nominal one.
     let nominal = run(&Case::new(3, Modality::Rgb));
@@ -326,8 +326,8 @@ fn duplicates_late_decisions_and_decisions_after_the_end_are_rejected() {
     );
     let r = run(&case);
     let rejected = &r.sched.stats().rejected_decisions;
-    assert_eq!(rejected.get(&RejectReason::Duplicate), Some(&1));
-    assert_eq!(rejected.get(&RejectReason::AfterDeadline), Some(&1));
+    assert_eq!(rejected.get(&DecisionReject::Duplicate), Some(&1));
+    assert_eq!(rejected.get(&DecisionReject::AfterDeadline), Some(&1));
     assert_eq!(r.sched.stats().work_units, 4);
 
     // After the end, the scheduler keeps answering with frozen setpoints and rejects input.
@@ -342,7 +342,7 @@ fn duplicates_late_decisions_and_decisions_after_the_end_are_rejected() {
         decided_ns: 0,
     }];
     let out = s
-        .step(&scheduler::TickInput {
+        .step(&scheduler::SchedulerInput {
             clock: proto::ClockTick::at(end_tick + 1).unwrap(),
             positions_m: &positions,
             decisions: &d,
@@ -352,11 +352,13 @@ fn duplicates_late_decisions_and_decisions_after_the_end_are_rejected() {
     assert!(out.session.is_empty() && out.broadcast.is_none());
     assert_eq!(out.setpoints, r.outputs.last().unwrap().setpoints);
     assert_eq!(
-        s.stats().rejected_decisions.get(&RejectReason::MissionOver),
+        s.stats()
+            .rejected_decisions
+            .get(&DecisionReject::MissionOver),
         Some(&1)
     );
     // Ticks must move forward; a clock with the wrong time is refused.
-    let again = s.step(&scheduler::TickInput {
+    let again = s.step(&scheduler::SchedulerInput {
         clock: proto::ClockTick::at(end_tick).unwrap(),
         positions_m: &positions,
         decisions: &[],
@@ -366,7 +368,7 @@ fn duplicates_late_decisions_and_decisions_after_the_end_are_rejected() {
         again,
         Err(scheduler::SchedulerError::TickOutOfOrder { .. })
     ));
-    let bad_clock = s.step(&scheduler::TickInput {
+    let bad_clock = s.step(&scheduler::SchedulerInput {
         clock: proto::ClockTick {
             tick: end_tick + 5,
             sim_time_ns: 3,
@@ -390,7 +392,7 @@ fn bad_poses_are_counted_and_ignored() {
         (ObserverId::new("performer").unwrap(), [0.0, 0.0, 1.3]),
     ]);
     let out = s
-        .step(&scheduler::TickInput {
+        .step(&scheduler::SchedulerInput {
             clock: proto::ClockTick::at(0).unwrap(),
             positions_m: &positions,
             decisions: &[],

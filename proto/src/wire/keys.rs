@@ -157,6 +157,8 @@ pub enum Key {
     SchedSession,
     SchedReport,
     Fault(ObserverId),
+    /// One camera's account of its run (`camera/<o>/report`), published as it ends.
+    CameraReport(ObserverId),
     /// Liveliness token of one process (`alive/<role>/<id>`).
     Alive(Role, String),
     /// Readiness token of one process (`ready/<role>/<id>`).
@@ -194,6 +196,7 @@ impl Key {
             ["sched", "session"] => Key::SchedSession,
             ["sched", "report"] => Key::SchedReport,
             ["fault", o] => Key::Fault(obs(o)?),
+            ["camera", o, "report"] => Key::CameraReport(obs(o)?),
             ["alive", role, id] => {
                 let (role, id) = process(role, id)?;
                 Key::Alive(role, id)
@@ -230,6 +233,7 @@ impl Key {
             Key::SchedSession => "sched/session".into(),
             Key::SchedReport => "sched/report".into(),
             Key::Fault(o) => format!("fault/{o}"),
+            Key::CameraReport(o) => format!("camera/{o}/report"),
             Key::Alive(role, id) => format!("alive/{}/{id}", role.as_str()),
             Key::Ready(role, id) => format!("ready/{}/{id}", role.as_str()),
             Key::Rejects(role, id) => format!("rejects/{}/{id}", role.as_str()),
@@ -246,7 +250,8 @@ impl Key {
             | Key::ObserverDecision(o)
             | Key::ObserverStatus(o)
             | Key::ObserverTrack(o)
-            | Key::Fault(o) => Some(o),
+            | Key::Fault(o)
+            | Key::CameraReport(o) => Some(o),
             _ => None,
         }
     }
@@ -399,6 +404,11 @@ impl Keys {
     pub fn ready(&self, role: Role, id: &str) -> Result<String, KeyError> {
         validate_chunk("process", id)?;
         Ok(self.of(&Key::Ready(role, id.to_owned())))
+    }
+
+    /// One camera's report (`camera/<o>/report`).
+    pub fn camera_report(&self, o: &ObserverId) -> String {
+        self.of(&Key::CameraReport(o.clone()))
     }
 
     /// The reject report of one process (`rejects/<role>/<id>`).

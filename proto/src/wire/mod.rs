@@ -2,8 +2,10 @@
 //! are published under ([`keys::Keys`], the one key grammar) and the single strict
 //! [`codec::encode`]/[`codec::decode`] pair. Nothing here decides anything.
 
+pub mod camera;
 pub mod clock;
 pub mod codec;
+pub mod end_reason;
 pub mod fault;
 pub mod keys;
 pub mod modality;

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::clock::{check_finite, stamp_in_tick};
 use crate::codec::Validate;
+use crate::end_reason::EndReason;
 use crate::keys::ObserverId;
 use crate::payload::{Offer, Site};
 use crate::world::Kinematics;
@@ -211,8 +212,8 @@ pub struct Departure {
 pub struct MissionReport {
     pub tick: u64,
     pub end_ns: u64,
-    /// Why the mission ended (the scheduler's end reason, as text).
-    pub end_reason: String,
+    /// Why the mission ended.
+    pub end_reason: EndReason,
     pub work_units: u32,
     /// Completed services per observer, in order: (round, site).
     pub services: BTreeMap<ObserverId, Vec<(u32, Site)>>,

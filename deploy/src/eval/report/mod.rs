@@ -62,7 +62,11 @@ impl RunEntry {
         Ok(Self {
             name: dir_name(dir),
             case: case_name,
-            modality: files.summary.mission.modality.clone(),
+            modality: files
+                .summary
+                .mission
+                .modality
+                .map_or_else(String::new, |m| m.to_string()),
             files: Some(files),
             audit: Some(audit),
             source: Some(source),
@@ -477,7 +481,7 @@ fn run_section(md: &mut String, e: &RunEntry, figs: &Figures) {
             md,
             "- mission time {:.2} s ({}), wall {:.0} s; complete messages {}; work units {} {:?}",
             a.mission_time_s,
-            a.end_reason,
+            crate::eval::summary::end_reason_text(a.end_reason),
             files.summary.mission.wall_seconds,
             messages_vector(a),
             a.work_units,

@@ -89,10 +89,10 @@ pub fn from_run_files(f: &RunFiles) -> AuditReport {
             .interrupted
             .then(|| "the run was interrupted".to_string()),
         case: m.case.clone(),
-        modality: m.modality.clone(),
+        modality: m.modality,
         session: f.summary.session.clone(),
         mission_time_s: m.mission_time_s,
-        end_reason: m.end_reason.clone(),
+        end_reason: m.end_reason,
         messages,
         payloads: m
             .observers

@@ -31,7 +31,7 @@ const FIRST_OFFER: u8 = 0b011010;
 
 /// One column of the figure.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Phase {
+pub struct SensorColumn {
     pub label: &'static str,
     /// End of the packet and instant of the render.
     pub t_ns: u64,
@@ -45,7 +45,11 @@ fn align_tick(t_ns: u64) -> u64 {
 }
 
 /// Renders the figure for observer index `observer` of `observers` into `png_path`.
-pub fn sensor_comparison(observers: usize, observer: usize, png_path: &Path) -> Result<Vec<Phase>> {
+pub fn sensor_comparison(
+    observers: usize,
+    observer: usize,
+    png_path: &Path,
+) -> Result<Vec<SensorColumn>> {
     let schedule = broadcast(
         BROADCAST_START_NS,
         &[FIRST_OFFER],
@@ -130,7 +134,7 @@ pub fn sensor_comparison(observers: usize, observer: usize, png_path: &Path) -> 
             i64::from(k as u32 * (w + gap)),
             i64::from(h + gap),
         );
-        phases.push(Phase {
+        phases.push(SensorColumn {
             label,
             t_ns,
             events: packet.len(),
@@ -146,7 +150,7 @@ pub fn sensor_comparison(observers: usize, observer: usize, png_path: &Path) -> 
 }
 
 /// The figure's caption (markdown), naming the camera and the packets.
-pub fn caption(observers: usize, observer: usize, phases: &[Phase]) -> String {
+pub fn caption(observers: usize, observer: usize, phases: &[SensorColumn]) -> String {
     let cols: Vec<String> = phases
         .iter()
         .map(|p| {

@@ -92,7 +92,9 @@ pub fn timeline_svg(f: &RunFiles) -> Result<String> {
         let (top, legend_area) = root.split_vertically(height - LEGEND_PX);
         let title = format!(
             "{} ({}) — session timeline, sim time 0–{:.2} s",
-            m.case, m.modality, m.mission_time_s
+            m.case,
+            crate::eval::summary::receiver_text(m.modality),
+            m.mission_time_s
         );
         let mut chart = ChartBuilder::on(&top)
             .caption(title, ("sans-serif", 15))

@@ -1,13 +1,19 @@
 //! Judging decisions: which are accepted into the round (and queue a trip) and which are
 //! counted as rejections, independently of their arrival order within a tick.
 
-use crate::log::{EventKind, RejectReason};
+use crate::log::{DecisionReject, EventKind};
 use crate::scheduler::Scheduler;
 use crate::scheduler::router::Queued;
 use crate::scheduler::tick::{DecisionNotice, TickOutput};
 
 impl Scheduler {
-    fn reject(&mut self, d: &DecisionNotice, reason: RejectReason, now: u64, out: &mut TickOutput) {
+    fn reject(
+        &mut self,
+        d: &DecisionNotice,
+        reason: DecisionReject,
+        now: u64,
+        out: &mut TickOutput,
+    ) {
         *self.stats.rejected_decisions.entry(reason).or_default() += 1;
         self.emit(
             out,
@@ -71,34 +77,34 @@ impl Scheduler {
         }
     }
 
-    fn judge(&self, d: &DecisionNotice, now: u64) -> Result<(), RejectReason> {
+    fn judge(&self, d: &DecisionNotice, now: u64) -> Result<(), DecisionReject> {
         if self.ended.is_some() {
-            return Err(RejectReason::MissionOver);
+            return Err(DecisionReject::MissionOver);
         }
         if self.index_of(&d.observer).is_none() {
-            return Err(RejectReason::UnknownObserver);
+            return Err(DecisionReject::UnknownObserver);
         }
         let Some(round) = &self.round else {
-            return Err(RejectReason::WrongRound);
+            return Err(DecisionReject::WrongRound);
         };
         if d.round != round.number {
-            return Err(RejectReason::WrongRound);
+            return Err(DecisionReject::WrongRound);
         }
         if round.broadcast_due_ns.is_none() {
-            return Err(RejectReason::NothingBroadcast);
+            return Err(DecisionReject::NothingBroadcast);
         }
         if d.decided_ns > now {
-            return Err(RejectReason::FromTheFuture);
+            return Err(DecisionReject::FromTheFuture);
         }
         match round.broadcast {
             Some((start_ns, _)) if d.decided_ns >= start_ns => {}
-            _ => return Err(RejectReason::BeforeBroadcast),
+            _ => return Err(DecisionReject::BeforeBroadcast),
         }
         if round.deadline_ns.is_some_and(|dl| now > dl) {
-            return Err(RejectReason::AfterDeadline);
+            return Err(DecisionReject::AfterDeadline);
         }
         if round.decisions.contains_key(&d.observer) {
-            return Err(RejectReason::Duplicate);
+            return Err(DecisionReject::Duplicate);
         }
         Ok(())
     }

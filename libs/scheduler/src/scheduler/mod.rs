@@ -21,12 +21,12 @@ use proto::{Kinematics, ObserverId, Site, TaskState};
 
 use crate::config::SchedulerConfig;
 use crate::error::{ConfigError, SchedulerError};
-use crate::log::{EndReason, EventKind, LogEvent, PoseReject, RejectReason};
+use crate::log::{DecisionReject, EndReason, EventKind, LogEvent, PoseReject};
 
 pub use broadcast::BroadcastPlan;
 use rounds::Round;
 use router::Queued;
-pub use tick::{DecisionNotice, TickInput, TickOutput, observer_positions};
+pub use tick::{DecisionNotice, SchedulerInput, TickOutput, observer_positions};
 use trips::{Phase, Trip};
 
 /// Counters for the summary.
@@ -39,7 +39,7 @@ pub struct Stats {
     pub departures: u32,
     /// Arrivals at a depleted site.
     pub no_work_arrivals: u32,
-    pub rejected_decisions: BTreeMap<RejectReason, u64>,
+    pub rejected_decisions: BTreeMap<DecisionReject, u64>,
     pub rejected_poses: BTreeMap<PoseReject, u64>,
 }
 
@@ -140,7 +140,7 @@ impl Scheduler {
 
     /// Advances to tick `input.clock.tick`. Ticks must increase (gaps are allowed: pending
     /// transitions are then stamped with their planned times).
-    pub fn step(&mut self, input: &TickInput<'_>) -> Result<TickOutput, SchedulerError> {
+    pub fn step(&mut self, input: &SchedulerInput<'_>) -> Result<TickOutput, SchedulerError> {
         let tick = input.clock.tick;
         let now = tick_end_ns(tick).ok_or(SchedulerError::TimeOverflow)?;
         if now != input.clock.sim_time_ns {

@@ -48,7 +48,7 @@ pub fn observer_positions(state: &SimState) -> BTreeMap<ObserverId, [f64; 3]> {
 
 /// Everything the scheduler learns in one tick.
 #[derive(Debug, Clone, Copy)]
-pub struct TickInput<'a> {
+pub struct SchedulerInput<'a> {
     pub clock: ClockTick,
     /// Ground-truth observer positions at `t_k` (missing entries: the last known, else home).
     pub positions_m: &'a BTreeMap<ObserverId, [f64; 3]>,

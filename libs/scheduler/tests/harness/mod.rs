@@ -10,7 +10,7 @@ use proto::allocation::{CachedOffer, OfferCache, Roster};
 use proto::sched::SessionEvent;
 use proto::{ClockTick, ObserverId, Site, TICK_NS, decide};
 use scheduler::{
-    DecisionNotice, EndReason, EventKind, Modality, Scheduler, SchedulerConfig, TickInput,
+    DecisionNotice, EndReason, EventKind, Modality, Scheduler, SchedulerConfig, SchedulerInput,
     TickOutput,
 };
 
@@ -109,7 +109,7 @@ pub fn run(case: &Case) -> Run {
             .map(ObserverId::from_index)
             .collect();
         let out = sched
-            .step(&TickInput {
+            .step(&SchedulerInput {
                 clock: ClockTick::at(k).unwrap(),
                 positions_m: &positions,
                 decisions: &decisions,
