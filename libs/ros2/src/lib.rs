@@ -8,9 +8,9 @@
 //! emitter lays it out.
 //!
 //! - [`cdr`]: the CDR encoder (XCDR1, little-endian, 4-byte encapsulation header `00 01 00 00`);
-//! - [`definitions`]: the `.msg` definitions the bag carries (upstream Jazzy files and Waggle's
-//!   own `waggle_msgs`, kept in `libs/ros2/msg/`), their `ros2msg` full text and RIHS01 type
-//!   hashes;
+//! - [`definitions`]: the `.msg` definitions the bag carries (our own field-only definitions of
+//!   the standard Jazzy types and Waggle's own `waggle_msgs`, kept in `libs/ros2/msg/`), their
+//!   `ros2msg` full text and RIHS01 type hashes;
 //! - [`messages`], [`waggle_msgs`]: the message structs and their CDR encoding;
 //! - [`bag`]: the bag writer ([`BagWriter`]) and `metadata.yaml`;
 //! - [`geometry`]: camera intrinsics (`CameraInfo`) and the camera's optical frame from Waggle's

@@ -1,5 +1,5 @@
-//! The standard ROS 2 messages a Waggle bag holds, field for field as their Jazzy `.msg` files
-//! declare them (`libs/ros2/msg/upstream/`), with their CDR encoding.
+//! The standard ROS 2 messages a Waggle bag holds, field for field as their Jazzy interfaces
+//! declare them (our definitions in `libs/ros2/msg/ros_interfaces/`), with their CDR encoding.
 
 use crate::cdr::{CdrEncode, CdrWriter, RosMessage};
 use crate::error::Ros2Error;
