@@ -7,7 +7,7 @@ mod scene;
 use std::sync::OnceLock;
 
 use perception::events::{
-    AcquisitionEvent, EventReceiver, EventReceiverConfig, InterruptCause, PacketOutcome,
+    AcquisitionEvent, EventInterruptCause, EventReceiver, EventReceiverConfig, PacketOutcome,
     PacketRejection, SupportScratch, gather,
 };
 use proto::{Action, EventPacket, Polarity, ReleasedFrame, Token};
@@ -236,7 +236,7 @@ fn a_sequence_gap_mid_frame_invalidates_that_frame() {
     let rx = run(&stream);
     assert_only_b(&rx, "gap during motion");
     assert_eq!(
-        rx.interruptions().get(&InterruptCause::SequenceGap),
+        rx.interruptions().get(&EventInterruptCause::SequenceGap),
         Some(&1)
     );
     let unknown = rx
@@ -272,12 +272,12 @@ fn a_discontinuous_or_invalid_packet_mid_frame_invalidates_that_frame() {
     let bit = span(script, Label::Action(Action::Bit0), 0);
     let k = packet_after(packets, (bit.start_ns + bit.end_ns) / 2);
     for (what, cause) in [
-        ("continuous=false", InterruptCause::NotContinuous),
-        ("valid=false", InterruptCause::Invalid),
+        ("continuous=false", EventInterruptCause::NotContinuous),
+        ("valid=false", EventInterruptCause::Invalid),
     ] {
         let mut stream = packets.clone();
         match cause {
-            InterruptCause::NotContinuous => stream[k].continuous = false,
+            EventInterruptCause::NotContinuous => stream[k].continuous = false,
             _ => stream[k].valid = false,
         }
         let rx = run(&stream);
@@ -351,7 +351,10 @@ fn malformed_packets_are_rejected_by_reason_and_interrupt_tracking() {
                 let out = corrupt(&mut rx, p);
                 assert_eq!(out.rejected, Some(*reason));
                 assert!(out.rejection_detail.is_some());
-                assert_eq!(out.interruption, Some(InterruptCause::Rejected(*reason)));
+                assert_eq!(
+                    out.interruption,
+                    Some(EventInterruptCause::Rejected(*reason))
+                );
                 assert_eq!(rx.status().estimate_px, None, "tracking interrupted");
             } else {
                 rx.push_packet(p);
@@ -367,7 +370,7 @@ fn malformed_packets_are_rejected_by_reason_and_interrupt_tracking() {
         );
         // The rejected packet is missing from the stream: the next one arrives after a gap.
         assert_eq!(
-            rx.interruptions().get(&InterruptCause::SequenceGap),
+            rx.interruptions().get(&EventInterruptCause::SequenceGap),
             Some(&1),
             "{reason}"
         );
@@ -447,7 +450,7 @@ fn broad_scene_activity_interrupts_tracking() {
     let packets = scene::convert(&script, false);
     let rx = run(&packets);
     assert_eq!(
-        rx.interruptions().get(&InterruptCause::BroadActivity),
+        rx.interruptions().get(&EventInterruptCause::BroadActivity),
         Some(&1),
         "{:?}",
         rx.interruptions()

@@ -7,7 +7,9 @@ mod rgb_scene;
 use image::GrayImage;
 use perception::rgb::features::{FeatureConfig, FeatureDetector, Region};
 use perception::rgb::klt::{Klt, KltConfig};
-use perception::rgb::{FrameRejection, InterruptCause, RgbReceiver, RgbReceiverConfig, TrackEvent};
+use perception::rgb::{
+    FrameRejection, RgbInterruptCause, RgbReceiver, RgbReceiverConfig, TrackEvent,
+};
 use proto::frame::frame_tokens;
 use proto::{Action, RgbFrame, Token};
 use proto::{Decoder, Interruption, Sample, SegmentToken, SegmenterConfig, TokenCause};
@@ -187,7 +189,7 @@ fn a_sequence_gap_mid_symbol_invalidates_the_frame_and_the_next_offer_still_deco
         "the interrupted frame must not be released"
     );
     assert_eq!(
-        rx.interruptions().get(&InterruptCause::SequenceGap),
+        rx.interruptions().get(&RgbInterruptCause::SequenceGap),
         Some(&1)
     );
     let unknown = rx
@@ -210,8 +212,8 @@ fn continuity_flags_interrupt_the_symbol_in_progress() {
     let mid = flight.rest_starts[1] - 100;
     for (flag, cause) in [
         (None, None),
-        (Some("continuous"), Some(InterruptCause::NotContinuous)),
-        (Some("valid"), Some(InterruptCause::Invalid)),
+        (Some("continuous"), Some(RgbInterruptCause::NotContinuous)),
+        (Some("valid"), Some(RgbInterruptCause::Invalid)),
     ] {
         let mut rx = RgbReceiver::paper();
         for (k, p) in flight.points_px.iter().enumerate() {
@@ -280,7 +282,7 @@ fn a_vanishing_target_interrupts_and_is_reacquired() {
     assert_eq!(labels(rx.tokens()), [Token::Null]);
     let out = push(&mut rx, false);
     assert!(matches!(out.track.unwrap().event, TrackEvent::Lost(_)));
-    assert_eq!(out.interruption, Some(InterruptCause::TrackingLost));
+    assert_eq!(out.interruption, Some(RgbInterruptCause::TrackingLost));
     assert_eq!(labels(&out.step.tokens), [Token::Unknown]);
     assert_eq!(
         push(&mut rx, true).track.unwrap().event,
@@ -331,7 +333,7 @@ fn malformed_and_out_of_order_frames_are_rejected_and_interrupt() {
     };
     assert_eq!(
         rx.push_frame(&restarted).interruption,
-        Some(InterruptCause::Restart)
+        Some(RgbInterruptCause::Restart)
     );
     assert_eq!(rx.segmenter_errors(), 0);
 }
@@ -353,7 +355,10 @@ fn an_external_interruption_drops_the_incomplete_frame() {
         rx.push_frame(&f);
     }
     assert!(rx.frames().is_empty());
-    assert_eq!(rx.interruptions().get(&InterruptCause::External), Some(&1));
+    assert_eq!(
+        rx.interruptions().get(&RgbInterruptCause::External),
+        Some(&1)
+    );
 }
 
 #[test]

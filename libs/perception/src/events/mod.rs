@@ -26,10 +26,11 @@ pub use denoise::{Adaptive, DenoiseConfig, DenoiseCounts, NoiseFilter};
 pub use error::EventReceiverError;
 pub use health::{Delivery, DeliveryMonitor, Discontinuity, PacketRejection};
 pub use receiver::{
-    EventReceiver, EventReceiverConfig, EventTrackStep, InterruptCause, PacketOutcome,
-    ReceiverStatus, SymbolTrajectory,
+    EventInterruptCause, EventReceiver, EventReceiverConfig, EventReceiverStatus,
+    EventSymbolTrajectory, EventTrackStep, PacketOutcome,
 };
 pub use support::{Evidence, SupportScratch, Window, gather};
 pub use tracker::{
-    Judgement, Observation, SupportTracker, TrackFault, TrackerConfig, is_supported, support_first,
+    EventTrackerConfig, Judgement, Observation, SupportTracker, TrackFault, is_supported,
+    support_first,
 };

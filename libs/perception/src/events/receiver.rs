@@ -25,7 +25,7 @@ use crate::events::denoise::{DenoiseConfig, DenoiseCounts, NoiseFilter};
 use crate::events::error::EventReceiverError;
 use crate::events::health::{Delivery, DeliveryMonitor, Discontinuity, PacketRejection};
 use crate::events::support::Window;
-use crate::events::tracker::{Observation, SupportTracker, TrackFault, TrackerConfig};
+use crate::events::tracker::{EventTrackerConfig, Observation, SupportTracker, TrackFault};
 use proto::decoder::{DecodeStep, Decoder};
 use proto::segmenter::{Sample, SegmentToken, SegmenterConfig, TokenCause};
 
@@ -38,7 +38,7 @@ pub struct EventReceiverConfig {
     pub packet_period_ns: u64,
     /// The noise front end.
     pub denoise: DenoiseConfig,
-    pub tracker: TrackerConfig,
+    pub tracker: EventTrackerConfig,
     pub acquisition: AcquisitionConfig,
     pub segmenter: SegmenterConfig,
 }
@@ -52,7 +52,7 @@ impl EventReceiverConfig {
             height: proto::scene::IMAGE_HEIGHT_PX,
             packet_period_ns: 40_000_000,
             denoise: DenoiseConfig::receiver(),
-            tracker: TrackerConfig::paper(),
+            tracker: EventTrackerConfig::paper(),
             acquisition: AcquisitionConfig::paper(),
             segmenter: SegmenterConfig::events(),
         }
@@ -91,7 +91,7 @@ impl Default for EventReceiverConfig {
 
 /// Why tracking was interrupted. Counted per cause.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum InterruptCause {
+pub enum EventInterruptCause {
     /// A malformed packet.
     Rejected(PacketRejection),
     SequenceGap,
@@ -104,22 +104,22 @@ pub enum InterruptCause {
     External,
 }
 
-impl From<Discontinuity> for InterruptCause {
+impl From<Discontinuity> for EventInterruptCause {
     fn from(d: Discontinuity) -> Self {
         match d {
-            Discontinuity::SequenceGap { .. } => InterruptCause::SequenceGap,
-            Discontinuity::Restart => InterruptCause::Restart,
-            Discontinuity::Invalid => InterruptCause::Invalid,
-            Discontinuity::NotContinuous => InterruptCause::NotContinuous,
+            Discontinuity::SequenceGap { .. } => EventInterruptCause::SequenceGap,
+            Discontinuity::Restart => EventInterruptCause::Restart,
+            Discontinuity::Invalid => EventInterruptCause::Invalid,
+            Discontinuity::NotContinuous => EventInterruptCause::NotContinuous,
         }
     }
 }
 
-impl From<TrackFault> for InterruptCause {
+impl From<TrackFault> for EventInterruptCause {
     fn from(f: TrackFault) -> Self {
         match f {
-            TrackFault::BroadActivity { .. } => InterruptCause::BroadActivity,
-            TrackFault::OneSidedPolarity { .. } => InterruptCause::OneSidedPolarity,
+            TrackFault::BroadActivity { .. } => EventInterruptCause::BroadActivity,
+            TrackFault::OneSidedPolarity { .. } => EventInterruptCause::OneSidedPolarity,
         }
     }
 }
@@ -137,7 +137,7 @@ pub struct EventTrackStep {
 /// The trajectory behind one decoded symbol: every estimate fed to the segmenter from the
 /// previous NULL confirmation to the one that classified it.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SymbolTrajectory {
+pub struct EventSymbolTrajectory {
     /// The action token, or `Unknown` for a rejected or overlong path.
     pub token: Token,
     pub cause: TokenCause,
@@ -156,7 +156,7 @@ pub struct PacketOutcome {
     /// Human-readable detail of a rejection.
     pub rejection_detail: Option<String>,
     /// Set when this packet interrupted tracking.
-    pub interruption: Option<InterruptCause>,
+    pub interruption: Option<EventInterruptCause>,
     /// Acquisition or lease change at this packet.
     pub acquisition: Option<AcquisitionEvent>,
     /// The estimate fed to the segmenter, if any.
@@ -167,7 +167,7 @@ pub struct PacketOutcome {
 
 /// A snapshot of the receiver's state.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ReceiverStatus {
+pub struct EventReceiverStatus {
     pub estimate_px: Option<[f64; 2]>,
     pub acquired_ns: Option<u64>,
     pub last_supported_ns: Option<u64>,
@@ -193,9 +193,9 @@ pub struct EventReceiver {
     decoder: Decoder,
     tokens: Vec<SegmentToken>,
     frames: Vec<ReleasedFrame>,
-    trajectories: Vec<SymbolTrajectory>,
+    trajectories: Vec<EventSymbolTrajectory>,
     recent: Vec<EventTrackStep>,
-    interruptions: BTreeMap<InterruptCause, u64>,
+    interruptions: BTreeMap<EventInterruptCause, u64>,
     acquisition_events: Vec<AcquisitionEvent>,
     /// Segmenter refusals; zero unless the stamp bookkeeping above it is wrong.
     segmenter_errors: u64,
@@ -239,7 +239,7 @@ impl EventReceiver {
     }
 
     /// The trajectory of every decoded symbol (action or rejected path), in order.
-    pub fn trajectories(&self) -> &[SymbolTrajectory] {
+    pub fn trajectories(&self) -> &[EventSymbolTrajectory] {
         &self.trajectories
     }
 
@@ -249,7 +249,7 @@ impl EventReceiver {
     }
 
     /// Tracking interruptions per cause (rejections included).
-    pub fn interruptions(&self) -> &BTreeMap<InterruptCause, u64> {
+    pub fn interruptions(&self) -> &BTreeMap<EventInterruptCause, u64> {
         &self.interruptions
     }
 
@@ -274,8 +274,8 @@ impl EventReceiver {
         self.tracker.window()
     }
 
-    pub fn status(&self) -> ReceiverStatus {
-        ReceiverStatus {
+    pub fn status(&self) -> EventReceiverStatus {
+        EventReceiverStatus {
             estimate_px: self.tracker.estimate_px(),
             acquired_ns: self.acquisition.acquired_ns(),
             last_supported_ns: self.acquisition.last_supported_ns(),
@@ -303,7 +303,7 @@ impl EventReceiver {
                 };
                 self.interrupt_at(
                     self.decoder.segmenter().last_stamp_ns(),
-                    InterruptCause::Rejected(reason),
+                    EventInterruptCause::Rejected(reason),
                     &mut out,
                 );
                 out
@@ -323,7 +323,7 @@ impl EventReceiver {
                 // The packet's own stamps are not trusted: interrupt at the last good stamp.
                 self.interrupt_at(
                     self.decoder.segmenter().last_stamp_ns(),
-                    InterruptCause::Rejected(reason),
+                    EventInterruptCause::Rejected(reason),
                     &mut out,
                 );
                 return out;
@@ -363,7 +363,7 @@ impl EventReceiver {
     pub fn interrupt(&mut self, stamp_ns: u64) -> PacketOutcome {
         let mut out = PacketOutcome::default();
         let stamp_ns = stamp_ns.max(self.decoder.segmenter().last_stamp_ns().unwrap_or(0));
-        self.interrupt_at(Some(stamp_ns), InterruptCause::External, &mut out);
+        self.interrupt_at(Some(stamp_ns), EventInterruptCause::External, &mut out);
         out
     }
 
@@ -418,7 +418,7 @@ impl EventReceiver {
     fn interrupt_at(
         &mut self,
         stamp_ns: Option<u64>,
-        cause: InterruptCause,
+        cause: EventInterruptCause,
         out: &mut PacketOutcome,
     ) {
         self.tracker.lose();
@@ -448,7 +448,7 @@ impl EventReceiver {
             match (token.token, token.cause) {
                 (Token::Null, _) => self.recent.clear(),
                 (_, TokenCause::Interrupted(_)) => {}
-                _ => self.trajectories.push(SymbolTrajectory {
+                _ => self.trajectories.push(EventSymbolTrajectory {
                     token: token.token,
                     cause: token.cause,
                     stamp_ns: token.stamp_ns,
@@ -502,13 +502,18 @@ mod tests {
         assert_eq!(out.rejected, Some(PacketRejection::Undecodable));
         assert_eq!(
             out.interruption,
-            Some(InterruptCause::Rejected(PacketRejection::Undecodable))
+            Some(EventInterruptCause::Rejected(PacketRejection::Undecodable))
         );
-        assert!(rx.push_packet(&packet(12, &[])).interruption == Some(InterruptCause::SequenceGap));
+        assert!(
+            rx.push_packet(&packet(12, &[])).interruption == Some(EventInterruptCause::SequenceGap)
+        );
         rx.interrupt(0);
         assert!(rx.tokens().is_empty());
         assert_eq!(rx.rejections().get(&PacketRejection::Undecodable), Some(&1));
-        assert_eq!(rx.interruptions().get(&InterruptCause::External), Some(&1));
+        assert_eq!(
+            rx.interruptions().get(&EventInterruptCause::External),
+            Some(&1)
+        );
         assert_eq!(rx.status().packets, 12);
     }
 
@@ -523,7 +528,7 @@ mod tests {
         let mut bad = packet(1, &bar(322));
         bad.continuous = false;
         let out = rx.push_packet(&bad);
-        assert_eq!(out.interruption, Some(InterruptCause::NotContinuous));
+        assert_eq!(out.interruption, Some(EventInterruptCause::NotContinuous));
         assert_eq!(out.step.tokens.len(), 1);
         assert_eq!(out.step.tokens[0].token, Token::Unknown);
         assert_eq!(out.step.tokens[0].stamp_ns, 2 * P);

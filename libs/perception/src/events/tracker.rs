@@ -4,8 +4,8 @@
 //! Each packet is judged in a fixed order (paper, "Event-only trajectories"):
 //! 1. **Broad activity** — many coarse cells of the whole sensor active (the observer moving, a
 //!    lighting change): the packet says nothing about the target; tracking is interrupted.
-//! 2. **Support** — at least [`TrackerConfig::min_unique_pixels`] distinct pixels spanning at
-//!    least [`TrackerConfig::min_axis_span_px`] on both axes (and not collinear). Without it the
+//! 2. **Support** — at least [`EventTrackerConfig::min_unique_pixels`] distinct pixels spanning at
+//!    least [`EventTrackerConfig::min_axis_span_px`] on both axes (and not collinear). Without it the
 //!    packet is *insufficient evidence*: the estimate holds. A sparse deceleration tail lands
 //!    here, whatever its polarity.
 //! 3. **Polarity balance** — judged only on supported evidence: a strongly one-sided set (a flash,
@@ -22,7 +22,7 @@
 //! two-dimensional) as ON a packet before its leading outline fires OFF, and turnarounds do the
 //! same in reverse. A flash or a disappearance stays one-sided. So a supported one-sided packet
 //! only suspends the estimate (it holds); the balance of the local events of the
-//! [`TrackerConfig::polarity_context_packets`] packets before it, itself and the packet after it
+//! [`EventTrackerConfig::polarity_context_packets`] packets before it, itself and the packet after it
 //! decides: still one-sided → interruption (one packet late), otherwise tracking goes on.
 
 use std::collections::VecDeque;
@@ -34,7 +34,7 @@ use crate::events::support::{Evidence, SupportScratch, Window, active_cells, gat
 
 /// Tracker settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TrackerConfig {
+pub struct EventTrackerConfig {
     /// Fewest distinct event pixels that can localise the target (paper: 24).
     pub min_unique_pixels: usize,
     /// Smallest `max − min` of those pixels on each axis (paper: 2 px).
@@ -61,7 +61,7 @@ pub struct TrackerConfig {
     pub broad_active_cells: usize,
 }
 
-impl TrackerConfig {
+impl EventTrackerConfig {
     /// The paper's support rule with this implementation's windows and thresholds: the search
     /// window covers the central half of a 640×480 view (symbols span ≤ ±105 px around the
     /// performer's hover point), the local window ±64×±48 px (the drone is ≈ 48×12 px and moves
@@ -129,7 +129,7 @@ impl TrackerConfig {
     }
 }
 
-impl Default for TrackerConfig {
+impl Default for EventTrackerConfig {
     fn default() -> Self {
         Self::paper()
     }
@@ -147,7 +147,7 @@ pub enum Judgement {
 }
 
 /// True when `evidence` is enough to localise a two-dimensional target.
-pub fn is_supported(evidence: &Evidence, config: &TrackerConfig) -> bool {
+pub fn is_supported(evidence: &Evidence, config: &EventTrackerConfig) -> bool {
     evidence.unique_pixels >= config.min_unique_pixels
         && evidence.span_px[0] >= config.min_axis_span_px
         && evidence.span_px[1] >= config.min_axis_span_px
@@ -156,7 +156,7 @@ pub fn is_supported(evidence: &Evidence, config: &TrackerConfig) -> bool {
 
 /// The receiver's rule for one packet: support first, polarity balance only on supported
 /// evidence. (A `OneSided` packet is then confirmed over time, see the module docs.)
-pub fn support_first(evidence: &Evidence, config: &TrackerConfig) -> Judgement {
+pub fn support_first(evidence: &Evidence, config: &EventTrackerConfig) -> Judgement {
     if !is_supported(evidence, config) {
         return Judgement::Insufficient;
     }
@@ -218,7 +218,7 @@ type Counts = [u64; 2];
 /// Event-support tracker for one sensor.
 #[derive(Debug, Clone)]
 pub struct SupportTracker {
-    config: TrackerConfig,
+    config: EventTrackerConfig,
     width: u16,
     height: u16,
     /// Current smoothed estimate; `None` while searching.
@@ -232,7 +232,11 @@ pub struct SupportTracker {
 
 impl SupportTracker {
     /// A tracker for a `width`×`height` sensor.
-    pub fn new(config: TrackerConfig, width: u16, height: u16) -> Result<Self, EventReceiverError> {
+    pub fn new(
+        config: EventTrackerConfig,
+        width: u16,
+        height: u16,
+    ) -> Result<Self, EventReceiverError> {
         config.validate()?;
         if width == 0 || height == 0 {
             return Err(EventReceiverError::BadSetting {
@@ -251,7 +255,7 @@ impl SupportTracker {
         })
     }
 
-    pub fn config(&self) -> &TrackerConfig {
+    pub fn config(&self) -> &EventTrackerConfig {
         &self.config
     }
 
@@ -380,7 +384,7 @@ mod tests {
     }
 
     fn tracker() -> SupportTracker {
-        SupportTracker::new(TrackerConfig::paper(), 640, 480).unwrap()
+        SupportTracker::new(EventTrackerConfig::paper(), 640, 480).unwrap()
     }
 
     #[test]
@@ -547,12 +551,12 @@ mod tests {
 
     #[test]
     fn bad_settings_are_rejected() {
-        let mut c = TrackerConfig::paper();
+        let mut c = EventTrackerConfig::paper();
         c.smoothing = 0.0;
         assert!(SupportTracker::new(c, 640, 480).is_err());
-        let mut c = TrackerConfig::paper();
+        let mut c = EventTrackerConfig::paper();
         c.one_sided_fraction = 0.4;
         assert!(c.validate().is_err());
-        assert!(SupportTracker::new(TrackerConfig::paper(), 0, 480).is_err());
+        assert!(SupportTracker::new(EventTrackerConfig::paper(), 0, 480).is_err());
     }
 }

@@ -16,7 +16,7 @@ pub mod tracker;
 
 pub use error::RgbReceiverError;
 pub use receiver::{
-    FrameOutcome, FrameRejection, InterruptCause, ReceiverStatus, RgbReceiver, RgbReceiverConfig,
-    RgbTrackStep, SymbolTrajectory,
+    FrameRejection, RgbFrameOutcome, RgbInterruptCause, RgbReceiver, RgbReceiverConfig,
+    RgbReceiverStatus, RgbSymbolTrajectory, RgbTrackStep,
 };
-pub use tracker::{LossReason, TargetTracker, TrackEvent, TrackStep, TrackerConfig};
+pub use tracker::{LossReason, RgbTrackerConfig, TargetTracker, TrackEvent, TrackStep};

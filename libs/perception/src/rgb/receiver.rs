@@ -21,7 +21,7 @@ use crate::rgb::error::RgbReceiverError;
 use crate::rgb::features::FeatureConfig;
 use crate::rgb::klt::KltConfig;
 use crate::rgb::luma::luma_into;
-use crate::rgb::tracker::{TargetTracker, TrackEvent, TrackStep, TrackerConfig};
+use crate::rgb::tracker::{RgbTrackerConfig, TargetTracker, TrackEvent, TrackStep};
 use proto::decoder::{DecodeStep, Decoder};
 use proto::segmenter::{Sample, SegmentToken, SegmenterConfig, TokenCause};
 
@@ -37,7 +37,7 @@ const MAX_RECENT_SAMPLES: usize = 1_500;
 pub struct RgbReceiverConfig {
     pub klt: KltConfig,
     pub features: FeatureConfig,
-    pub tracker: TrackerConfig,
+    pub tracker: RgbTrackerConfig,
     pub segmenter: SegmenterConfig,
     /// NULL gate: largest robust displacement at the confirming frame, pixels per frame.
     pub null_max_flow_px: f64,
@@ -49,7 +49,7 @@ impl RgbReceiverConfig {
         Self {
             klt: KltConfig::paper(),
             features: FeatureConfig::paper(),
-            tracker: TrackerConfig::paper(),
+            tracker: RgbTrackerConfig::paper(),
             segmenter: SegmenterConfig::rgb(),
             null_max_flow_px: 1.5,
         }
@@ -88,7 +88,7 @@ pub enum FrameRejection {
 
 /// Why tracking was interrupted. Counted per cause.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum InterruptCause {
+pub enum RgbInterruptCause {
     Rejected(FrameRejection),
     /// Sequence numbers skipped (frames missing).
     SequenceGap,
@@ -119,7 +119,7 @@ pub struct RgbTrackStep {
 /// The trajectory behind one decoded symbol: every frame from the previous NULL confirmation
 /// to the one that classified it.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SymbolTrajectory {
+pub struct RgbSymbolTrajectory {
     /// The action token, or `Unknown` for a rejected or overlong path.
     pub token: Token,
     pub cause: TokenCause,
@@ -130,20 +130,20 @@ pub struct SymbolTrajectory {
 
 /// What one frame did.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct FrameOutcome {
+pub struct RgbFrameOutcome {
     /// Tokens confirmed and frames released at this frame.
     pub step: DecodeStep,
     /// Set when the frame was not used at all.
     pub rejected: Option<FrameRejection>,
     /// Set when this frame interrupted tracking.
-    pub interruption: Option<InterruptCause>,
+    pub interruption: Option<RgbInterruptCause>,
     /// The tracker's result, when the frame was tracked.
     pub track: Option<TrackStep>,
 }
 
 /// A snapshot of the receiver's state.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ReceiverStatus {
+pub struct RgbReceiverStatus {
     /// Trajectory point of the last frame, if a target is held.
     pub point_px: Option<[f64; 2]>,
     pub tracking: bool,
@@ -165,9 +165,9 @@ pub struct RgbReceiver {
     last_point_px: Option<[f64; 2]>,
     tokens: Vec<SegmentToken>,
     frames: Vec<ReleasedFrame>,
-    trajectories: Vec<SymbolTrajectory>,
+    trajectories: Vec<RgbSymbolTrajectory>,
     recent: VecDeque<RgbTrackStep>,
-    interruptions: BTreeMap<InterruptCause, u64>,
+    interruptions: BTreeMap<RgbInterruptCause, u64>,
     segmenter_errors: u64,
     frames_seen: u64,
 }
@@ -213,7 +213,7 @@ impl RgbReceiver {
     }
 
     /// The trajectory of every decoded symbol (action or rejected path), in order.
-    pub fn trajectories(&self) -> &[SymbolTrajectory] {
+    pub fn trajectories(&self) -> &[RgbSymbolTrajectory] {
         &self.trajectories
     }
 
@@ -224,7 +224,7 @@ impl RgbReceiver {
     }
 
     /// Tracking interruptions per cause (rejections included).
-    pub fn interruptions(&self) -> &BTreeMap<InterruptCause, u64> {
+    pub fn interruptions(&self) -> &BTreeMap<RgbInterruptCause, u64> {
         &self.interruptions
     }
 
@@ -238,8 +238,8 @@ impl RgbReceiver {
         &self.tracker
     }
 
-    pub fn status(&self) -> ReceiverStatus {
-        ReceiverStatus {
+    pub fn status(&self) -> RgbReceiverStatus {
+        RgbReceiverStatus {
             point_px: self.last_point_px,
             tracking: self.tracker.is_tracking(),
             frame_progress: self.decoder.parser().progress(),
@@ -248,31 +248,31 @@ impl RgbReceiver {
     }
 
     /// Consumes the next frame of this observer's camera.
-    pub fn push_frame(&mut self, frame: &RgbFrame) -> FrameOutcome {
+    pub fn push_frame(&mut self, frame: &RgbFrame) -> RgbFrameOutcome {
         self.frames_seen += 1;
-        let mut out = FrameOutcome::default();
+        let mut out = RgbFrameOutcome::default();
         if let Some(reason) = self.reject(frame) {
             out.rejected = Some(reason);
             // The frame's own stamp is not trusted: interrupt at the last good stamp.
             self.interrupt_at(
                 self.last_stamp_ns,
-                InterruptCause::Rejected(reason),
+                RgbInterruptCause::Rejected(reason),
                 &mut out,
             );
             return out;
         }
         let discontinuity = if !frame.valid {
-            Some(InterruptCause::Invalid)
+            Some(RgbInterruptCause::Invalid)
         } else if let Some(previous) = self.last_seq
             && frame.seq != previous.wrapping_add(1)
         {
             Some(if frame.seq > previous {
-                InterruptCause::SequenceGap
+                RgbInterruptCause::SequenceGap
             } else {
-                InterruptCause::Restart
+                RgbInterruptCause::Restart
             })
         } else if !frame.continuous {
-            Some(InterruptCause::NotContinuous)
+            Some(RgbInterruptCause::NotContinuous)
         } else {
             None
         };
@@ -280,7 +280,7 @@ impl RgbReceiver {
         self.last_stamp_ns = Some(frame.stamp_ns);
         if let Some(cause) = discontinuity {
             self.interrupt_at(Some(frame.stamp_ns), cause, &mut out);
-            if cause == InterruptCause::Invalid {
+            if cause == RgbInterruptCause::Invalid {
                 self.record(frame, None);
                 return out;
             }
@@ -294,9 +294,9 @@ impl RgbReceiver {
         if matches!(track.event, TrackEvent::Lost(_)) {
             *self
                 .interruptions
-                .entry(InterruptCause::TrackingLost)
+                .entry(RgbInterruptCause::TrackingLost)
                 .or_default() += 1;
-            out.interruption = Some(InterruptCause::TrackingLost);
+            out.interruption = Some(RgbInterruptCause::TrackingLost);
         }
         self.record(frame, Some(&track));
         out.track = Some(track);
@@ -316,13 +316,13 @@ impl RgbReceiver {
 
     /// The camera stream is known to be missing at `stamp_ns` (publisher gone, grace period
     /// over, a fault): drops the target and any incomplete frame.
-    pub fn interrupt(&mut self, stamp_ns: u64) -> FrameOutcome {
-        let mut out = FrameOutcome::default();
+    pub fn interrupt(&mut self, stamp_ns: u64) -> RgbFrameOutcome {
+        let mut out = RgbFrameOutcome::default();
         let stamp_ns = self
             .last_stamp_ns
             .map_or(stamp_ns, |last| stamp_ns.max(last));
         self.last_stamp_ns = Some(stamp_ns);
-        self.interrupt_at(Some(stamp_ns), InterruptCause::External, &mut out);
+        self.interrupt_at(Some(stamp_ns), RgbInterruptCause::External, &mut out);
         out
     }
 
@@ -368,8 +368,8 @@ impl RgbReceiver {
     fn interrupt_at(
         &mut self,
         stamp_ns: Option<u64>,
-        cause: InterruptCause,
-        out: &mut FrameOutcome,
+        cause: RgbInterruptCause,
+        out: &mut RgbFrameOutcome,
     ) {
         *self.interruptions.entry(cause).or_default() += 1;
         out.interruption = Some(cause);
@@ -396,13 +396,13 @@ impl RgbReceiver {
         });
     }
 
-    fn absorb(&mut self, step: DecodeStep, out: &mut FrameOutcome) {
+    fn absorb(&mut self, step: DecodeStep, out: &mut RgbFrameOutcome) {
         for t in &step.tokens {
             match t.cause {
                 TokenCause::Classified(_)
                 | TokenCause::Rejected(_)
                 | TokenCause::Overlong { .. } => {
-                    self.trajectories.push(SymbolTrajectory {
+                    self.trajectories.push(RgbSymbolTrajectory {
                         token: t.token,
                         cause: t.cause,
                         stamp_ns: t.stamp_ns,

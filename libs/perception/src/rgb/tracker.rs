@@ -29,7 +29,7 @@ use crate::rgb::klt::{Klt, KltConfig};
 
 /// Acquisition and tracking settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TrackerConfig {
+pub struct RgbTrackerConfig {
     /// Half-size of the central search region, pixels.
     pub search_half_size_px: [f64; 2],
     /// An acquired cluster holds the features within this half-size of their median (the drone
@@ -60,7 +60,7 @@ pub struct TrackerConfig {
     pub recentre_size_tolerance: f64,
 }
 
-impl TrackerConfig {
+impl RgbTrackerConfig {
     pub fn paper() -> Self {
         Self {
             search_half_size_px: [96.0, 64.0],
@@ -122,7 +122,7 @@ impl TrackerConfig {
     }
 }
 
-impl Default for TrackerConfig {
+impl Default for RgbTrackerConfig {
     fn default() -> Self {
         Self::paper()
     }
@@ -181,7 +181,7 @@ impl TrackStep {
 /// Single-target KLT tracker for one stationary camera.
 #[derive(Debug, Clone)]
 pub struct TargetTracker {
-    config: TrackerConfig,
+    config: RgbTrackerConfig,
     feature_config: FeatureConfig,
     klt: Klt,
     detector: FeatureDetector,
@@ -201,7 +201,7 @@ pub struct TargetTracker {
 
 impl TargetTracker {
     pub fn new(
-        config: TrackerConfig,
+        config: RgbTrackerConfig,
         klt: KltConfig,
         features: FeatureConfig,
     ) -> Result<Self, RgbReceiverError> {
@@ -223,7 +223,7 @@ impl TargetTracker {
         })
     }
 
-    pub fn config(&self) -> &TrackerConfig {
+    pub fn config(&self) -> &RgbTrackerConfig {
         &self.config
     }
 
