@@ -9,15 +9,17 @@
 //! - [`run_dir`]: the typed run-directory formats (`summary.json`, `observers.json`,
 //!   `session.json`, `sweep.json`, the audit report), shared by the writer and every reader.
 //! - [`case`]: case files.
+//!
+//!   Both are the `run-format` library, re-exported here under their old paths.
 //! - [`cli`]: one small adapter per `waggle` command (arguments in, library call, output).
 
 #![forbid(unsafe_code)]
 
-pub mod case;
 pub mod cli;
 pub mod compose;
 pub mod eval;
 pub mod fault;
 pub mod harness;
 pub mod launch;
-pub mod run_dir;
+
+pub use run_format::{case, run_dir};

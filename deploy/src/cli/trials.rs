@@ -265,7 +265,7 @@ fn fresh_out(out: &std::path::Path) -> Result<RunLock> {
             out.display()
         );
     }
-    RunLock::acquire(out)
+    Ok(RunLock::acquire(out)?)
 }
 
 fn progress_bar(trials: u64, first: &str) -> ProgressBar {

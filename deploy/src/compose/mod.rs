@@ -202,7 +202,10 @@ impl Compose {
 
     /// The case.
     pub fn case(&self) -> Result<Case> {
-        Case::from_text(&self.case, &format!("the case of session {}", self.session))
+        Ok(Case::from_text(
+            &self.case,
+            &format!("the case of session {}", self.session),
+        )?)
     }
 
     /// The faults the launcher injects: the case's and the file's.

@@ -4,11 +4,14 @@
 
 use std::collections::BTreeMap;
 
-use proto::{Decision, ObserverId, Offer, ReleasedFrame, Site};
+use proto::{Decision, ObserverId};
 use serde::Serialize;
 
 use crate::case::Case;
 use crate::run_dir::{MissionSummary, ObserverSummary, ObserverViewpoint};
+// `ns_s` and `decision_label` format `ObserverSummary::from_record`'s fields, so they live
+// with it in `run-format`; re-exported here for the readers that print them.
+pub use crate::run_dir::{decision_label, ns_s};
 
 /// How a summary prints its receiver.
 pub fn receiver_text(r: Option<proto::Receiver>) -> &'static str {
@@ -18,11 +21,6 @@ pub fn receiver_text(r: Option<proto::Receiver>) -> &'static str {
 /// How a summary prints its end reason.
 pub fn end_reason_text(r: Option<proto::EndReason>) -> &'static str {
     r.map_or("none (no mission report)", proto::EndReason::as_str)
-}
-
-/// Nanoseconds to seconds (a division, so whole milliseconds print exactly).
-pub fn ns_s(ns: u64) -> f64 {
-    ns as f64 / 1e9
 }
 
 /// Each observer's viewpoint in the built-in formation of `n` observers (empty for a count
@@ -178,42 +176,6 @@ pub fn print_summary(s: &MissionSummary) {
     for r in &s.reasons {
         println!("  ✗ {r}");
     }
-}
-
-impl ObserverSummary {
-    /// One observer's summary from what it released and decided (in order), the services the
-    /// scheduler completed for it and its token count. A complete message is a released frame
-    /// whose payload is a valid offer (what the agent caches).
-    pub fn from_record(
-        frames: &[ReleasedFrame],
-        decisions: &[Decision],
-        services: &[(u32, Site)],
-        tokens: usize,
-    ) -> Self {
-        Self {
-            complete_messages: frames
-                .iter()
-                .filter(|f| Offer::from_payload(f.payload).is_ok())
-                .count(),
-            payloads: frames
-                .iter()
-                .map(|f| format!("{:06b}", f.payload))
-                .collect(),
-            final_null_s: frames.iter().map(|f| ns_s(f.final_null_ns())).collect(),
-            decisions: decisions.iter().map(decision_label).collect(),
-            services: services.iter().map(|(_, site)| site.to_string()).collect(),
-            tokens,
-        }
-    }
-}
-
-/// `r<round>:<site>` (`-` when nothing is assigned).
-pub fn decision_label(d: &Decision) -> String {
-    format!(
-        "r{}:{}",
-        d.round,
-        d.assignment.map_or("-".to_string(), |x| x.to_string())
-    )
 }
 
 /// The provenance audit of every accepted assignment against its departure time.

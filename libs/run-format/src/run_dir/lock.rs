@@ -5,12 +5,47 @@
 use std::fs::{File, OpenOptions, TryLockError};
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
-
 use super::{CASE_FILE, OBSERVERS_FILE, RECORDING_FILE, SESSION_FILE, SUMMARY_FILE};
 
 /// The lock file inside a run directory.
 pub const LOCK_FILE: &str = ".lock";
+
+/// Why a run directory could not be locked for a run.
+#[derive(Debug, thiserror::Error)]
+pub enum LockError {
+    #[error("creating {}", dir.display())]
+    CreateDir {
+        dir: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("opening {}", path.display())]
+    Open {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// Another process holds the lock.
+    #[error(
+        "{} is in use by another waggle run (it holds {}); choose another --out",
+        dir.display(),
+        path.display()
+    )]
+    InUse { dir: PathBuf, path: PathBuf },
+    #[error("locking {}", path.display())]
+    Lock {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A previous run's file could not be removed.
+    #[error("removing the previous run's {}", path.display())]
+    RemovePrevious {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
 
 /// Held while a run writes its directory; released when dropped (or when the process dies:
 /// the kernel drops `flock` locks with the last descriptor).
@@ -23,25 +58,30 @@ pub struct RunLock {
 impl RunLock {
     /// Creates `dir` if needed and locks it; refuses when another process holds the lock.
     /// A previous, finished run's files are removed so that nothing of it mixes with this one.
-    pub fn acquire(dir: &Path) -> Result<Self> {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    pub fn acquire(dir: &Path) -> Result<Self, LockError> {
+        std::fs::create_dir_all(dir).map_err(|source| LockError::CreateDir {
+            dir: dir.to_path_buf(),
+            source,
+        })?;
         let path = dir.join(LOCK_FILE);
-        let file = OpenOptions::new()
+        let file = match OpenOptions::new()
             .create(true)
             .truncate(false)
             .write(true)
             .open(&path)
-            .with_context(|| format!("opening {}", path.display()))?;
+        {
+            Ok(file) => file,
+            Err(source) => return Err(LockError::Open { path, source }),
+        };
         match file.try_lock() {
             Ok(()) => {}
-            Err(TryLockError::WouldBlock) => bail!(
-                "{} is in use by another waggle run (it holds {}); choose another --out",
-                dir.display(),
-                path.display()
-            ),
-            Err(TryLockError::Error(e)) => {
-                return Err(e).with_context(|| format!("locking {}", path.display()));
+            Err(TryLockError::WouldBlock) => {
+                return Err(LockError::InUse {
+                    dir: dir.to_path_buf(),
+                    path,
+                });
             }
+            Err(TryLockError::Error(source)) => return Err(LockError::Lock { path, source }),
         }
         for name in [
             SUMMARY_FILE,
@@ -53,7 +93,7 @@ impl RunLock {
             let old = dir.join(name);
             if old.exists() {
                 std::fs::remove_file(&old)
-                    .with_context(|| format!("removing the previous run's {}", old.display()))?;
+                    .map_err(|source| LockError::RemovePrevious { path: old, source })?;
             }
         }
         Ok(Self { _file: file, path })
@@ -77,7 +117,7 @@ mod tests {
         std::fs::write(dir.join(SUMMARY_FILE), "{}").unwrap();
         let first = RunLock::acquire(&dir).unwrap();
         assert!(!dir.join(SUMMARY_FILE).exists(), "the old summary must go");
-        let err = format!("{:#}", RunLock::acquire(&dir).unwrap_err());
+        let err = RunLock::acquire(&dir).unwrap_err().to_string();
         assert!(err.contains("in use by another waggle run"), "{err}");
         assert!(err.contains(&dir.display().to_string()), "{err}");
         drop(first);

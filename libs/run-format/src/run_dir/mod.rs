@@ -13,10 +13,11 @@ pub mod lock;
 pub mod session;
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
-use proto::{Decision, FrameEvent, RenderPath, TokenEvent, TrackSample};
+use proto::{
+    Decision, FrameEvent, Offer, ReleasedFrame, RenderPath, Site, TokenEvent, TrackSample,
+};
 use serde::{Deserialize, Deserializer, Serialize};
 
 use session::SessionRecord;
@@ -36,6 +37,46 @@ pub const LOG_DIR: &str = "logs";
 /// `sweep.json` of a sweep directory.
 pub const SWEEP_FILE: &str = "sweep.json";
 
+/// Why a run directory's files could not be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum RunDirError {
+    /// A file of the run directory could not be read.
+    #[error("reading {}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// `dir/file` is not the JSON its format expects.
+    #[error("parsing {}/{file}", dir.display())]
+    Parse {
+        dir: PathBuf,
+        file: &'static str,
+        #[source]
+        source: serde_json::Error,
+    },
+    /// Writing a file of the run directory failed.
+    #[error(transparent)]
+    Write(#[from] std::io::Error),
+    /// A record could not be serialised.
+    #[error(transparent)]
+    Serialize(#[from] serde_json::Error),
+}
+
+/// Nanoseconds to seconds (a division, so whole milliseconds print exactly).
+pub fn ns_s(ns: u64) -> f64 {
+    ns as f64 / 1e9
+}
+
+/// `r<round>:<site>` (`-` when nothing is assigned): a decision as the summary lists it.
+pub fn decision_label(d: &Decision) -> String {
+    format!(
+        "r{}:{}",
+        d.round,
+        d.assignment.map_or("-".to_string(), |x| x.to_string())
+    )
+}
+
 /// Reads a number that may have been written as `null` (serde_json writes NaN and the
 /// infinities so) back as NaN.
 pub fn null_as_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
@@ -51,6 +92,33 @@ pub struct ObserverSummary {
     pub decisions: Vec<String>,
     pub services: Vec<String>,
     pub tokens: usize,
+}
+
+impl ObserverSummary {
+    /// One observer's summary from what it released and decided (in order), the services the
+    /// scheduler completed for it and its token count. A complete message is a released frame
+    /// whose payload is a valid offer (what the agent caches).
+    pub fn from_record(
+        frames: &[ReleasedFrame],
+        decisions: &[Decision],
+        services: &[(u32, Site)],
+        tokens: usize,
+    ) -> Self {
+        Self {
+            complete_messages: frames
+                .iter()
+                .filter(|f| Offer::from_payload(f.payload).is_ok())
+                .count(),
+            payloads: frames
+                .iter()
+                .map(|f| format!("{:06b}", f.payload))
+                .collect(),
+            final_null_s: frames.iter().map(|f| ns_s(f.final_null_ns())).collect(),
+            decisions: decisions.iter().map(decision_label).collect(),
+            services: services.iter().map(|(_, site)| site.to_string()).collect(),
+            tokens,
+        }
+    }
 }
 
 /// Where an observer watched the performer from: its home in the formation.
@@ -216,20 +284,24 @@ pub struct RunFiles {
 
 impl RunFiles {
     /// Reads `summary.json`, `observers.json` and (when present) `session.json` of `dir`.
-    pub fn load(dir: &Path) -> Result<Self> {
-        let read = |name: &str| -> Result<String> {
-            let p = dir.join(name);
-            std::fs::read_to_string(&p).with_context(|| format!("reading {}", p.display()))
-        };
-        let summary: RunSummary = serde_json::from_str(&read(SUMMARY_FILE)?)
-            .with_context(|| format!("parsing {}/{SUMMARY_FILE}", dir.display()))?;
-        let observers = serde_json::from_str(&read(OBSERVERS_FILE)?)
-            .with_context(|| format!("parsing {}/{OBSERVERS_FILE}", dir.display()))?;
+    pub fn load(dir: &Path) -> Result<Self, RunDirError> {
+        fn parse<T: serde::de::DeserializeOwned>(
+            dir: &Path,
+            file: &'static str,
+        ) -> Result<T, RunDirError> {
+            let path = dir.join(file);
+            let text = std::fs::read_to_string(&path)
+                .map_err(|source| RunDirError::Read { path, source })?;
+            serde_json::from_str(&text).map_err(|source| RunDirError::Parse {
+                dir: dir.to_path_buf(),
+                file,
+                source,
+            })
+        }
+        let summary: RunSummary = parse(dir, SUMMARY_FILE)?;
+        let observers = parse(dir, OBSERVERS_FILE)?;
         let session = match dir.join(SESSION_FILE).exists() {
-            true => Some(
-                serde_json::from_str(&read(SESSION_FILE)?)
-                    .with_context(|| format!("parsing {}/{SESSION_FILE}", dir.display()))?,
-            ),
+            true => Some(parse(dir, SESSION_FILE)?),
             false => None,
         };
         Ok(Self {
@@ -245,7 +317,7 @@ impl RunFiles {
         summary: &RunSummary,
         observers: &BTreeMap<String, ObserverRecord>,
         session: &SessionRecord,
-    ) -> Result<()> {
+    ) -> Result<(), RunDirError> {
         std::fs::write(
             dir.join(SUMMARY_FILE),
             serde_json::to_string_pretty(summary)?,

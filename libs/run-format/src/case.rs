@@ -6,28 +6,145 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use anyhow::{Context, Result, bail};
 use proto::Modality;
 use serde::Deserialize;
+
+/// Why a case could not be loaded, or does not apply.
+#[derive(Debug, thiserror::Error)]
+pub enum CaseError {
+    /// Neither a built-in name nor an existing file.
+    #[error("{name_or_path:?} is neither a built-in case ({built_in}) nor a file")]
+    NotFound {
+        name_or_path: String,
+        /// The built-in names, comma-separated.
+        built_in: String,
+    },
+    /// The case file could not be read ([`Case::load`]).
+    #[error("reading {path}")]
+    Read {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The case file could not be read ([`case_source`]).
+    #[error("reading case file {path}")]
+    ReadCaseFile {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The text is not a case's TOML (syntax, unknown key, wrong type).
+    #[error("parsing {origin}")]
+    Parse {
+        origin: String,
+        #[source]
+        source: toml::de::Error,
+    },
+    /// A field holds a value the case cannot have.
+    #[error("checking {origin}")]
+    Check {
+        origin: String,
+        #[source]
+        source: CaseCheckError,
+    },
+    /// The case does not list the modality asked for.
+    #[error("case {case} does not apply to the {} modality (it lists {listed:?})", modality.as_str())]
+    ModalityNotListed {
+        case: String,
+        modality: Modality,
+        listed: Vec<Receiver>,
+    },
+}
+
+/// The field of a case that fails its check, and why.
+#[derive(Debug, thiserror::Error)]
+pub enum CaseCheckError {
+    #[error("name is empty")]
+    EmptyName,
+    #[error("rounds = 0: a mission has at least one round")]
+    NoRounds,
+    #[error("rounds = {0} exceeds {MAX_ROUNDS}")]
+    TooManyRounds(u32),
+    /// A time field (`field`) outside `0..=MAX_TIME_S` or not finite.
+    #[error("{field} = {value_s} must be a finite number of seconds in 0..={MAX_TIME_S}")]
+    Time { field: String, value_s: f64 },
+    #[error("time_limit_s = 0 would end the mission before it starts")]
+    ZeroTimeLimit,
+    #[error("observers = {0} is outside 1..={max}", max = proto::scene::MAX_OBSERVERS)]
+    ObserverCount(usize),
+    /// A fault names an observer the case does not have.
+    #[error("fault names observer {observer:?}, but the case has {}", names.join(", "))]
+    UnknownFaultObserver {
+        observer: String,
+        names: Vec<String>,
+    },
+    #[error("faults[{observer}].delay_ms = {delay_ms} exceeds {MAX_DELAY_MS} ms")]
+    DelayTooLong { observer: String, delay_ms: u32 },
+    #[error("fault drop_per_mille = {0} exceeds 1000")]
+    DropPerMille(u16),
+    #[error("drop_per_mille and delay_ms apply to throttle faults only")]
+    ThrottleTermsOnOtherFault,
+    #[error("faults: two {kind:?} faults on {observer} (one per observer and kind)")]
+    DuplicateFault {
+        kind: CaseFaultKind,
+        observer: String,
+    },
+    /// An `offer_sites` entry is not a site.
+    #[error("offer_sites: {0}")]
+    OfferSite(proto::PayloadError),
+    #[error("modalities = {0:?}: list rgb and/or events, each once (ideal applies to every case)")]
+    Modalities(Vec<Receiver>),
+    #[error("expected.messages has {entries} entries for {observers} observers")]
+    ExpectedMessages { entries: usize, observers: usize },
+    #[error("expected.services names unknown observer {0:?}")]
+    UnknownServiceObserver(String),
+    /// An `expected.services.<observer>` entry is not a site.
+    #[error("expected.services.{observer}: {error}")]
+    ServiceSite {
+        observer: String,
+        error: proto::PayloadError,
+    },
+}
 
 /// Built-in cases (name, TOML text), in the paper's table order.
 pub const BUILT_IN: &[(&str, &str)] = &[
     // The paper's functional cases (`PAPER_CASES`), then the larger groups.
-    ("one-observer", include_str!("../cases/one-observer.toml")),
-    ("two-observers", include_str!("../cases/two-observers.toml")),
-    ("nominal-3", include_str!("../cases/nominal-3.toml")),
-    ("black-o2", include_str!("../cases/black-o2.toml")),
-    ("no-broadcast", include_str!("../cases/no-broadcast.toml")),
-    ("only-a", include_str!("../cases/only-a.toml")),
-    ("dropout-o2", include_str!("../cases/dropout-o2.toml")),
+    (
+        "one-observer",
+        include_str!("../../../deploy/cases/one-observer.toml"),
+    ),
+    (
+        "two-observers",
+        include_str!("../../../deploy/cases/two-observers.toml"),
+    ),
+    (
+        "nominal-3",
+        include_str!("../../../deploy/cases/nominal-3.toml"),
+    ),
+    (
+        "black-o2",
+        include_str!("../../../deploy/cases/black-o2.toml"),
+    ),
+    (
+        "no-broadcast",
+        include_str!("../../../deploy/cases/no-broadcast.toml"),
+    ),
+    ("only-a", include_str!("../../../deploy/cases/only-a.toml")),
+    (
+        "dropout-o2",
+        include_str!("../../../deploy/cases/dropout-o2.toml"),
+    ),
     (
         "four-observers",
-        include_str!("../cases/four-observers.toml"),
+        include_str!("../../../deploy/cases/four-observers.toml"),
     ),
-    ("six-observers", include_str!("../cases/six-observers.toml")),
+    (
+        "six-observers",
+        include_str!("../../../deploy/cases/six-observers.toml"),
+    ),
     (
         "eight-observers",
-        include_str!("../cases/eight-observers.toml"),
+        include_str!("../../../deploy/cases/eight-observers.toml"),
     ),
 ];
 
@@ -46,11 +163,13 @@ pub const PAPER_CASES: &[&str] = &[
 pub use proto::{FlightMode, Receiver};
 
 /// The TOML text of a case given by name or path (what [`Case::load`] parses).
-pub fn case_source(name_or_path: &str) -> Result<String> {
+pub fn case_source(name_or_path: &str) -> Result<String, CaseError> {
     match BUILT_IN.iter().find(|(n, _)| *n == name_or_path) {
         Some((_, text)) => Ok((*text).to_string()),
-        None => std::fs::read_to_string(name_or_path)
-            .with_context(|| format!("reading case file {name_or_path}")),
+        None => std::fs::read_to_string(name_or_path).map_err(|source| CaseError::ReadCaseFile {
+            path: name_or_path.to_string(),
+            source,
+        }),
     }
 }
 
@@ -115,9 +234,12 @@ pub const MAX_ROUNDS: u32 = 1000;
 pub const MAX_DELAY_MS: u32 = 60_000;
 
 /// A time field must be a finite number of seconds in `0..=MAX_TIME_S`.
-fn check_time_s(field: &str, value_s: f64) -> Result<()> {
+fn check_time_s(field: &str, value_s: f64) -> Result<(), CaseCheckError> {
     if !(value_s.is_finite() && (0.0..=MAX_TIME_S).contains(&value_s)) {
-        bail!("{field} = {value_s} must be a finite number of seconds in 0..={MAX_TIME_S}");
+        return Err(CaseCheckError::Time {
+            field: field.to_string(),
+            value_s,
+        });
     }
     Ok(())
 }
@@ -151,84 +273,85 @@ pub struct Case {
 
 impl Case {
     /// A built-in case by name, or a TOML file by path.
-    pub fn load(name_or_path: &str) -> Result<Self> {
+    pub fn load(name_or_path: &str) -> Result<Self, CaseError> {
         let (origin, text) = match BUILT_IN.iter().find(|(n, _)| *n == name_or_path) {
             Some((n, t)) => (format!("built-in case {n}"), (*t).to_string()),
             None => {
                 let path = Path::new(name_or_path);
                 if !path.exists() {
                     let names: Vec<&str> = BUILT_IN.iter().map(|(n, _)| *n).collect();
-                    bail!(
-                        "{name_or_path:?} is neither a built-in case ({}) nor a file",
-                        names.join(", ")
-                    );
+                    return Err(CaseError::NotFound {
+                        name_or_path: name_or_path.to_string(),
+                        built_in: names.join(", "),
+                    });
                 }
-                (
-                    path.display().to_string(),
-                    std::fs::read_to_string(path)
-                        .with_context(|| format!("reading {}", path.display()))?,
-                )
+                let text = std::fs::read_to_string(path).map_err(|source| CaseError::Read {
+                    path: path.display().to_string(),
+                    source,
+                })?;
+                (path.display().to_string(), text)
             }
         };
         Self::from_text(&text, &origin)
     }
 
     /// A case from its TOML text; `origin` names it in errors.
-    pub fn from_text(text: &str, origin: &str) -> Result<Self> {
-        let case: Case = toml::from_str(text).with_context(|| format!("parsing {origin}"))?;
-        case.check().with_context(|| format!("checking {origin}"))?;
+    pub fn from_text(text: &str, origin: &str) -> Result<Self, CaseError> {
+        let case: Case = toml::from_str(text).map_err(|source| CaseError::Parse {
+            origin: origin.to_string(),
+            source,
+        })?;
+        case.check().map_err(|source| CaseError::Check {
+            origin: origin.to_string(),
+            source,
+        })?;
         Ok(case)
     }
 
     /// Checks every field, naming the bad one, so a case is refused before any process
     /// starts (a child failing at start-up is not a validation).
-    fn check(&self) -> Result<()> {
+    fn check(&self) -> Result<(), CaseCheckError> {
+        use CaseCheckError as E;
         if self.name.trim().is_empty() {
-            bail!("name is empty");
+            return Err(E::EmptyName);
         }
         if self.rounds == 0 {
-            bail!("rounds = 0: a mission has at least one round");
+            return Err(E::NoRounds);
         }
         if self.rounds > MAX_ROUNDS {
-            bail!("rounds = {} exceeds {MAX_ROUNDS}", self.rounds);
+            return Err(E::TooManyRounds(self.rounds));
         }
         if let Some(limit) = self.time_limit_s {
             check_time_s("time_limit_s", limit)?;
             if limit == 0.0 {
-                bail!("time_limit_s = 0 would end the mission before it starts");
+                return Err(E::ZeroTimeLimit);
             }
         }
         if !(1..=proto::scene::MAX_OBSERVERS).contains(&self.observers) {
-            bail!(
-                "observers = {} is outside 1..={}",
-                self.observers,
-                proto::scene::MAX_OBSERVERS
-            );
+            return Err(E::ObserverCount(self.observers));
         }
         let names: Vec<String> = (0..self.observers)
             .map(proto::scene::observer_name)
             .collect();
         for f in &self.faults {
             if !names.contains(&f.observer) {
-                bail!(
-                    "fault names observer {:?}, but the case has {}",
-                    f.observer,
-                    names.join(", ")
-                );
+                return Err(E::UnknownFaultObserver {
+                    observer: f.observer.clone(),
+                    names,
+                });
             }
             check_time_s(&format!("faults[{}].at_s", f.observer), f.at_s)?;
             if f.delay_ms > MAX_DELAY_MS {
-                bail!(
-                    "faults[{}].delay_ms = {} exceeds {MAX_DELAY_MS} ms",
-                    f.observer,
-                    f.delay_ms
-                );
+                return Err(E::DelayTooLong {
+                    observer: f.observer.clone(),
+                    delay_ms: f.delay_ms,
+                });
             }
             if f.drop_per_mille > 1000 {
-                bail!("fault drop_per_mille = {} exceeds 1000", f.drop_per_mille);
+                return Err(E::DropPerMille(f.drop_per_mille));
             }
             if f.kind != CaseFaultKind::Throttle && (f.drop_per_mille != 0 || f.delay_ms != 0) {
-                bail!("drop_per_mille and delay_ms apply to throttle faults only");
+                return Err(E::ThrottleTermsOnOtherFault);
             }
         }
         for (i, f) in self.faults.iter().enumerate() {
@@ -236,41 +359,37 @@ impl Case {
                 .iter()
                 .any(|g| g.observer == f.observer && g.kind == f.kind)
             {
-                bail!(
-                    "faults: two {:?} faults on {} (one per observer and kind)",
-                    f.kind,
-                    f.observer
-                );
+                return Err(E::DuplicateFault {
+                    kind: f.kind,
+                    observer: f.observer.clone(),
+                });
             }
         }
         for s in &self.offer_sites {
-            s.parse::<proto::Site>()
-                .map_err(|e| anyhow::anyhow!("offer_sites: {e}"))?;
+            s.parse::<proto::Site>().map_err(E::OfferSite)?;
         }
         if self.modalities.is_empty()
             || self.modalities.contains(&Receiver::Ideal)
             || (1..self.modalities.len())
                 .any(|i| self.modalities[..i].contains(&self.modalities[i]))
         {
-            bail!(
-                "modalities = {:?}: list rgb and/or events, each once (ideal applies to every case)",
-                self.modalities
-            );
+            return Err(E::Modalities(self.modalities.clone()));
         }
         if self.expected.messages.len() != self.observers {
-            bail!(
-                "expected.messages has {} entries for {} observers",
-                self.expected.messages.len(),
-                self.observers
-            );
+            return Err(E::ExpectedMessages {
+                entries: self.expected.messages.len(),
+                observers: self.observers,
+            });
         }
         for (o, sites) in &self.expected.services {
             if !names.contains(o) {
-                bail!("expected.services names unknown observer {o:?}");
+                return Err(E::UnknownServiceObserver(o.clone()));
             }
             for s in sites {
-                s.parse::<proto::Site>()
-                    .map_err(|e| anyhow::anyhow!("expected.services.{o}: {e}"))?;
+                s.parse::<proto::Site>().map_err(|error| E::ServiceSite {
+                    observer: o.clone(),
+                    error,
+                })?;
             }
         }
         Ok(())
@@ -294,19 +413,18 @@ impl Case {
 
 /// The modality to run `case` in: `asked`, or events when the case applies to it (else RGB);
 /// an error when the case does not apply to it.
-pub fn run_modality(case: &Case, asked: Option<Modality>) -> Result<Modality> {
+pub fn run_modality(case: &Case, asked: Option<Modality>) -> Result<Modality, CaseError> {
     let modality = match asked {
         Some(m) => m,
         None if case.modalities.contains(&Receiver::Events) => Modality::Events,
         None => Modality::Rgb,
     };
     if !case.modalities.contains(&Receiver::from(modality)) {
-        bail!(
-            "case {} does not apply to the {} modality (it lists {:?})",
-            case.name,
-            modality.as_str(),
-            case.modalities
-        );
+        return Err(CaseError::ModalityNotListed {
+            case: case.name.clone(),
+            modality,
+            listed: case.modalities.clone(),
+        });
     }
     Ok(modality)
 }
@@ -314,6 +432,17 @@ pub fn run_modality(case: &Case, asked: Option<Modality>) -> Result<Modality> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The error and its causes, `: `-joined (as `anyhow` prints `{:#}`).
+    fn chain(e: &dyn std::error::Error) -> String {
+        let mut out = e.to_string();
+        let mut cause = e.source();
+        while let Some(c) = cause {
+            out = format!("{out}: {c}");
+            cause = c.source();
+        }
+        out
+    }
 
     #[test]
     fn every_built_in_case_loads_and_states_its_modalities() {
@@ -405,11 +534,9 @@ mod tests {
         ] {
             let path = dir.join("case.toml");
             std::fs::write(&path, text).unwrap();
-            let err = format!("{:#}", Case::load(path.to_str().unwrap()).unwrap_err());
+            let err = chain(&Case::load(path.to_str().unwrap()).unwrap_err());
             assert!(err.contains(needle) && err.contains("case.toml"), "{err}");
         }
-        assert!(
-            format!("{:#}", Case::load("nope").unwrap_err()).contains("neither a built-in case")
-        );
+        assert!(chain(&Case::load("nope").unwrap_err()).contains("neither a built-in case"));
     }
 }

@@ -1,0 +1,16 @@
+//! `run-format`: the files a Waggle run reads and writes, typed.
+//!
+//! - [`case`]: case files — which mission to fly, which faults to inject, what the outcome
+//!   must be (the built-in cases of `deploy/cases/` and TOML files of the same shape).
+//! - [`run_dir`]: run directories — the mission and run summaries (`summary.json`), the
+//!   observers' records (`observers.json`), the session record (`session.json`), the sweep
+//!   manifest (`sweep.json`), the audit report and the run lock. One set of serde structs is
+//!   shared by the writer (the launcher) and every reader; the JSON layout is the on-disk format.
+//!
+//! Errors are typed ([`case::CaseError`], [`run_dir::RunDirError`], [`run_dir::lock::LockError`])
+//! and name the file or field at fault.
+
+#![forbid(unsafe_code)]
+
+pub mod case;
+pub mod run_dir;
