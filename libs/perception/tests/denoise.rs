@@ -5,50 +5,16 @@
 #[path = "support/scene.rs"]
 mod scene;
 
+#[path = "support/rng.rs"]
+mod rng;
 use perception::events::{DenoiseConfig, NoiseFilter};
 use proto::{EventPacket, Polarity};
+use rng::Rng;
 use scene::{NS_PER_S, Script, Shape};
 
 const WIDTH: u16 = 640;
 const HEIGHT: u16 = 480;
 const PACKET_NS: u64 = 40_000_000;
-
-/// SplitMix64: a tiny seeded generator, enough for test streams.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn below(&mut self, n: u64) -> u64 {
-        ((u128::from(self.next()) * u128::from(n)) >> 64) as u64
-    }
-
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Poisson count of mean `lambda` (normal approximation above 64, exact below).
-    fn poisson(&mut self, lambda: f64) -> u64 {
-        if lambda > 64.0 {
-            let u1 = self.unit().max(1e-300);
-            let u2 = self.unit();
-            let z = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
-            return (lambda + lambda.sqrt() * z).round().max(0.0) as u64;
-        }
-        let (limit, mut product, mut k) = ((-lambda).exp(), self.unit(), 0);
-        while product > limit {
-            product *= self.unit();
-            k += 1;
-        }
-        k
-    }
-}
 
 /// `seconds` of uniform background activity at `rate_hz` per pixel, as 40 ms packets.
 fn background(rate_hz: f64, seconds: u64, seed: u64) -> Vec<EventPacket> {

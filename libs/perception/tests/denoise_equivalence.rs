@@ -3,8 +3,11 @@
 //! generated with every setting the filter accepts — noise, edges, hot pixels, events off the
 //! sensor, out-of-order events, long silences and restarts, packets of any length.
 
+#[path = "support/rng.rs"]
+mod rng;
 use perception::events::{BackgroundEstimate, DenoiseConfig, DenoiseCounts, NoiseFilter};
 use proto::{EventPacket, Polarity};
+use rng::Rng;
 
 /// Packets (40 ms each) the background estimate spans: one second.
 const BACKGROUND_PACKETS: usize = 25;
@@ -346,27 +349,6 @@ impl ReferenceFilter {
                 Side::Next => self.map[cell].next[0] = t,
             }
         }
-    }
-}
-
-/// SplitMix64: a small seeded generator for the generated streams.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn below(&mut self, n: u64) -> u64 {
-        ((u128::from(self.next()) * u128::from(n.max(1))) >> 64) as u64
-    }
-
-    fn chance(&mut self, p: f64) -> bool {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64 <= p
     }
 }
 
