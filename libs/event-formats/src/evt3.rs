@@ -19,6 +19,9 @@
 //! Waggle's nanosecond events are written at `t_ns / 1000` (floor), and read back at
 //! `t_us · 1000`.
 //!
+//! [`StreamDecoder`] reads a headerless word stream given in pieces (ROS 2 `event_camera_msgs`
+//! packets), [`read`] a whole file.
+//!
 //! The writer emits `TIME_HIGH`, `TIME_LOW` and `ADDR_Y` only when they change, then one
 //! `ADDR_X` per event (no vectors: simple, and still ≈ 2 bytes per event in a dense stream); the
 //! reader accepts vectors too, as cameras write them.
@@ -283,88 +286,130 @@ fn header(bytes: &[u8]) -> Result<(Option<Geometry>, usize), Evt3Error> {
 /// `ADDR_Y` have no time or row: they are an error, as is a trailing odd byte.
 pub fn read(bytes: &[u8]) -> Result<RawRecording, Evt3Error> {
     let (geometry, start) = header(bytes)?;
-    let data = &bytes[start..];
-    if !data.len().is_multiple_of(2) {
-        return Err(Evt3Error::Data {
-            offset: start + data.len() - 1,
-            what: "truncated: a 16-bit word is cut in half".into(),
-        });
-    }
     let mut out = RawRecording {
         geometry,
         ..RawRecording::default()
     };
-    let (mut high, mut wraps, mut low): (Option<u64>, u64, u64) = (None, 0, 0);
-    let mut y: Option<u16> = None;
-    let (mut base_x, mut vect_on) = (0u16, false);
-    for (k, pair) in data.chunks_exact(2).enumerate() {
-        let offset = start + 2 * k;
-        let w = u16::from_le_bytes([pair[0], pair[1]]);
-        let (kind, payload) = (w >> 12, w & 0x0FFF);
-        let time = |high: Option<u64>| {
-            high.map(|h| (wraps << 24) | (h << 12) | low)
-                .ok_or_else(|| Evt3Error::Data {
-                    offset,
-                    what: "event before the first EVT_TIME_HIGH".into(),
-                })
-        };
-        let row = |y: Option<u16>| {
-            y.ok_or_else(|| Evt3Error::Data {
+    let mut decoder = StreamDecoder::new();
+    decoder.decode(&bytes[start..], start, &mut out.events, &mut out.triggers)?;
+    Ok(out)
+}
+
+/// Decodes an EVT 3.0 word stream (no header) given in pieces, e.g. the `events` of ROS 2
+/// `event_camera_msgs` packets with `encoding: "evt3"`: the time, row and vector state carries
+/// from one piece to the next, so the pieces decode as their concatenation does (the counterpart
+/// of [`StreamEncoder`]).
+#[derive(Debug, Clone, Default)]
+pub struct StreamDecoder {
+    high: Option<u64>,
+    wraps: u64,
+    low: u64,
+    y: Option<u16>,
+    base_x: u16,
+    vect_on: bool,
+}
+
+impl StreamDecoder {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Appends the events and triggers of `data` (whole 16-bit words) to `events` and
+    /// `triggers`. `offset` is where `data` starts in its file or message, for errors. Events
+    /// before the stream's first `TIME_HIGH` or `ADDR_Y` are an error, as is an odd length.
+    pub fn decode(
+        &mut self,
+        data: &[u8],
+        offset: usize,
+        events: &mut Vec<Event>,
+        triggers: &mut Vec<Trigger>,
+    ) -> Result<(), Evt3Error> {
+        if !data.len().is_multiple_of(2) {
+            return Err(Evt3Error::Data {
+                offset: offset + data.len() - 1,
+                what: "truncated: a 16-bit word is cut in half".into(),
+            });
+        }
+        events.reserve(data.len() / 2);
+        for (k, pair) in data.chunks_exact(2).enumerate() {
+            let w = u16::from_le_bytes([pair[0], pair[1]]);
+            self.word(w, offset + 2 * k, events, triggers)?;
+        }
+        Ok(())
+    }
+
+    fn time(&self, offset: usize) -> Result<u64, Evt3Error> {
+        self.high
+            .map(|h| (self.wraps << 24) | (h << 12) | self.low)
+            .ok_or_else(|| Evt3Error::Data {
                 offset,
-                what: "event before the first EVT_ADDR_Y".into(),
+                what: "event before the first EVT_TIME_HIGH".into(),
             })
-        };
+    }
+
+    fn row(&self, offset: usize) -> Result<u16, Evt3Error> {
+        self.y.ok_or_else(|| Evt3Error::Data {
+            offset,
+            what: "event before the first EVT_ADDR_Y".into(),
+        })
+    }
+
+    fn word(
+        &mut self,
+        w: u16,
+        offset: usize,
+        events: &mut Vec<Event>,
+        triggers: &mut Vec<Trigger>,
+    ) -> Result<(), Evt3Error> {
+        let (kind, payload) = (w >> 12, w & 0x0FFF);
+        let polarity = |on: bool| if on { Polarity::On } else { Polarity::Off };
         match kind {
-            ADDR_Y => y = Some(payload & 0x7FF),
+            ADDR_Y => self.y = Some(payload & 0x7FF),
             ADDR_X => {
-                let t_us = time(high)?;
-                out.events.push(Event {
+                let t_us = self.time(offset)?;
+                events.push(Event {
                     t_ns: t_us * 1000,
                     x: payload & 0x7FF,
-                    y: row(y)?,
-                    polarity: if payload & 0x800 != 0 {
-                        Polarity::On
-                    } else {
-                        Polarity::Off
-                    },
+                    y: self.row(offset)?,
+                    polarity: polarity(payload & 0x800 != 0),
                 });
             }
             VECT_BASE_X => {
-                base_x = payload & 0x7FF;
-                vect_on = payload & 0x800 != 0;
+                self.base_x = payload & 0x7FF;
+                self.vect_on = payload & 0x800 != 0;
             }
             VECT_12 | VECT_8 => {
                 let n = if kind == VECT_12 { 12 } else { 8 };
-                let (t_us, yy) = (time(high)?, row(y)?);
+                let (t_us, y) = (self.time(offset)?, self.row(offset)?);
                 for i in 0..n {
                     if payload & (1 << i) != 0 {
-                        out.events.push(Event {
+                        events.push(Event {
                             t_ns: t_us * 1000,
-                            x: base_x + i,
-                            y: yy,
-                            polarity: if vect_on { Polarity::On } else { Polarity::Off },
+                            x: self.base_x.wrapping_add(i),
+                            y,
+                            polarity: polarity(self.vect_on),
                         });
                     }
                 }
-                base_x += n;
+                self.base_x = self.base_x.wrapping_add(n);
             }
-            TIME_LOW => low = u64::from(payload),
+            TIME_LOW => self.low = u64::from(payload),
             TIME_HIGH => {
                 let h = u64::from(payload);
-                if high.is_some_and(|last| h < last) {
-                    wraps += 1;
+                if self.high.is_some_and(|last| h < last) {
+                    self.wraps += 1;
                 }
-                high = Some(h);
+                self.high = Some(h);
             }
-            EXT_TRIGGER => out.triggers.push(Trigger {
-                t_us: time(high)?,
+            EXT_TRIGGER => triggers.push(Trigger {
+                t_us: self.time(offset)?,
                 channel: ((payload >> 8) & 0xF) as u8,
                 rising: payload & 1 != 0,
             }),
             _ => {}
         }
+        Ok(())
     }
-    Ok(out)
 }
 
 #[cfg(test)]

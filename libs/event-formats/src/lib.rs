@@ -1,6 +1,9 @@
 //! Event-camera file formats, so that real cameras' recordings and Waggle's synthetic events
-//! meet: [`evt3`], Prophesee's EVT 3.0 (`.raw`), written and read.
+//! meet, each written and read: [`evt3`], Prophesee's EVT 3.0 (`.raw`), and [`aedat4`],
+//! iniVation's AEDAT 4.0 (`.aedat4`).
 //!
 //! Pure code over byte slices and `Write`rs: no file system, no clock.
 
+pub mod aedat4;
 pub mod evt3;
+mod flatbuf;

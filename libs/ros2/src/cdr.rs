@@ -7,6 +7,9 @@
 //! then its bytes and the NUL; a sequence (`T[]`) is a `uint32` element count, then its
 //! elements; a fixed array (`T[N]`) is its N elements alone; a nested message is its fields in
 //! order, with no alignment of its own. Nothing pads the end.
+//!
+//! [`CdrReader`] reads the same layout back (and big-endian `CDR_BE`, header `00 00 00 00`),
+//! bounds-checked: a short or malformed message is a [`CdrError`] naming the byte.
 
 /// The encapsulation header: representation `CDR_LE` (0x0001), options 0.
 pub const ENCAPSULATION_CDR_LE: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
@@ -149,6 +152,128 @@ impl<T: CdrEncode> CdrEncode for [T] {
     }
 }
 
+/// Why a CDR message could not be read: the byte offset in the message (header included).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("CDR byte {offset}: {what}")]
+pub struct CdrError {
+    pub offset: usize,
+    pub what: String,
+}
+
+/// Reads one message's CDR bytes, encapsulation header first.
+#[derive(Debug, Clone)]
+pub struct CdrReader<'a> {
+    buf: &'a [u8],
+    pos: usize,
+    little: bool,
+}
+
+impl<'a> CdrReader<'a> {
+    /// A reader after the encapsulation header (`CDR_LE` or `CDR_BE`, options ignored).
+    pub fn new(buf: &'a [u8]) -> Result<Self, CdrError> {
+        let little = match buf.get(..2) {
+            Some([0x00, 0x01]) => true,
+            Some([0x00, 0x00]) => false,
+            Some(_) => {
+                return Err(CdrError {
+                    offset: 0,
+                    what: "encapsulation is neither CDR_LE nor CDR_BE".into(),
+                });
+            }
+            None => {
+                return Err(CdrError {
+                    offset: 0,
+                    what: "no encapsulation header".into(),
+                });
+            }
+        };
+        if buf.len() < 4 {
+            return Err(CdrError {
+                offset: 0,
+                what: "no encapsulation header".into(),
+            });
+        }
+        Ok(Self {
+            buf,
+            pos: 4,
+            little,
+        })
+    }
+
+    /// Where the next read starts (header included).
+    pub fn position(&self) -> usize {
+        self.pos
+    }
+
+    fn take<const N: usize>(&mut self, align: usize) -> Result<[u8; N], CdrError> {
+        let rel = self.pos - ENCAPSULATION_CDR_LE.len();
+        let start = self.pos + (align - rel % align) % align;
+        let bytes: [u8; N] = self
+            .buf
+            .get(start..start + N)
+            .and_then(|s| s.try_into().ok())
+            .ok_or_else(|| CdrError {
+                offset: start,
+                what: format!("the message ends inside a {N}-byte value"),
+            })?;
+        self.pos = start + N;
+        Ok(if self.little {
+            bytes
+        } else {
+            let mut b = bytes;
+            b.reverse();
+            b
+        })
+    }
+
+    pub fn u8(&mut self) -> Result<u8, CdrError> {
+        Ok(self.take::<1>(1)?[0])
+    }
+
+    pub fn bool(&mut self) -> Result<bool, CdrError> {
+        Ok(self.u8()? != 0)
+    }
+
+    pub fn u32(&mut self) -> Result<u32, CdrError> {
+        self.take::<4>(4).map(u32::from_le_bytes)
+    }
+
+    pub fn i32(&mut self) -> Result<i32, CdrError> {
+        self.take::<4>(4).map(i32::from_le_bytes)
+    }
+
+    pub fn u64(&mut self) -> Result<u64, CdrError> {
+        self.take::<8>(8).map(u64::from_le_bytes)
+    }
+
+    /// A `uint8[]` sequence (or a string's bytes with their NUL): count, then the bytes.
+    pub fn bytes(&mut self) -> Result<&'a [u8], CdrError> {
+        let at = self.pos;
+        let n = self.u32()? as usize;
+        let data = self
+            .buf
+            .get(self.pos..)
+            .and_then(|b| b.get(..n))
+            .ok_or_else(|| CdrError {
+                offset: at,
+                what: format!("a sequence of {n} bytes runs past the end of the message"),
+            })?;
+        self.pos += n;
+        Ok(data)
+    }
+
+    /// A `string`: its length counts the terminating NUL.
+    pub fn string(&mut self) -> Result<String, CdrError> {
+        let at = self.pos;
+        let bytes = self.bytes()?;
+        let text = bytes.strip_suffix(&[0]).unwrap_or(bytes);
+        String::from_utf8(text.to_vec()).map_err(|_| CdrError {
+            offset: at,
+            what: "a string is not UTF-8".into(),
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -200,5 +325,38 @@ mod tests {
             0, 0, 0, 0, 0, 0, 0xE0, 0x3F,                   // 0.5
         ];
         assert_eq!(w.into_bytes(), want);
+    }
+
+    #[test]
+    fn the_reader_reads_what_the_writer_writes_and_names_a_short_message() {
+        let mut w = CdrWriter::new();
+        w.u8(7);
+        w.i32(-5);
+        w.string("evt3");
+        w.bool(true);
+        w.u64(1 << 40);
+        w.bytes(&[1, 2, 3]);
+        w.u32(9);
+        let b = w.into_bytes();
+        let mut r = CdrReader::new(&b).unwrap();
+        assert_eq!(r.u8().unwrap(), 7);
+        assert_eq!(r.i32().unwrap(), -5);
+        assert_eq!(r.string().unwrap(), "evt3");
+        assert!(r.bool().unwrap());
+        assert_eq!(r.u64().unwrap(), 1 << 40);
+        assert_eq!(r.bytes().unwrap(), &[1, 2, 3]);
+        assert_eq!(r.u32().unwrap(), 9);
+        assert_eq!(r.position(), b.len());
+        let e = r.u32().unwrap_err();
+        assert_eq!(e.offset, b.len(), "{e}");
+        let mut cut = CdrReader::new(&b[..14]).unwrap();
+        cut.u8().unwrap();
+        cut.i32().unwrap();
+        let e = cut.string().unwrap_err();
+        assert!(e.to_string().contains("CDR byte 12"), "{e}");
+        // Big-endian: the same values, bytes reversed.
+        let be = [0, 0, 0, 0, 0, 0, 0, 5];
+        assert_eq!(CdrReader::new(&be).unwrap().u32().unwrap(), 5);
+        assert!(CdrReader::new(&[0x12, 0x34, 0, 0]).is_err());
     }
 }

@@ -59,6 +59,8 @@ pub enum Ros2Error {
         #[source]
         source: event_formats::evt3::Evt3Error,
     },
+    #[error("reading the bag {path}: {reason}")]
+    BagRead { path: String, reason: String },
     #[error("encoding a PNG image of {observer}: {reason}")]
     Png { observer: String, reason: String },
 }

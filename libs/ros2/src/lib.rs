@@ -7,7 +7,8 @@
 //! `metadata.yaml` (rosbag2 metadata version 9) laid out byte for byte as rosbag2's yaml-cpp
 //! emitter lays it out.
 //!
-//! - [`cdr`]: the CDR encoder (XCDR1, little-endian, 4-byte encapsulation header `00 01 00 00`);
+//! - [`cdr`]: the CDR encoder (XCDR1, little-endian, 4-byte encapsulation header `00 01 00 00`)
+//!   and a bounds-checked reader;
 //! - [`definitions`]: the `.msg` definitions the bag carries (our own field-only definitions of
 //!   the standard Jazzy types and Waggle's own `waggle_msgs`, kept in `libs/ros2/msg/`), their
 //!   `ros2msg` full text and RIHS01 type hashes;
@@ -16,7 +17,8 @@
 //! - [`geometry`]: camera intrinsics (`CameraInfo`) and the camera's optical frame from Waggle's
 //!   camera model;
 //! - [`export`]: a recording (`session.mcap`) → a bag, deterministic (the same run gives the same
-//!   bytes) and sorted by time.
+//!   bytes) and sorted by time;
+//! - [`ingest`]: an `event_camera_msgs` bag read back into events (`waggle decode`).
 //!
 //! Pure apart from the files it reads and writes; errors are [`Ros2Error`].
 
@@ -26,11 +28,12 @@ pub mod definitions;
 pub mod error;
 pub mod export;
 pub mod geometry;
+pub mod ingest;
 pub mod messages;
 pub mod waggle_msgs;
 
 pub use bag::{BagSummary, BagWriter, QosProfile, TopicSpec};
-pub use cdr::{CdrEncode, CdrWriter, RosMessage};
+pub use cdr::{CdrEncode, CdrError, CdrReader, CdrWriter, RosMessage};
 pub use error::Ros2Error;
 pub use export::{ExportOptions, ExportReport, ImageFormat, export_run};
 
