@@ -28,8 +28,9 @@
 //! distortion, so the width splits the distortion between the centre observer (V too wide) and
 //! the side ones (too narrow): measured on the ideal receiver (25 Hz setpoints), the bits'
 //! template error is ≤ 0.10 for every observer of N = 1…3 (0.15 m wide: 0.01 centre but 0.14 at
-//! O1; 0.20 m: 0.16 centre). At f ≈ 579 px and 1.26 m, 0.15 m ≈ 69 px, so every image path spans
-//! ≥ 66 px (limit: 28 px).
+//! O1; 0.20 m: 0.16 centre), with the paper's first-point alignment; the centroid alignment of
+//! [`crate::alphabet`] (the best translation) can only lower each of them. At f ≈ 579 px and
+//! 1.26 m, 0.15 m ≈ 69 px, so every image path spans ≥ 66 px (limit: 28 px).
 //!
 //! The acquisition sweep matches no template (END error 0.41), so a receiver that happens to
 //! hold a NULL before it reports `Unknown`, never a frame symbol.
