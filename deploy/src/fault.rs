@@ -166,12 +166,52 @@ impl std::fmt::Display for ThrottleSpec {
     }
 }
 
-/// The command line's extra faults.
-#[derive(Debug, Clone, Default, PartialEq)]
+/// Faults injected beyond the case's own: the command line's `--black`, `--kill` and
+/// `--throttle`, and a compose file's `[faults]` table, where each is written as on the command
+/// line (`black = ["O2"]`, `kill = ["O2@35"]`, `throttle = ["O1@0:250:0"]`) and parsed by the
+/// same [`FromStr`], so a bad one is refused naming it.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ExtraFaults {
+    /// Black input from start-up, `O2`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty", with = "as_text")]
     pub black: Vec<BlackSpec>,
+    /// SIGKILL of a camera at a sim time, `O2@35`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty", with = "as_text")]
     pub kill: Vec<KillSpec>,
+    /// Throttle of a camera, `O1@0:250:0`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty", with = "as_text")]
     pub throttle: Vec<ThrottleSpec>,
+}
+
+impl ExtraFaults {
+    pub fn is_empty(&self) -> bool {
+        self.black.is_empty() && self.kill.is_empty() && self.throttle.is_empty()
+    }
+}
+
+/// A list of fault specifications as their command-line text.
+mod as_text {
+    use std::fmt::Display;
+    use std::str::FromStr;
+
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<T: Display, S: Serializer>(items: &[T], s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(items.iter().map(ToString::to_string))
+    }
+
+    pub fn deserialize<'de, T, D>(d: D) -> Result<Vec<T>, D::Error>
+    where
+        T: FromStr,
+        T::Err: Display,
+        D: Deserializer<'de>,
+    {
+        Vec::<String>::deserialize(d)?
+            .iter()
+            .map(|text| text.parse().map_err(serde::de::Error::custom))
+            .collect()
+    }
 }
 
 /// A fault the launcher injects.

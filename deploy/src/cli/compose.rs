@@ -88,7 +88,7 @@ fn describe(c: &Compose, file: &Path, secrets: Option<&Path>) {
         c.router.listen.join(", ")
     );
     for host in c.hosts() {
-        let nodes: Vec<&str> = c.nodes_on(&host).map(|n| n.role.as_str()).collect();
+        let nodes: Vec<String> = c.nodes_on(&host).map(|n| n.role.name()).collect();
         println!(
             "  {host}: {}   →   waggle up {} --host {host}",
             if nodes.is_empty() {

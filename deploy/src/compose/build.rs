@@ -1,13 +1,14 @@
 //! The compose file of a case: every node of the session with its arguments, placed on hosts.
 
 use anyhow::Result;
+use bus::Process;
 use node_args::{
     CameraArgs, NodeCommand, NodeLine, ObserverArgs, RecorderArgs, SchedulerArgs, SensorArgs,
 };
 use proto::{Modality, ObserverId, RenderPath, Role};
 
 use super::place::{HostPlacement, place};
-use super::{COMPOSE_VERSION, Compose, Faults, Node, Router};
+use super::{COMPOSE_VERSION, Compose, Node, Router};
 use crate::case::Case;
 use crate::fault::{ExtraFaults, Injected, injected_faults};
 
@@ -78,7 +79,7 @@ pub fn compose(case: &Case, opts: &ComposeOptions) -> Result<Compose> {
             },
             connect: opts.router_connect.clone(),
         },
-        faults: Faults::from_extra(&opts.extra_faults),
+        faults: opts.extra_faults.clone(),
         nodes,
     };
     place(&mut compose, &opts.placements)?;
@@ -94,13 +95,13 @@ struct NodeArgs<'a> {
     keys: &'a proto::Keys,
 }
 
-fn node(role: &str, command: NodeCommand) -> Node {
+fn node(role: Process, command: NodeCommand) -> Node {
     line(role, NodeLine::new(command))
 }
 
-fn line(role: &str, line: NodeLine) -> Node {
+fn line(role: Process, line: NodeLine) -> Node {
     Node {
-        role: role.to_string(),
+        role,
         host: DEFAULT_HOST.to_string(),
         binary: line.binary().to_string(),
         args: line.to_args(),
@@ -113,9 +114,12 @@ impl NodeArgs<'_> {
     fn nodes(&self) -> Vec<Node> {
         let modality = self.opts.modality;
         let mut out = vec![
-            node("sim", NodeCommand::Sim),
-            node("scheduler", NodeCommand::Scheduler(self.scheduler_args())),
-            node("performer", NodeCommand::Performer),
+            node(Process::singleton(Role::Sim), NodeCommand::Sim),
+            node(
+                Process::singleton(Role::Scheduler),
+                NodeCommand::Scheduler(self.scheduler_args()),
+            ),
+            node(Process::singleton(Role::Performer), NodeCommand::Performer),
         ];
         for o in self.observers {
             let camera = CameraArgs {
@@ -126,7 +130,10 @@ impl NodeArgs<'_> {
                 render: self.opts.render,
                 sensor: self.opts.sensor.clone(),
             };
-            out.push(node(&format!("camera-{o}"), NodeCommand::Camera(camera)));
+            out.push(node(
+                Process::new(Role::Camera, o.as_str()),
+                NodeCommand::Camera(camera),
+            ));
             let observer = ObserverArgs {
                 id: o.clone(),
                 modality,
@@ -138,13 +145,16 @@ impl NodeArgs<'_> {
                 Vec::new()
             };
             let command = NodeCommand::Observer(observer);
-            out.push(line(&format!("observer-{o}"), NodeLine { command, deny }));
+            out.push(line(
+                Process::new(Role::Observer, o.as_str()),
+                NodeLine { command, deny },
+            ));
         }
         if self.opts.record {
             let mut recorder = RecorderArgs::new(&self.case.name, modality);
             recorder.all_rgb = self.opts.record_all_rgb;
             out.push(node(
-                Role::Recorder.as_str(),
+                Process::singleton(Role::Recorder),
                 NodeCommand::Recorder(recorder),
             ));
         }

@@ -22,7 +22,7 @@ use proto::{Modality, ObserverId, Role};
 use serde::{Deserialize, Serialize};
 
 use crate::case::Case;
-use crate::fault::{BlackSpec, ExtraFaults, Injected, KillSpec, ThrottleSpec};
+use crate::fault::{ExtraFaults, Injected};
 
 /// The compose format this build reads and writes.
 pub const COMPOSE_VERSION: u32 = 1;
@@ -48,8 +48,8 @@ pub struct Compose {
     /// The case file's text (the case as flown).
     pub case: String,
     pub router: Router,
-    #[serde(default, skip_serializing_if = "Faults::is_empty")]
-    pub faults: Faults,
+    #[serde(default, skip_serializing_if = "ExtraFaults::is_empty")]
+    pub faults: ExtraFaults,
     #[serde(rename = "node")]
     pub nodes: Vec<Node>,
 }
@@ -69,59 +69,14 @@ pub struct Router {
     pub connect: Vec<String>,
 }
 
-/// Faults injected beyond the case's own, as on `waggle run`'s command line.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Faults {
-    /// Black input from start-up, `O2`.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub black: Vec<String>,
-    /// SIGKILL of a camera at a sim time, `O2@35`.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub kill: Vec<String>,
-    /// Throttle of a camera, `O1@0:250:0`.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub throttle: Vec<String>,
-}
-
-impl Faults {
-    pub fn is_empty(&self) -> bool {
-        self.black.is_empty() && self.kill.is_empty() && self.throttle.is_empty()
-    }
-
-    pub fn from_extra(extra: &ExtraFaults) -> Self {
-        Self {
-            black: extra.black.iter().map(BlackSpec::to_string).collect(),
-            kill: extra.kill.iter().map(KillSpec::to_string).collect(),
-            throttle: extra.throttle.iter().map(ThrottleSpec::to_string).collect(),
-        }
-    }
-
-    pub fn to_extra(&self) -> Result<ExtraFaults> {
-        fn parse<T: std::str::FromStr>(items: &[String], what: &str) -> Result<Vec<T>>
-        where
-            T::Err: std::error::Error + Send + Sync + 'static,
-        {
-            items
-                .iter()
-                .map(|s| s.parse::<T>().with_context(|| format!("faults.{what}")))
-                .collect()
-        }
-        Ok(ExtraFaults {
-            black: parse(&self.black, "black")?,
-            kill: parse(&self.kill, "kill")?,
-            throttle: parse(&self.throttle, "throttle")?,
-        })
-    }
-}
-
 /// One node process.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Node {
-    /// Its process name, as in `summary.json`: `sim`, `scheduler`, `performer`, `recorder`,
-    /// `camera-Oi`, `observer-Oi`.
-    pub role: String,
+    /// Its process, written as its name (as in `summary.json`): `sim`, `scheduler`,
+    /// `performer`, `recorder`, `camera-Oi`, `observer-Oi`; any other name is refused when the
+    /// file is read.
+    pub role: bus::Process,
     /// The host it runs on (a name of the user's choosing, given to `waggle up --host`).
     pub host: String,
     /// The node binary, looked up in the launcher's binary directory.
@@ -135,7 +90,8 @@ impl Node {
     /// Its command line, typed: refused (naming the node) when its binary is unknown or its
     /// arguments are not ones that binary takes.
     pub fn line(&self) -> Result<NodeLine> {
-        NodeLine::parse(&self.binary, &self.args).with_context(|| format!("node {}", self.role))
+        NodeLine::parse(&self.binary, &self.args)
+            .with_context(|| format!("node {}", self.role.name()))
     }
 }
 
@@ -210,12 +166,12 @@ impl Compose {
 
     /// The faults the launcher injects: the case's and the file's.
     pub fn injected(&self, case: &Case) -> Result<Vec<Injected>> {
-        crate::fault::injected_faults(case, &self.faults.to_extra()?)
+        crate::fault::injected_faults(case, &self.faults)
     }
 
     /// A recorder takes part.
     pub fn records(&self) -> bool {
-        self.nodes.iter().any(|n| n.role == Role::Recorder.as_str())
+        self.nodes.iter().any(|n| n.role.role == Role::Recorder)
     }
 
     /// Every host of the session (sorted): those of its nodes and the router's.
@@ -230,7 +186,7 @@ impl Compose {
     pub fn supervisor_host(&self) -> &str {
         self.nodes
             .iter()
-            .find(|n| n.role == Role::Sim.as_str())
+            .find(|n| n.role.role == Role::Sim)
             .map_or(self.router.host.as_str(), |n| n.host.as_str())
     }
 
@@ -266,7 +222,7 @@ impl Compose {
         let mut models = Vec::new();
         for n in &self.nodes {
             if let NodeCommand::Camera(c) = n.line()?.command {
-                models.push((n.role.as_str(), c.sensor));
+                models.push((n.role.name(), c.sensor));
             }
         }
         let Some((first, spec)) = models.first() else {
@@ -297,7 +253,7 @@ impl Compose {
     /// The user names of the session's credentials: every node, the supervising launcher and
     /// each host's launcher.
     pub fn users(&self) -> Vec<String> {
-        let mut out: Vec<String> = self.nodes.iter().map(|n| n.role.clone()).collect();
+        let mut out: Vec<String> = self.nodes.iter().map(|n| n.role.name()).collect();
         out.push(Role::Launcher.as_str().to_string());
         out.extend(
             self.hosts()
@@ -309,7 +265,7 @@ impl Compose {
 
     /// The credentials `host` needs: its nodes' and its launcher's.
     pub fn users_on(&self, host: &str) -> Vec<String> {
-        let mut out: Vec<String> = self.nodes_on(host).map(|n| n.role.clone()).collect();
+        let mut out: Vec<String> = self.nodes_on(host).map(|n| n.role.name()).collect();
         if host == self.supervisor_host() {
             out.push(Role::Launcher.as_str().to_string());
         } else {
@@ -357,21 +313,21 @@ impl Compose {
         let mut seen = BTreeSet::new();
         for n in &self.nodes {
             check_name("host", &n.host)?;
-            if !expected.contains(&n.role) {
+            let name = n.role.name();
+            if !expected.contains(&name) {
                 bail!(
                     "node {:?} is not a process of this session (a case with {} observers has: {})",
-                    n.role,
+                    name,
                     case.observers,
                     expected.join(", ")
                 );
             }
-            if !seen.insert(n.role.as_str()) {
-                bail!("node {:?} is listed twice", n.role);
+            if !seen.insert(name.clone()) {
+                bail!("node {name:?} is listed twice");
             }
             if n.binary.is_empty() || n.binary.contains('/') || n.binary.starts_with('.') {
                 bail!(
-                    "node {}: binary {:?} must be a file name in the binary directory",
-                    n.role,
+                    "node {name}: binary {:?} must be a file name in the binary directory",
                     n.binary
                 );
             }

@@ -80,7 +80,7 @@ pub fn place(compose: &mut Compose, placements: &[HostPlacement]) -> Result<()> 
         for n in compose
             .nodes
             .iter_mut()
-            .filter(|n| glob_matches(&p.pattern, &n.role))
+            .filter(|n| glob_matches(&p.pattern, &n.role.name()))
         {
             n.host = p.host.clone();
             matched = true;
@@ -90,8 +90,8 @@ pub fn place(compose: &mut Compose, placements: &[HostPlacement]) -> Result<()> 
             matched = true;
         }
         if !matched {
-            let mut names: Vec<&str> = compose.nodes.iter().map(|n| n.role.as_str()).collect();
-            names.push(ROUTER);
+            let mut names: Vec<String> = compose.nodes.iter().map(|n| n.role.name()).collect();
+            names.push(ROUTER.to_string());
             bail!(
                 "--place {}={}: {:?} matches none of {}",
                 p.pattern,

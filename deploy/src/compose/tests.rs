@@ -52,12 +52,16 @@ fn a_composed_session_round_trips_through_its_file_and_checks() {
     assert_eq!(back, c);
     assert_eq!(c.hosts(), ["b", "c", "local"]);
     assert_eq!(c.supervisor_host(), "local");
-    let on_b: Vec<&str> = c.nodes_on("b").map(|n| n.role.as_str()).collect();
+    let on_b: Vec<String> = c.nodes_on("b").map(|n| n.role.name()).collect();
     assert_eq!(on_b, ["camera-O1", "camera-O2"]);
     assert_eq!(c.dial_from("b"), ["tcp/10.1.0.1:7447"]);
-    assert_eq!(c.faults.kill, ["O2@35"]);
+    assert_eq!(c.faults.kill, ["O2@35".parse().unwrap()]);
     // The camera of the killed observer stops its stream itself at the dropout time.
-    let cam2 = c.nodes.iter().find(|n| n.role == "camera-O2").unwrap();
+    let cam2 = c
+        .nodes
+        .iter()
+        .find(|n| n.role.name() == "camera-O2")
+        .unwrap();
     assert!(
         cam2.args
             .windows(2)
@@ -90,7 +94,7 @@ fn bad_compose_files_are_refused_naming_what_is_wrong() {
     good.check().unwrap();
 
     let mut c = good.clone();
-    c.nodes.retain(|n| n.role != "camera-O2");
+    c.nodes.retain(|n| n.role.name() != "camera-O2");
     assert!(check_err(&c).contains("camera-O2"), "{}", check_err(&c));
 
     let mut c = good.clone();
@@ -98,7 +102,7 @@ fn bad_compose_files_are_refused_naming_what_is_wrong() {
     assert!(check_err(&c).contains("twice"));
 
     let mut c = good.clone();
-    c.nodes[0].role = "camera-O7".into();
+    c.nodes[0].role = "camera-O7".parse().unwrap();
     assert!(check_err(&c).contains("camera-O7"));
 
     let mut c = good.clone();
@@ -130,7 +134,7 @@ fn bad_compose_files_are_refused_naming_what_is_wrong() {
     assert!(check_err(&c).contains("secrets"));
 
     let mut c = good.clone();
-    c.faults.kill = vec!["O9@3".into()];
+    c.faults.kill = vec!["O9@3".parse().unwrap()];
     assert!(check_err(&c).contains("O9"), "{}", check_err(&c));
 
     let mut c = good.clone();
@@ -204,7 +208,7 @@ fn a_sensor_model_rides_on_every_camera_and_round_trips_through_the_file() {
     for n in composed
         .nodes
         .iter()
-        .filter(|n| n.role.starts_with("camera-"))
+        .filter(|n| n.role.role == Role::Camera)
     {
         assert!(
             n.args.ends_with(&want.map(String::from)),
@@ -217,7 +221,7 @@ fn a_sensor_model_rides_on_every_camera_and_round_trips_through_the_file() {
     for n in composed
         .nodes
         .iter()
-        .filter(|n| !n.role.starts_with("camera-"))
+        .filter(|n| n.role.role != Role::Camera)
     {
         assert!(!n.args.iter().any(|a| a == "--sensor-preset"), "{}", n.role);
     }
@@ -241,7 +245,11 @@ fn a_sensor_model_rides_on_every_camera_and_round_trips_through_the_file() {
 
     // Cameras that disagree are refused.
     let mut c2 = back.clone();
-    let cam = c2.nodes.iter_mut().find(|n| n.role == "camera-O3").unwrap();
+    let cam = c2
+        .nodes
+        .iter_mut()
+        .find(|n| n.role.name() == "camera-O3")
+        .unwrap();
     let seed = cam.args.len() - 1;
     cam.args[seed] = "8".into();
     assert!(
@@ -254,7 +262,11 @@ fn a_sensor_model_rides_on_every_camera_and_round_trips_through_the_file() {
 #[test]
 fn without_a_sensor_model_the_cameras_arguments_are_unchanged() {
     let c = composed("one-observer", &[], &[]);
-    let cam = c.nodes.iter().find(|n| n.role == "camera-O1").unwrap();
+    let cam = c
+        .nodes
+        .iter()
+        .find(|n| n.role.name() == "camera-O1")
+        .unwrap();
     assert_eq!(
         cam.args,
         [
@@ -304,9 +316,27 @@ fn every_composed_node_parses_as_its_binarys_arguments_and_bad_ones_are_refused(
     let obs = c
         .nodes
         .iter_mut()
-        .find(|n| n.role == "observer-O2")
+        .find(|n| n.role.name() == "observer-O2")
         .unwrap();
     obs.args.extend(["--grace".to_string(), "5".to_string()]);
     let e = check_err(&c);
     assert!(e.contains("observer-O2") && e.contains("--grace"), "{e}");
+}
+
+#[test]
+fn a_compose_files_faults_are_typed_and_a_bad_one_is_refused_naming_it() {
+    let text = composed("nominal-3", &[], &[]).to_toml().unwrap();
+    assert!(text.contains("kill = [\"O2@35\"]"), "{text}");
+    let bad = text.replace("\"O2@35\"", "\"O2@soon\"");
+    let err = toml::from_str::<Compose>(&bad).unwrap_err().to_string();
+    assert!(err.contains("O2@soon") && err.contains("kill"), "{err}");
+}
+
+#[test]
+fn a_node_role_that_is_no_process_is_refused_when_the_file_is_read() {
+    let text = composed("only-a", &[], &[]).to_toml().unwrap();
+    assert!(text.contains("role = \"camera-O1\""), "{text}");
+    let bad = text.replace("role = \"camera-O1\"", "role = \"robot-O1\"");
+    let err = toml::from_str::<Compose>(&bad).unwrap_err().to_string();
+    assert!(err.contains("robot-O1"), "{err}");
 }

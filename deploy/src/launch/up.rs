@@ -216,11 +216,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
 
 /// `--live PORT` needs the recorder on this host.
 fn check_live(compose: &Compose, share: &Share, port: u16) -> Result<()> {
-    match compose
-        .nodes
-        .iter()
-        .find(|n| n.role == Role::Recorder.as_str())
-    {
+    match compose.nodes.iter().find(|n| n.role.role == Role::Recorder) {
         None => {
             bail!("--live {port}: the session records nothing (the live view is the recorder's)")
         }
@@ -334,7 +330,7 @@ fn spawn_share(
         .filter(|n| share.hosts.contains(&n.host))
     {
         let mut args = node.args.clone();
-        let recorder = node.role == Role::Recorder.as_str();
+        let recorder = node.role.role == Role::Recorder;
         if recorder {
             let output = recorder_output(&compose.case, out_dir, live)?;
             args.extend(output.to_args());
@@ -344,7 +340,7 @@ fn spawn_share(
                 );
             }
         }
-        let mut p = spawner.spawn(&node.role, &node.binary, &args)?;
+        let mut p = spawner.spawn(&node.role.name(), &node.binary, &args)?;
         p.graceful = recorder;
         procs.push(p);
     }

@@ -30,6 +30,7 @@ pub mod cli;
 mod endpoints;
 mod error;
 pub mod handshake;
+mod process_name;
 mod rejects;
 mod stop;
 
@@ -42,5 +43,6 @@ pub use endpoints::{
 };
 pub use error::BusError;
 pub use handshake::{Process, mission_processes};
+pub use process_name::ProcessNameError;
 pub use rejects::{LOGGED_REJECTS, Rejects};
 pub use stop::on_stop_signal;
