@@ -5,6 +5,11 @@
 //! and each trial costs only its sensors and receivers. A render is stored as what changed since
 //! the camera's previous render (the damage rectangle's pixels, nothing, or the whole frame), so
 //! a 30 s flight of three observers at 100 Hz keeps a few tens of MB, not gigabytes.
+//!
+//! That holds only while the cameras stand still. A flight that moves them (the cascade's noisy
+//! estimate, wind) changes every pixel of every render, so each render would be kept whole
+//! (0.9 MB, gigabytes a flight): such a flight is flown once per trial anyway, so its renders
+//! are streamed to their consumer as they are made ([`fly_streamed`]) and never kept.
 
 use std::collections::BTreeMap;
 
@@ -83,12 +88,9 @@ pub struct RenderedFlight {
 }
 
 impl RenderTrack {
+    /// Keeps a render ([`fly_streamed`] hands a camera's first render over as `All`).
     fn push(&mut self, stamp_ns: u64, rgb: &[u8], change: FrameChange, width: usize) {
-        let change = if self.updates.is_empty() {
-            FrameChange::All
-        } else {
-            change
-        };
+        debug_assert!(!self.updates.is_empty() || change == FrameChange::All);
         let pixels = match change {
             FrameChange::Nothing => Vec::new(),
             FrameChange::All => rgb.to_vec(),
@@ -149,8 +151,44 @@ fn rows(r: PixelRect, width: usize) -> impl Iterator<Item = (usize, usize)> {
     })
 }
 
-/// Flies `spec` once, rendering every observer's camera at `render_period_ns`.
+/// What a flight gave besides its renders.
+#[derive(Debug, Clone)]
+pub struct Flown {
+    /// The ideal receiver's tokens and frames per observer, for each modality's segmenter.
+    pub ideal: BTreeMap<Modality, Vec<ObserverOut>>,
+    pub sim_ns: u64,
+    pub performer_max_tracking_error_m: f64,
+    pub contact_steps: u64,
+}
+
+/// Flies `spec` once and keeps every observer's renders (the render cache).
 pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
+    let width = usize::from(proto::scene::IMAGE_WIDTH_PX);
+    let mut tracks = vec![RenderTrack::default(); spec.formation.len()];
+    let flown = fly_streamed(&spec, |i, t, rgb, change| {
+        tracks[i].push(t, rgb, change, width);
+        Ok(true)
+    })?
+    .context("a render cache never stops its flight")?;
+    Ok(RenderedFlight {
+        tracks,
+        ideal: flown.ideal,
+        sim_ns: flown.sim_ns,
+        performer_max_tracking_error_m: flown.performer_max_tracking_error_m,
+        contact_steps: flown.contact_steps,
+        spec,
+    })
+}
+
+/// Flies `spec` once, rendering every observer's camera at `render_period_ns` and handing each
+/// render to `visit(observer, stamp_ns, whole frame, change since that camera's previous
+/// render)` as it is made, observers in order at each instant — what
+/// [`RenderTrack::replay`] gives for the same flight (a camera's first render is `All`).
+/// Nothing is kept. `None` when `visit` returns `false` (the flight stops there).
+pub fn fly_streamed(
+    spec: &FlightSpec,
+    mut visit: impl FnMut(usize, u64, &[u8], FrameChange) -> Result<bool>,
+) -> Result<Option<Flown>> {
     let mut world = World::with_formation(&spec.formation).context("building the scene")?;
     if let Some((p, seed)) = &spec.air {
         crate::harness::air::set_air(&mut world, p, *seed)?;
@@ -168,9 +206,8 @@ pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
                 .map(|r| (m, r))
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let n = spec.formation.len();
-    let mut tracks = vec![RenderTrack::default(); n];
-    let width = usize::from(proto::scene::IMAGE_WIDTH_PX);
+    // Whether each camera has rendered yet (its first render is handed over whole).
+    let mut seen = vec![false; spec.formation.len()];
     let mut gust = spec.gusts.map(|g| {
         use rand::SeedableRng;
         (g, rand_chacha::ChaCha8Rng::seed_from_u64(g.seed), 0u64)
@@ -199,12 +236,20 @@ pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
             world.set_disturbance_n(PERFORMER, force);
             *next_ns = t + g.period_ns;
         }
-        for (i, track) in tracks.iter_mut().enumerate() {
+        for (i, seen) in seen.iter_mut().enumerate() {
             let frame = renderer.render_change(&mut world, i)?;
-            track.push(t, frame.rgb, frame.change, width);
+            let change = if *seen {
+                frame.change
+            } else {
+                FrameChange::All
+            };
+            *seen = true;
+            if !visit(i, t, frame.rgb, change)? {
+                return Ok(None);
+            }
         }
     }
-    let ideal_outs = ideal
+    let ideal = ideal
         .iter()
         .map(|(m, receiver)| {
             let outs = receiver
@@ -215,14 +260,12 @@ pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
             (*m, outs)
         })
         .collect();
-    Ok(RenderedFlight {
-        tracks,
-        ideal: ideal_outs,
+    Ok(Some(Flown {
+        ideal,
         sim_ns: world.time_ns(),
         performer_max_tracking_error_m: max_err_m,
         contact_steps: world.contact_stats().contact_steps,
-        spec,
-    })
+    }))
 }
 
 impl RenderedFlight {

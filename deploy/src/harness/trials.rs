@@ -11,24 +11,32 @@ pub use crate::harness::trials_out::{
     ObserverTrial, PlacementOut, TokenTiming, TrialRecord, TrialsCost, TrialsHeader, TrialsOut,
     TrialsSummary,
 };
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 use event_camera::{CameraConfig, EventCamera};
 use perception::perception::{Perception, SensorInput};
 use perturb::Perturbation;
+use perturb::link::LinkNoise;
+use perturb::rgb::RgbSensor;
 use perturb::seed::{Stream, rng, stream_seed, trial_seed};
 use proto::scene::{
     Formation, IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, MAX_OBSERVERS, Placement, observer_name,
 };
-use proto::{Modality, Rectification, RenderPath, RgbFrame};
+use proto::{
+    FrameChange, Modality, Rectification, ReleasedFrame, RenderPath, RgbFrame, Schedule,
+    SegmentToken,
+};
+use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
 use crate::harness::link::{ObserverOut, bits6, broadcast_schedule, observer_out};
 use crate::harness::pool::run_pool_on;
-use crate::harness::rendered_flight::{FlightSpec, Gusts, RenderedFlight, fly_rendered};
+use crate::harness::rendered_flight::{
+    FlightSpec, Flown, Gusts, RenderedFlight, fly_rendered, fly_streamed,
+};
 
 /// One condition and how many times to try it.
 #[derive(Debug, Clone)]
@@ -192,79 +200,97 @@ fn token_timing(ideal: &ObserverOut, got: &ObserverOut) -> TokenTiming {
     }
 }
 
-/// One observer's receiver fed its perturbed sensor from the flight's renders. `None` when
-/// `stop` was raised before it finished.
-fn observe(
-    flight: &RenderedFlight,
-    i: usize,
-    opts: &TrialsOptions,
-    seed: u64,
-    stop: &AtomicBool,
-) -> Result<Option<Observed>> {
-    let placement = flight.spec.formation.placements()[i];
-    let mut perception =
-        Perception::for_camera(opts.modality, placement.camera(), opts.rectification)?;
-    let link = opts.perturbation.link();
-    let mut link_rng = rng(seed, Stream::Link, i);
-    let (mut tokens, mut frames) = (Vec::new(), Vec::new());
-    let (mut messages, mut lost) = (0u64, 0u64);
-    let mut deliver = |input: SensorInput<'_>, messages: &mut u64| -> Result<()> {
-        *messages += 1;
-        if !link.keeps(&mut link_rng) {
-            lost += 1;
-            return Ok(());
-        }
-        let step = perception.push(input)?;
-        tokens.extend(step.tokens);
-        frames.extend(step.frames);
-        Ok(())
-    };
-    let mut finished = true;
-    match opts.modality {
-        Modality::Events => {
-            let config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX).with_model(
-                opts.perturbation
-                    .event_sensor(stream_seed(seed, Stream::EventSensor, i)),
-            );
-            let mut camera = EventCamera::new(config).context("event camera")?;
-            flight.tracks[i].replay(|t, rgb, change| {
-                if stop.load(Ordering::Relaxed) {
-                    finished = false;
-                    return Ok(false);
+/// One observer's perturbed sensor and its receiver, fed the camera's renders in order (from
+/// the render cache or straight from a flight of the trial's own).
+struct Observer {
+    perception: Perception,
+    link: LinkNoise,
+    link_rng: ChaCha8Rng,
+    sensor: Sensor,
+    tokens: Vec<SegmentToken>,
+    frames: Vec<ReleasedFrame>,
+    messages: u64,
+    lost: u64,
+}
+
+/// What turns an observer's renders into sensor messages.
+enum Sensor {
+    Events(Box<EventCamera>),
+    Rgb {
+        sensor: Box<RgbSensor>,
+        /// Renders a frame averages (motion blur); 1: none.
+        keep: usize,
+        /// The last `keep` renders, oldest first (only when `keep > 1`).
+        recent: VecDeque<Vec<u8>>,
+        seq: u64,
+    },
+}
+
+impl Observer {
+    /// Observer `i` of `placement` under trial `seed`'s perturbation.
+    fn new(placement: &Placement, i: usize, opts: &TrialsOptions, seed: u64) -> Result<Self> {
+        let perception =
+            Perception::for_camera(opts.modality, placement.camera(), opts.rectification)?;
+        let sensor = match opts.modality {
+            Modality::Events => {
+                let config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX).with_model(
+                    opts.perturbation
+                        .event_sensor(stream_seed(seed, Stream::EventSensor, i)),
+                );
+                Sensor::Events(Box::new(EventCamera::new(config).context("event camera")?))
+            }
+            Modality::Rgb => {
+                let noise = opts.perturbation.rgb();
+                Sensor::Rgb {
+                    sensor: Box::new(noise.sensor(&mut rng(seed, Stream::RgbSensor, i))),
+                    keep: noise.blur_renders.max(1) as usize,
+                    recent: VecDeque::new(),
+                    seq: 0,
                 }
+            }
+        };
+        Ok(Self {
+            perception,
+            link: opts.perturbation.link(),
+            link_rng: rng(seed, Stream::Link, i),
+            sensor,
+            tokens: Vec::new(),
+            frames: Vec::new(),
+            messages: 0,
+            lost: 0,
+        })
+    }
+
+    /// The camera's next render: `rgb` the whole frame, `change` what differs from the previous.
+    fn render(&mut self, t: u64, rgb: &[u8], change: FrameChange) -> Result<()> {
+        match &mut self.sensor {
+            Sensor::Events(camera) => {
                 for packet in camera.push_frame_change(t, rgb, change)? {
-                    deliver(SensorInput::Events(&packet), &mut messages)?;
+                    self.deliver(SensorInput::Events(&packet))?;
                 }
-                Ok(true)
-            })?;
-        }
-        Modality::Rgb => {
-            let noise = opts.perturbation.rgb();
-            let mut sensor = noise.sensor(&mut rng(seed, Stream::RgbSensor, i));
-            let keep = noise.blur_renders.max(1) as usize;
-            let mut recent: Vec<Vec<u8>> = Vec::new();
-            let mut seq = 0u64;
-            flight.tracks[i].replay(|t, rgb, _| {
-                if stop.load(Ordering::Relaxed) {
-                    finished = false;
-                    return Ok(false);
-                }
-                if keep > 1 {
-                    if recent.len() == keep {
-                        recent.remove(0);
+            }
+            Sensor::Rgb {
+                sensor,
+                keep,
+                recent,
+                seq,
+            } => {
+                if *keep > 1 {
+                    if recent.len() == *keep {
+                        recent.pop_front();
                     }
-                    recent.push(rgb.to_vec());
+                    recent.push_back(rgb.to_vec());
                 }
                 if !t.is_multiple_of(RGB_PERIOD_NS) {
-                    return Ok(true);
+                    return Ok(());
                 }
-                let renders: Vec<&[u8]> = if keep > 1 {
+                let renders: Vec<&[u8]> = if *keep > 1 {
                     recent.iter().map(Vec::as_slice).collect()
                 } else {
                     vec![rgb]
                 };
                 let frame = RgbFrame {
-                    seq,
+                    seq: *seq,
                     stamp_ns: t,
                     width: IMAGE_WIDTH_PX,
                     height: IMAGE_HEIGHT_PX,
@@ -272,38 +298,107 @@ fn observe(
                     continuous: true,
                     rgb: sensor.apply(&renders),
                 };
-                seq += 1;
-                deliver(SensorInput::Rgb(&frame), &mut messages)?;
-                Ok(true)
-            })?;
+                *seq += 1;
+                self.deliver(SensorInput::Rgb(&frame))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// One sensor message over the perturbed link into the receiver.
+    fn deliver(&mut self, input: SensorInput<'_>) -> Result<()> {
+        self.messages += 1;
+        if !self.link.keeps(&mut self.link_rng) {
+            self.lost += 1;
+            return Ok(());
+        }
+        let step = self.perception.push(input)?;
+        self.tokens.extend(step.tokens);
+        self.frames.extend(step.frames);
+        Ok(())
+    }
+
+    /// What the receiver released, its instants shifted by the link's delay.
+    fn finish(self) -> Observed {
+        let mut out = observer_out(&self.tokens, &self.frames);
+        let delay_s = self.link.delay_ns() as f64 * 1e-9;
+        for f in &mut out.frames {
+            f.final_null_s += delay_s;
+        }
+        for t in &mut out.tokens {
+            t.t_s += delay_s;
+        }
+        Observed {
+            out,
+            messages: self.messages,
+            lost: self.lost,
+            denoise: self.perception.denoise_counts(),
         }
     }
-    if !finished {
-        return Ok(None);
+}
+
+/// Every observer of a trial fed from the render cache, one after another. `None` when `stop`
+/// was raised before they finished.
+fn observe_cached(
+    flight: &RenderedFlight,
+    opts: &TrialsOptions,
+    seed: u64,
+    stop: &AtomicBool,
+) -> Result<Option<Vec<Observed>>> {
+    let mut observed = Vec::new();
+    for (i, placement) in flight.spec.formation.placements().iter().enumerate() {
+        let mut observer = Observer::new(placement, i, opts, seed)?;
+        let mut finished = true;
+        flight.tracks[i].replay(|t, rgb, change| {
+            if stop.load(Ordering::Relaxed) {
+                finished = false;
+                return Ok(false);
+            }
+            observer.render(t, rgb, change)?;
+            Ok(true)
+        })?;
+        if !finished {
+            return Ok(None);
+        }
+        observed.push(observer.finish());
     }
-    let mut out = observer_out(&tokens, &frames);
-    let delay_s = link.delay_ns() as f64 * 1e-9;
-    for f in &mut out.frames {
-        f.final_null_s += delay_s;
-    }
-    for t in &mut out.tokens {
-        t.t_s += delay_s;
-    }
-    Ok(Some(Observed {
-        out,
-        messages,
-        lost,
-        denoise: perception.denoise_counts(),
-    }))
+    Ok(Some(observed))
+}
+
+/// Every observer of a trial fed straight from the trial's own flight of `spec`, render by
+/// render: nothing is kept (a flight that moves the cameras changes every pixel of every
+/// render, gigabytes a flight). Each observer sees the same renders in the same order as from
+/// the cache, so it decodes the same. `None` when `stop` was raised before the flight ended.
+fn observe_flying(
+    spec: &FlightSpec,
+    opts: &TrialsOptions,
+    seed: u64,
+    stop: &AtomicBool,
+) -> Result<Option<(Flown, Vec<Observed>)>> {
+    let mut observers = spec
+        .formation
+        .placements()
+        .iter()
+        .enumerate()
+        .map(|(i, placement)| Observer::new(placement, i, opts, seed))
+        .collect::<Result<Vec<_>>>()?;
+    let flown = fly_streamed(spec, |i, t, rgb, change| {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(false);
+        }
+        observers[i].render(t, rgb, change)?;
+        Ok(true)
+    })?;
+    Ok(flown.map(|f| (f, observers.into_iter().map(Observer::finish).collect())))
 }
 
 /// Latency and comparison with the ideal receiver of each released frame.
 fn release_times(
-    flight: &RenderedFlight,
+    schedule: &Schedule,
     ideal: &ObserverOut,
     got: &ObserverOut,
 ) -> (Vec<f64>, Vec<Option<f64>>) {
-    let offers = flight.spec.schedule.offers();
+    let offers = schedule.offers();
     let mut latency = Vec::new();
     let mut vs_ideal = Vec::new();
     for f in &got.frames {
@@ -336,31 +431,39 @@ fn run_trial(
 ) -> Result<Option<TrialRecord>> {
     let seed = trial_seed(opts.seed, index);
     let own;
-    let flight = match shared {
-        Some(f) => f,
+    let (spec, ideal, observed) = match shared {
+        Some(f) => {
+            let Some(observed) = observe_cached(f, opts, seed, stop)? else {
+                return Ok(None);
+            };
+            (&f.spec, &f.ideal, observed)
+        }
         None => {
-            own = fly_rendered(opts.flight_spec(Some(seed))?)?;
-            &own
+            let spec = opts.flight_spec(Some(seed))?;
+            let Some((flown, observed)) = observe_flying(&spec, opts, seed, stop)? else {
+                return Ok(None);
+            };
+            own = (spec, flown);
+            (&own.0, &own.1.ideal, observed)
         }
     };
     let want = opts.want();
     let mut observers = BTreeMap::new();
-    for i in 0..flight.spec.formation.len() {
-        let Some(Observed {
+    for (
+        i,
+        Observed {
             out,
             messages,
             lost: messages_lost,
             denoise,
-        }) = observe(flight, i, opts, seed, stop)?
-        else {
-            return Ok(None);
-        };
-        let ideal = flight
-            .ideal
+        },
+    ) in observed.into_iter().enumerate()
+    {
+        let ideal = ideal
             .get(&opts.modality)
             .and_then(|o| o.get(i))
             .context("the flight has no ideal receiver for this observer")?;
-        let (latency_s, vs_ideal_s) = release_times(flight, ideal, &out);
+        let (latency_s, vs_ideal_s) = release_times(&spec.schedule, ideal, &out);
         observers.insert(
             observer_name(i),
             ObserverTrial {
@@ -532,4 +635,65 @@ pub fn definition(opts: &TrialsOptions) -> String {
         opts.rectification,
         opts.acquisition
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::AtomicBool;
+
+    use perturb::Perturbation;
+    use proto::scene::Formation;
+    use proto::{Modality, Rectification, RenderPath};
+
+    use super::{Observed, TrialsOptions, fly_rendered, observe_cached, observe_flying};
+
+    fn digest(observed: &[Observed]) -> Vec<String> {
+        observed
+            .iter()
+            .map(|o| {
+                let out = serde_json::to_string(&o.out).unwrap();
+                format!("{out} {} {} {:?}", o.messages, o.lost, o.denoise)
+            })
+            .collect()
+    }
+
+    /// A trial that flies its own flight feeds its observers straight from the renderer
+    /// (nothing kept: under the cascade every render changes every pixel); they must decode
+    /// exactly what they decode from the same flight's render cache.
+    #[test]
+    fn a_streamed_flight_observes_as_its_render_cache() {
+        for modality in [Modality::Events, Modality::Rgb] {
+            let opts = TrialsOptions {
+                payloads: vec![0b011010],
+                formation: Formation::standard(2).unwrap(),
+                modality,
+                trials: 1,
+                seed: 3,
+                perturbation: Perturbation::parse(&[
+                    "flight.cascade=1",
+                    "link.drop_rate=0.1",
+                    "rgb.blur_renders=3",
+                ])
+                .unwrap(),
+                jobs: 1,
+                render: RenderPath::Damage,
+                rectification: Rectification::Pitched,
+                acquisition: Some(false),
+            };
+            assert!(opts.perturbation.reflies());
+            let mut spec = opts.flight_spec(Some(11)).unwrap();
+            spec.end_ns = 3_000_000_000;
+            let stop = AtomicBool::new(false);
+            let (flown, streamed) = observe_flying(&spec, &opts, 11, &stop).unwrap().unwrap();
+            let cache = fly_rendered(spec).unwrap();
+            let cached = observe_cached(&cache, &opts, 11, &stop).unwrap().unwrap();
+            assert_eq!(digest(&streamed), digest(&cached), "{modality}");
+            assert!(streamed.iter().all(|o| o.messages > 0), "{modality}");
+            assert_eq!(
+                serde_json::to_string(&flown.ideal).unwrap(),
+                serde_json::to_string(&cache.ideal).unwrap()
+            );
+            assert_eq!(flown.sim_ns, cache.sim_ns);
+        }
+    }
 }
