@@ -137,6 +137,21 @@ pub fn node_client(script: &str) -> Command {
     c
 }
 
+/// The Python of the venv `deploy/setup.sh` makes (`tests/js/.venv`: the pinned PyPI readers
+/// and writers the tests compare against).
+///
+/// # Panics
+///
+/// If the venv is missing, naming the command that makes it.
+pub fn venv_python() -> PathBuf {
+    let python = workspace_root().join("tests/js/.venv/bin/python");
+    assert!(
+        python.is_file(),
+        "the Python test readers are not installed: run bash deploy/setup.sh"
+    );
+    python
+}
+
 /// The official Python `mcap` reader (`tests/js/read_mcap.py` in the venv `deploy/setup.sh`
 /// makes) on `file`: its JSON report and whether it read the whole file.
 ///

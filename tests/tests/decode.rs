@@ -96,9 +96,11 @@ fn bad_recordings_and_viewpoints_are_refused_naming_them() {
     std::fs::write(&file, b"% evt 3.0\n% geometry 640x480\n% end\n\x01\x80\x05").unwrap();
     let err = refusal(&file, "O1");
     assert!(err.contains("byte 37"), "{err}");
+    // Another sensor size is remapped into the reference camera, not refused.
     std::fs::write(&file, b"% evt 3.0\n% geometry 320x240\n% end\n").unwrap();
-    let err = refusal(&file, "O1");
-    assert!(err.contains("320×240"), "{err}");
+    let small = decode(&["--events", file.to_str().unwrap(), "--observer", "O1"]);
+    assert_eq!(small["remapped"], true, "{small}");
+    assert_eq!(small["width_px"], 320);
     let err = refusal(&file, "O9");
     assert!(err.contains("O9"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);

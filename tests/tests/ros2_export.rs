@@ -125,6 +125,8 @@ fn check(bag: &Path) -> Value {
 #[derive(Debug, Default)]
 struct Recorded {
     counts: BTreeMap<String, u64>,
+    /// Each observer's confirmed tokens, in order.
+    tokens: BTreeMap<String, Vec<String>>,
     events: BTreeMap<String, (u64, u64, Option<u64>)>,
 }
 
@@ -132,6 +134,7 @@ fn recorded(run: &Path) -> Recorded {
     let mut r = Recorded::default();
     let mut bump = |topic: String| *r.counts.entry(topic).or_insert(0) += 1;
     let mut events: BTreeMap<String, (u64, u64, Option<u64>)> = BTreeMap::new();
+    let mut tokens: BTreeMap<String, Vec<String>> = BTreeMap::new();
     let outcome = read_recording::<ReadError>(&run.join("session.mcap"), |m| {
         let Some(kind) = MessageKind::from_schema_name(m.schema) else {
             return Ok(());
@@ -164,7 +167,13 @@ fn recorded(run: &Path) -> Recorded {
                 bump(format!("/{observer}/camera/image"));
                 bump(format!("/{observer}/camera/camera_info"));
             }
-            Decoded::TokenEvent(t) => bump(format!("/{}/tokens", t.observer)),
+            Decoded::TokenEvent(t) => {
+                bump(format!("/{}/tokens", t.observer));
+                tokens
+                    .entry(t.observer.to_string())
+                    .or_default()
+                    .push(format!("{:?}", t.token).to_uppercase());
+            }
             Decoded::FrameEvent(f) => bump(format!("/{}/frames", f.observer)),
             Decoded::Decision(d) => bump(format!("/{}/decision", d.observer)),
             Decoded::Fault(f) => bump(format!("/{}/fault", f.observer)),
@@ -175,7 +184,43 @@ fn recorded(run: &Path) -> Recorded {
     .unwrap();
     assert!(outcome.complete, "{:?}", outcome.problem);
     r.events = events;
+    r.tokens = tokens;
     r
+}
+
+/// `waggle decode --events|--rgb BAG [--topic TOPIC] --observer O1`: O1's camera in the bag (or
+/// PNG directory) through O1's receiver, from O1's place in the formation; the decoded tokens'
+/// names.
+fn decode_bag(input: &str, bag: &Path, topic: &str) -> Vec<String> {
+    let out = succeed(
+        waggle().args(["decode", input]).arg(bag).args([
+            "--topic",
+            topic,
+            "--observer",
+            "O1",
+            "--json",
+        ]),
+        &format!("waggle decode {input} {}", bag.display()),
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    v["decoded"]["tokens"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["token"].as_str().unwrap().to_owned())
+        .collect()
+}
+
+/// The bag's O1 camera, decoded offline, gives the tokens O1 confirmed live.
+fn assert_o1_decodes_as_live(input: &str, bag: &Path, topic: &str, rec: &Recorded) {
+    let live = &rec.tokens["O1"];
+    assert!(!live.is_empty(), "O1 confirmed no token live");
+    let decoded = decode_bag(input, bag, topic);
+    // The run stops mid-gesture; offline, the tail of silence may confirm one more token.
+    assert!(
+        decoded.len() >= live.len() && decoded[..live.len()] == live[..],
+        "decoded {decoded:?}, live {live:?}"
+    );
 }
 
 /// Every check of one exported bag against its recording; `image_topic` names where images go.
@@ -228,6 +273,7 @@ fn only_a_events_exports_a_bag_both_readers_read_with_the_recorded_events() {
     );
     let report = assert_bag_matches(&dir.join("1/bag"), &rec, "");
     assert_eq!(report["events"].as_object().unwrap().len(), 3);
+    assert_o1_decodes_as_live("--events", &dir.join("1/bag"), "/O1/events", &rec);
     // The run is long enough to hold Waggle's own messages too, and no longer than asked.
     assert!(
         rec.counts.keys().filter(|t| t.ends_with("/tokens")).count() == 3,
@@ -269,6 +315,12 @@ fn only_a_rgb_exports_png_images_and_raw_images_on_request() {
     let stdout = export(run, &dir.join("png"), &[]);
     eprintln!("export: {:.2} s\n{stdout}", t0.elapsed().as_secs_f64());
     let report = assert_bag_matches(&dir.join("png"), &rec, "/camera/image_raw/compressed");
+    assert_o1_decodes_as_live(
+        "--rgb",
+        &dir.join("png"),
+        "/O1/camera/image_raw/compressed",
+        &rec,
+    );
     for img in report["images"].as_object().unwrap().values() {
         assert_eq!(img["sizes"], serde_json::json!(["(640, 480, 2)"]), "{img}");
         assert_eq!(
@@ -278,6 +330,7 @@ fn only_a_rgb_exports_png_images_and_raw_images_on_request() {
     }
     export(run, &dir.join("raw"), &["--raw-images"]);
     let report = assert_bag_matches(&dir.join("raw"), &rec, "/camera/image_raw");
+    assert_o1_decodes_as_live("--rgb", &dir.join("raw"), "/O1/camera/image_raw", &rec);
     for img in report["images"].as_object().unwrap().values() {
         assert_eq!(
             img["sizes"],

@@ -61,7 +61,7 @@ impl std::fmt::Display for Summary {
 }
 
 /// The PNG files of `dir`, sorted by file name.
-fn frame_paths(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+pub(crate) fn frame_paths(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let entries = fs::read_dir(dir)
         .with_context(|| format!("cannot read frames directory {}", dir.display()))?;
     let mut paths = Vec::new();
@@ -85,7 +85,7 @@ fn frame_paths(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
 }
 
 /// Stamp of frame `k` at `fps`, nanoseconds from the first frame.
-fn stamp_ns(k: usize, fps: u32) -> u64 {
+pub(crate) fn stamp_ns(k: usize, fps: u32) -> u64 {
     (k as u128 * 1_000_000_000 / u128::from(fps)) as u64
 }
 

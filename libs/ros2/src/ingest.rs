@@ -14,19 +14,27 @@ use event_formats::evt3::StreamDecoder;
 
 use crate::cdr::{CdrError, CdrReader, RosMessage};
 use crate::error::Ros2Error;
-use crate::messages::{EventPacketMsg, HeaderMsg, TimeMsg};
+use crate::messages::{CompressedImageMsg, EventPacketMsg, HeaderMsg, ImageMsg, TimeMsg};
+
+impl HeaderMsg {
+    fn read(r: &mut CdrReader) -> Result<Self, CdrError> {
+        let stamp = TimeMsg {
+            sec: r.i32()?,
+            nanosec: r.u32()?,
+        };
+        Ok(Self {
+            stamp,
+            frame_id: r.string()?,
+        })
+    }
+}
 
 impl EventPacketMsg {
     /// Decodes a message's CDR bytes (encapsulation header first).
     pub fn from_cdr(bytes: &[u8]) -> Result<Self, CdrError> {
         let mut r = CdrReader::new(bytes)?;
-        let stamp = TimeMsg {
-            sec: r.i32()?,
-            nanosec: r.u32()?,
-        };
-        let frame_id = r.string()?;
         Ok(Self {
-            header: HeaderMsg { stamp, frame_id },
+            header: HeaderMsg::read(&mut r)?,
             height: r.u32()?,
             width: r.u32()?,
             seq: r.u64()?,
@@ -36,6 +44,186 @@ impl EventPacketMsg {
             events: r.bytes()?.to_vec(),
         })
     }
+}
+
+impl CompressedImageMsg {
+    /// Decodes a message's CDR bytes (encapsulation header first).
+    pub fn from_cdr(bytes: &[u8]) -> Result<Self, CdrError> {
+        let mut r = CdrReader::new(bytes)?;
+        Ok(Self {
+            header: HeaderMsg::read(&mut r)?,
+            format: r.string()?,
+            data: r.bytes()?.to_vec(),
+        })
+    }
+}
+
+impl ImageMsg {
+    /// Decodes a message's CDR bytes (encapsulation header first).
+    pub fn from_cdr(bytes: &[u8]) -> Result<Self, CdrError> {
+        let mut r = CdrReader::new(bytes)?;
+        Ok(Self {
+            header: HeaderMsg::read(&mut r)?,
+            height: r.u32()?,
+            width: r.u32()?,
+            encoding: r.string()?,
+            is_bigendian: r.u8()?,
+            step: r.u32()?,
+            data: r.bytes()?.to_vec(),
+        })
+    }
+}
+
+/// One image of a bag, as 8-bit RGB.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BagImage {
+    /// The message header's stamp, ns.
+    pub stamp_ns: u64,
+    pub width: u16,
+    pub height: u16,
+    /// Row-major RGB, 3 bytes a pixel.
+    pub rgb: Vec<u8>,
+}
+
+/// The image messages of one topic of a bag, decoded one at a time ([`ImageBag::images`]) so a
+/// long recording is never held decompressed.
+#[derive(Debug, Clone)]
+pub struct ImageBag {
+    path: PathBuf,
+    pub topic: String,
+    /// `sensor_msgs/msg/CompressedImage` (else `sensor_msgs/msg/Image`).
+    pub compressed: bool,
+    messages: Vec<(usize, u64, Vec<u8>)>,
+}
+
+/// Finds the image topic `topic` of the bag at `path` (`sensor_msgs/msg/CompressedImage` in
+/// PNG, or `sensor_msgs/msg/Image` in `rgb8`, `bgr8`, `rgba8`, `bgra8` or `mono8`); without a
+/// topic, the bag's only image topic, or the first of `preferred` it has when there are
+/// several.
+pub fn read_image_bag(
+    path: &Path,
+    topic: Option<&str>,
+    preferred: &[&str],
+) -> Result<ImageBag, Ros2Error> {
+    let compressed = topic_messages(path, CompressedImageMsg::TYPE_NAME, topic, preferred);
+    let (found, compressed) = match compressed {
+        Ok(found) => (found, true),
+        Err(first) => match topic_messages(path, ImageMsg::TYPE_NAME, topic, preferred) {
+            Ok(found) => (found, false),
+            Err(_) => return Err(first),
+        },
+    };
+    Ok(ImageBag {
+        path: path.to_path_buf(),
+        topic: found.topic,
+        compressed,
+        messages: found.messages,
+    })
+}
+
+impl ImageBag {
+    /// Messages on the topic.
+    pub fn len(&self) -> usize {
+        self.messages.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.messages.is_empty()
+    }
+
+    /// The topic's images in the bag's order, each decoded when reached.
+    pub fn images(&self) -> impl Iterator<Item = Result<BagImage, Ros2Error>> + '_ {
+        self.messages
+            .iter()
+            .enumerate()
+            .map(|(i, (_, log_time, cdr))| {
+                let at = |reason: String| {
+                    bag_error(
+                        &self.path,
+                        format!(
+                            "{} message {i} (log time {log_time} ns): {reason}",
+                            self.topic
+                        ),
+                    )
+                };
+                if self.compressed {
+                    let msg = CompressedImageMsg::from_cdr(cdr).map_err(|e| at(e.to_string()))?;
+                    compressed_image(&msg).map_err(at)
+                } else {
+                    let msg = ImageMsg::from_cdr(cdr).map_err(|e| at(e.to_string()))?;
+                    raw_image(&msg).map_err(at)
+                }
+            })
+    }
+}
+
+fn stamp_ns(header: &HeaderMsg) -> Result<u64, String> {
+    let sec = u64::try_from(header.stamp.sec)
+        .map_err(|_| format!("stamp {} s is before 1970", header.stamp.sec))?;
+    Ok(sec * 1_000_000_000 + u64::from(header.stamp.nanosec))
+}
+
+fn size(width: u32, height: u32) -> Result<(u16, u16), String> {
+    match (u16::try_from(width), u16::try_from(height)) {
+        (Ok(w), Ok(h)) if w > 0 && h > 0 => Ok((w, h)),
+        _ => Err(format!("image {width}×{height}")),
+    }
+}
+
+fn compressed_image(msg: &CompressedImageMsg) -> Result<BagImage, String> {
+    if !msg.format.to_ascii_lowercase().contains("png") {
+        return Err(format!(
+            "format {:?}: only PNG compressed images are read (republish lossy images as              sensor_msgs/msg/Image)",
+            msg.format
+        ));
+    }
+    let decoded = image::load_from_memory_with_format(&msg.data, image::ImageFormat::Png)
+        .map_err(|e| format!("PNG: {e}"))?
+        .into_rgb8();
+    let (width, height) = size(decoded.width(), decoded.height())?;
+    Ok(BagImage {
+        stamp_ns: stamp_ns(&msg.header)?,
+        width,
+        height,
+        rgb: decoded.into_raw(),
+    })
+}
+
+fn raw_image(msg: &ImageMsg) -> Result<BagImage, String> {
+    let (width, height) = size(msg.width, msg.height)?;
+    let (channels, order): (usize, [usize; 3]) = match msg.encoding.as_str() {
+        "rgb8" => (3, [0, 1, 2]),
+        "bgr8" => (3, [2, 1, 0]),
+        "rgba8" => (4, [0, 1, 2]),
+        "bgra8" => (4, [2, 1, 0]),
+        "mono8" => (1, [0, 0, 0]),
+        other => {
+            return Err(format!(
+                "encoding {other:?}: rgb8, bgr8, rgba8, bgra8 and mono8 are read"
+            ));
+        }
+    };
+    let row = usize::from(width) * channels;
+    let step = msg.step as usize;
+    if step < row || msg.data.len() < step * usize::from(height) {
+        return Err(format!(
+            "{} bytes with step {step} for a {width}×{height} {} image",
+            msg.data.len(),
+            msg.encoding
+        ));
+    }
+    let mut rgb = Vec::with_capacity(usize::from(width) * usize::from(height) * 3);
+    for line in msg.data.chunks(step).take(usize::from(height)) {
+        for px in line[..row].chunks(channels) {
+            rgb.extend(order.iter().map(|&c| px[c]));
+        }
+    }
+    Ok(BagImage {
+        stamp_ns: stamp_ns(&msg.header)?,
+        width,
+        height,
+        rgb,
+    })
 }
 
 /// The events of one topic of a bag.
@@ -82,14 +270,23 @@ fn bag_error(path: &Path, reason: impl Into<String>) -> Ros2Error {
     }
 }
 
-/// Reads the events of `topic` of the bag at `path`; without a topic, the bag's only
-/// `EventPacket` topic, or `preferred` (e.g. `/O1/events`) when there are several.
-pub fn read_event_bag(
+/// One topic's messages of one type: `(file index, log time, CDR bytes)` in the stream's order
+/// (file, then log time; equal times keep the file's order).
+struct TopicMessages {
+    topic: String,
+    messages: Vec<(usize, u64, Vec<u8>)>,
+}
+
+/// The messages of type `type_name` on `topic` of the bag at `path`; without a topic, the bag's
+/// only topic of that type, or the first of `preferred` (e.g. `/O1/events`) it has when there
+/// are several.
+fn topic_messages(
     path: &Path,
+    type_name: &str,
     topic: Option<&str>,
-    preferred: Option<&str>,
-) -> Result<EventBag, Ros2Error> {
-    // (topic, file, log time, CDR bytes) of every EventPacket message.
+    preferred: &[&str],
+) -> Result<TopicMessages, Ros2Error> {
+    // (topic, file, log time, CDR bytes) of every message of the type.
     let mut packets: Vec<(String, usize, u64, Vec<u8>)> = Vec::new();
     let files = mcap_files(path)?;
     for (k, file) in files.iter().enumerate() {
@@ -101,9 +298,7 @@ pub fn read_event_bag(
         for m in mcap::MessageStream::new(&bytes).map_err(mcap)? {
             let m = m.map_err(mcap)?;
             let schema = m.channel.schema.as_ref().map(|s| s.name.as_str());
-            if schema == Some(EventPacketMsg::TYPE_NAME)
-                && topic.is_none_or(|t| t == m.channel.topic)
-            {
+            if schema == Some(type_name) && topic.is_none_or(|t| t == m.channel.topic) {
                 if m.channel.message_encoding != "cdr" {
                     return Err(bag_error(
                         file,
@@ -121,45 +316,54 @@ pub fn read_event_bag(
     topics.sort_unstable();
     topics.dedup();
     let chosen = match (topic, topics.as_slice()) {
-        (Some(t), _) if topics.is_empty() => {
+        (Some(t), []) => {
             return Err(bag_error(
                 path,
-                format!("no {} messages on topic {t}", EventPacketMsg::TYPE_NAME),
+                format!("no {type_name} messages on topic {t}"),
             ));
         }
-        (_, []) => {
-            return Err(bag_error(
-                path,
-                format!("no {} topic", EventPacketMsg::TYPE_NAME),
-            ));
-        }
+        (_, []) => return Err(bag_error(path, format!("no {type_name} topic"))),
         (_, [one]) => (*one).to_owned(),
-        (_, many) => match preferred.filter(|p| many.contains(p)) {
-            Some(p) => p.to_owned(),
+        (_, many) => match preferred.iter().find(|p| many.contains(p)) {
+            Some(p) => (*p).to_owned(),
             None => {
                 return Err(bag_error(
                     path,
                     format!(
-                        "several event topics ({}): choose one with --topic",
+                        "several {type_name} topics ({}): choose one with --topic",
                         many.join(", ")
                     ),
                 ));
             }
         },
     };
-    packets.retain(|p| p.0 == chosen);
-    // The stream's order: file, then log time (stable: equal times keep the file's order).
-    packets.sort_by_key(|p| (p.1, p.2));
-    decode_packets(path, chosen, &packets)
+    let mut messages: Vec<(usize, u64, Vec<u8>)> = packets
+        .into_iter()
+        .filter(|p| p.0 == chosen)
+        .map(|(_, k, t, cdr)| (k, t, cdr))
+        .collect();
+    messages.sort_by_key(|p| (p.0, p.1));
+    Ok(TopicMessages {
+        topic: chosen,
+        messages,
+    })
 }
 
-fn decode_packets(
+/// Reads the events of `topic` of the bag at `path`; without a topic, the bag's only
+/// `EventPacket` topic, or `preferred` (e.g. `/O1/events`) when there are several.
+pub fn read_event_bag(
     path: &Path,
-    topic: String,
-    packets: &[(String, usize, u64, Vec<u8>)],
+    topic: Option<&str>,
+    preferred: Option<&str>,
 ) -> Result<EventBag, Ros2Error> {
+    let preferred: Vec<&str> = preferred.into_iter().collect();
+    let found = topic_messages(path, EventPacketMsg::TYPE_NAME, topic, &preferred)?;
+    decode_packets(path, found)
+}
+
+fn decode_packets(path: &Path, found: TopicMessages) -> Result<EventBag, Ros2Error> {
     let mut out = EventBag {
-        topic,
+        topic: found.topic,
         messages: 0,
         width: 0,
         height: 0,
@@ -167,7 +371,7 @@ fn decode_packets(
     };
     let mut decoder = StreamDecoder::new();
     let mut triggers = Vec::new();
-    for (i, (_, _, log_time, cdr)) in packets.iter().enumerate() {
+    for (i, (_, log_time, cdr)) in found.messages.iter().enumerate() {
         let at = |reason: String| {
             bag_error(
                 path,
@@ -232,5 +436,77 @@ mod tests {
         assert_eq!(EventPacketMsg::from_cdr(&cdr).unwrap(), msg);
         let e = EventPacketMsg::from_cdr(&cdr[..cdr.len() - 1]).unwrap_err();
         assert!(e.to_string().contains("runs past the end"), "{e}");
+    }
+
+    fn header() -> HeaderMsg {
+        HeaderMsg {
+            stamp: TimeMsg {
+                sec: 2,
+                nanosec: 40_000_000,
+            },
+            frame_id: "O1/camera_optical".into(),
+        }
+    }
+
+    #[test]
+    fn raw_images_of_every_read_encoding_become_rgb() {
+        // 2×1 pixels, rows padded to 8 bytes.
+        let cases: [(&str, Vec<u8>); 3] = [
+            ("bgr8", vec![3, 2, 1, 6, 5, 4, 0, 0]),
+            ("rgba8", vec![1, 2, 3, 9, 4, 5, 6, 9]),
+            ("mono8", vec![7, 8, 0, 0, 0, 0, 0, 0]),
+        ];
+        for (encoding, data) in cases {
+            let msg = ImageMsg {
+                header: header(),
+                height: 1,
+                width: 2,
+                encoding: encoding.into(),
+                is_bigendian: 0,
+                step: 8,
+                data,
+            };
+            let back = ImageMsg::from_cdr(&msg.to_cdr()).unwrap();
+            assert_eq!(back, msg);
+            let image = raw_image(&back).unwrap();
+            assert_eq!(image.stamp_ns, 2_040_000_000);
+            let want = if encoding == "mono8" {
+                vec![7, 7, 7, 8, 8, 8]
+            } else {
+                vec![1, 2, 3, 4, 5, 6]
+            };
+            assert_eq!(image.rgb, want, "{encoding}");
+        }
+        let short = ImageMsg {
+            header: header(),
+            height: 2,
+            width: 2,
+            encoding: "rgb8".into(),
+            is_bigendian: 0,
+            step: 6,
+            data: vec![0; 6],
+        };
+        assert!(raw_image(&short).unwrap_err().contains("6 bytes"));
+    }
+
+    #[test]
+    fn compressed_images_must_be_png() {
+        let mut png = Vec::new();
+        image::RgbImage::from_raw(1, 1, vec![10, 20, 30])
+            .unwrap()
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        let msg = CompressedImageMsg {
+            header: header(),
+            format: "rgb8; png compressed bgr8".into(),
+            data: png,
+        };
+        let back = CompressedImageMsg::from_cdr(&msg.to_cdr()).unwrap();
+        assert_eq!(compressed_image(&back).unwrap().rgb, [10, 20, 30]);
+        let jpeg = CompressedImageMsg {
+            format: "jpeg".into(),
+            ..msg
+        };
+        assert!(compressed_image(&jpeg).unwrap_err().contains("only PNG"));
     }
 }

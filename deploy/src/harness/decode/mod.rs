@@ -1,0 +1,208 @@
+//! `waggle decode`: a camera's recording through one observer's receiver — the same chain
+//! `waggle link` and the observer process run — into tokens, frames and payloads.
+//!
+//! Events come from a Prophesee EVT 3.0 `.raw` file, an iniVation AEDAT4 file or the
+//! `event_camera_msgs/EventPacket` topic of a ROS 2 bag ([`source`]); images from a directory of
+//! PNG frames or a ROS 2 bag's image topic ([`images`]). A camera other than the receivers'
+//! reference (another resolution, a calibration file) is remapped into it first
+//! ([`calibration`]).
+//!
+//! Events are cut into the receiver's 40 ms packets on the sensor grid (`(k·P, (k+1)·P]` from
+//! t = 0 of the recording's clock, empty packets included), followed by `tail_s` of silence so
+//! a final rest can be confirmed. The camera's pose (its viewpoint of the performer's hover
+//! point) sets the receiver's rectification, as in `waggle link`.
+
+pub mod calibration;
+pub mod images;
+pub mod source;
+
+use std::path::PathBuf;
+
+use anyhow::{Result, bail};
+use event_camera::Event;
+use perception::perception::{Perception, SensorInput};
+use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, Placement};
+use proto::{EventPacket, Modality, Rectification};
+use serde::Serialize;
+
+use self::calibration::{EventRemap, Intrinsics};
+use self::source::{EventFormat, read_events};
+use crate::harness::link::{ObserverOut, observer_out};
+
+/// The receiver's packet period, ns (the paper's 25 Hz).
+const PACKET_NS: u64 = proto::TICK_NS;
+
+/// What to decode and from where the camera saw it.
+#[derive(Debug, Clone)]
+pub struct DecodeOptions {
+    pub input: DecodeInput,
+    /// The camera's placement relative to the performer's hover point.
+    pub placement: Placement,
+    pub rectification: Rectification,
+    /// The camera's calibration file (ROS `camera_info` or OpenCV YAML), if any.
+    pub calibration: Option<PathBuf>,
+    /// Silence (events) or repeats of the last image (RGB) appended after the recording, s.
+    pub tail_s: f64,
+}
+
+/// The recording to decode.
+#[derive(Debug, Clone)]
+pub enum DecodeInput {
+    Events {
+        file: PathBuf,
+        format: EventFormat,
+        /// A bag's topic.
+        topic: Option<String>,
+    },
+    Rgb {
+        path: PathBuf,
+        /// A bag's topic.
+        topic: Option<String>,
+        /// Frame rate of an image directory, Hz.
+        fps: u32,
+    },
+}
+
+/// What `waggle decode --json` prints.
+#[derive(Debug, Clone, Serialize)]
+pub struct DecodeOut {
+    pub file: String,
+    /// The format read, e.g. `evt3`, `aedat4 (lz4)`, `bag /O1/events`, `png directory`.
+    pub format: String,
+    pub width_px: u16,
+    pub height_px: u16,
+    /// Whether the input was remapped into the reference camera (another size or calibrated).
+    pub remapped: bool,
+    /// Events read (events input), before any remap.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub events: Option<u64>,
+    /// Events that fell outside the reference camera's field (remapped events only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub events_outside: Option<u64>,
+    /// Images read (RGB input).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub images: Option<u64>,
+    /// Packets or frames given to the receiver.
+    pub packets: u64,
+    pub sim_seconds: f64,
+    pub decoded: ObserverOut,
+}
+
+/// The camera of a `width`×`height` recording: the calibration file's, or one like the
+/// reference; `None` when nothing needs remapping.
+fn camera(calibration: Option<&PathBuf>, size: Option<(u16, u16)>) -> Result<Option<Intrinsics>> {
+    let reference = (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX);
+    match calibration {
+        Some(path) => {
+            let cam = Intrinsics::from_file(path)?;
+            if let Some((w, h)) = size.filter(|&s| s != (cam.width_px, cam.height_px)) {
+                bail!(
+                    "the recording is {w}×{h} but the calibration {} is for {}×{}",
+                    path.display(),
+                    cam.width_px,
+                    cam.height_px
+                );
+            }
+            Ok(Some(cam))
+        }
+        None => Ok(size
+            .filter(|&s| s != reference)
+            .map(|(w, h)| Intrinsics::pinhole_like_reference(w, h))),
+    }
+}
+
+fn check_tail(tail_s: f64) -> Result<()> {
+    if !(tail_s.is_finite() && (0.0..=600.0).contains(&tail_s)) {
+        bail!("--tail-s {tail_s} must be 0–600 s");
+    }
+    Ok(())
+}
+
+/// Decodes `opts.input` with one observer's receiver.
+pub fn decode(opts: &DecodeOptions) -> Result<DecodeOut> {
+    check_tail(opts.tail_s)?;
+    match &opts.input {
+        DecodeInput::Events {
+            file,
+            format,
+            topic,
+        } => decode_events(opts, file, *format, topic.as_deref()),
+        DecodeInput::Rgb { path, topic, fps } => {
+            images::decode_images(opts, path, topic.as_deref(), *fps)
+        }
+    }
+}
+
+fn decode_events(
+    opts: &DecodeOptions,
+    file: &std::path::Path,
+    format: EventFormat,
+    topic: Option<&str>,
+) -> Result<DecodeOut> {
+    let read = read_events(file, format, topic)?;
+    let cam = camera(opts.calibration.as_ref(), read.size)?;
+    let (width, height) = read.size.unwrap_or(match &cam {
+        Some(c) => (c.width_px, c.height_px),
+        None => (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX),
+    });
+    let total = read.events.len() as u64;
+    let mut events = read.events;
+    let outside = cam.as_ref().map(|cam| remap_events(cam, &mut events));
+    // Cameras write in time order; a file that does not is sorted rather than refused.
+    events.sort_by_key(|e| e.t_ns);
+    let last_ns = events.last().map_or(0, |e| e.t_ns);
+    let end_ns = last_ns + (opts.tail_s * 1e9).round() as u64;
+    let packets = end_ns.div_ceil(PACKET_NS).max(1);
+    let mut perception = Perception::for_camera(
+        Modality::Events,
+        opts.placement.camera(),
+        opts.rectification,
+    )?;
+    let (mut tokens, mut frames) = (Vec::new(), Vec::new());
+    let mut next = 0usize;
+    for k in 0..packets {
+        let (start, end) = (k * PACKET_NS, (k + 1) * PACKET_NS);
+        let mut inside = Vec::new();
+        while let Some(e) = events.get(next) {
+            // (start, end]; an event exactly at t = 0 joins the first packet.
+            if e.t_ns > end {
+                break;
+            }
+            let dt = e.t_ns.saturating_sub(start) as u32;
+            inside.push((e.x, e.y, dt, e.polarity));
+            next += 1;
+        }
+        let packet =
+            EventPacket::from_events(k, (start, end), (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX), &inside);
+        let step = perception.push(SensorInput::Events(&packet))?;
+        tokens.extend(step.tokens);
+        frames.extend(step.frames);
+    }
+    Ok(DecodeOut {
+        file: file.display().to_string(),
+        format: read.format,
+        width_px: width,
+        height_px: height,
+        remapped: cam.is_some(),
+        events: Some(total),
+        events_outside: outside,
+        images: None,
+        packets,
+        sim_seconds: end_ns as f64 * 1e-9,
+        decoded: observer_out(&tokens, &frames),
+    })
+}
+
+/// Moves `events` into the reference camera, dropping those outside it; returns how many.
+fn remap_events(cam: &Intrinsics, events: &mut Vec<Event>) -> u64 {
+    let remap = EventRemap::new(cam);
+    let before = events.len();
+    events.retain_mut(|e| match remap.map(e.x, e.y) {
+        Some((x, y)) => {
+            (e.x, e.y) = (x, y);
+            true
+        }
+        None => false,
+    });
+    (before - events.len()) as u64
+}

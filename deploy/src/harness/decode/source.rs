@@ -1,0 +1,121 @@
+//! Event recordings read into one time-ordered event list: EVT 3.0 `.raw`, AEDAT4 or the
+//! `event_camera_msgs/EventPacket` topic of a ROS 2 bag, told apart by their first bytes (or a
+//! bag directory) unless the format is named.
+
+use std::io::Read;
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use clap::ValueEnum;
+use event_camera::Event;
+use event_formats::{aedat4, evt3};
+
+/// An event recording's format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum EventFormat {
+    /// Tell from the file: a directory or `\x89MCAP` is a bag, `#!AER-DAT4.0` AEDAT4, a `%`
+    /// header or the `.raw` extension EVT 3.0.
+    #[default]
+    Auto,
+    /// Prophesee EVT 3.0 (`.raw`).
+    Raw,
+    /// iniVation AEDAT 4.0 (`.aedat4`): its first event stream.
+    Aedat4,
+    /// A ROS 2 bag (MCAP storage; the directory or its `.mcap` file) of
+    /// `event_camera_msgs/msg/EventPacket` in `evt3` encoding.
+    Bag,
+}
+
+/// A recording's events and what it says of its sensor.
+#[derive(Debug)]
+pub struct EventRead {
+    /// The format read, for the report.
+    pub format: String,
+    /// The sensor's size, when the file states it.
+    pub size: Option<(u16, u16)>,
+    pub events: Vec<Event>,
+}
+
+/// A format, once told.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Known {
+    Raw,
+    Aedat4,
+    Bag,
+}
+
+const AEDAT4_MAGIC: &[u8] = b"#!AER-DAT4.0";
+const MCAP_MAGIC: &[u8] = b"\x89MCAP";
+
+/// The format of `path` when not named.
+fn detect(path: &Path) -> Result<Known> {
+    if path.is_dir() {
+        return Ok(Known::Bag);
+    }
+    let mut head = [0u8; 16];
+    let mut file =
+        std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    let n = file
+        .read(&mut head)
+        .with_context(|| format!("reading {}", path.display()))?;
+    let head = &head[..n];
+    Ok(if head.starts_with(AEDAT4_MAGIC) {
+        Known::Aedat4
+    } else if head.starts_with(MCAP_MAGIC) {
+        Known::Bag
+    } else if head.starts_with(b"%") || path.extension().is_some_and(|e| e == "raw") {
+        Known::Raw
+    } else {
+        bail!(
+            "{}: not an event recording this tool knows (EVT 3.0 `.raw`, AEDAT4, a ROS 2 MCAP \
+             bag); name the format with --format",
+            path.display()
+        )
+    })
+}
+
+/// Reads the events of `path` (of `topic`, for a bag).
+pub fn read_events(path: &Path, format: EventFormat, topic: Option<&str>) -> Result<EventRead> {
+    let format = match format {
+        EventFormat::Auto => detect(path)?,
+        EventFormat::Raw => Known::Raw,
+        EventFormat::Aedat4 => Known::Aedat4,
+        EventFormat::Bag => Known::Bag,
+    };
+    if topic.is_some() && format != Known::Bag {
+        bail!(
+            "--topic names a bag's topic; {} is not a bag",
+            path.display()
+        );
+    }
+    let read = || std::fs::read(path).with_context(|| format!("reading {}", path.display()));
+    let decoding = || format!("decoding {}", path.display());
+    Ok(match format {
+        Known::Raw => {
+            let rec = evt3::read(&read()?).with_context(decoding)?;
+            EventRead {
+                format: "evt3".into(),
+                size: rec.geometry.map(|g| (g.width, g.height)),
+                events: rec.events,
+            }
+        }
+        Known::Aedat4 => {
+            let rec = aedat4::read(&read()?).with_context(decoding)?;
+            EventRead {
+                format: format!("aedat4 ({})", rec.compression.name()),
+                size: rec.geometry.map(|g| (g.width, g.height)),
+                events: rec.events,
+            }
+        }
+        Known::Bag => {
+            // A bag of `waggle export ros2` holds every observer's camera; O1 when not chosen.
+            let bag = ros2_bag::ingest::read_event_bag(path, topic, Some("/O1/events"))
+                .with_context(decoding)?;
+            EventRead {
+                format: format!("bag {} ({} messages)", bag.topic, bag.messages),
+                size: Some((bag.width, bag.height)),
+                events: bag.events,
+            }
+        }
+    })
+}
