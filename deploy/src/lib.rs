@@ -1,11 +1,13 @@
-//! `deploy`: the Waggle launcher as a library, behind the thin `waggle` binary.
+//! `deploy`: the Waggle operations as a library, behind the thin `waggle` binary. It never links
+//! MuJoCo: what needs the simulator (missions, trials, studies, link, decode, reports, sweeps)
+//! is the `lab` crate, whose `waggle-lab` binary `waggle` hands those commands to
+//! ([`cli::lab`]).
 //!
 //! - [`launch`]: `waggle run` (the supervisor: node processes over Zenoh, faults, progress,
-//!   summary) and `waggle sweep` (every case × modality as its own `waggle run`).
-//! - [`harness`]: in-process harnesses — a whole mission in one process, the link bench, the
-//!   performer's flight and the PNG → events converter.
+//!   summary), `waggle up`, the router and `waggle bench`.
+//! - [`compose`]: a session's compose file, its placement on hosts and its bundles.
 //! - [`eval`]: what is read back from a run — the recording audit, the replay of the event
-//!   receivers, the shared mission summary and the session report.
+//!   receivers and the shared mission summary.
 //! - [`run_dir`]: the typed run-directory formats (`summary.json`, `observers.json`,
 //!   `session.json`, `sweep.json`, the audit report), shared by the writer and every reader.
 //! - [`case`]: case files.
@@ -19,7 +21,6 @@ pub mod cli;
 pub mod compose;
 pub mod eval;
 pub mod fault;
-pub mod harness;
 pub mod launch;
 
 pub use run_format::{case, run_dir};

@@ -1,8 +1,12 @@
 //! `waggle`: the Waggle launcher and user-facing command line (the adapters and the library
-//! are in the `deploy` crate).
+//! are in the `deploy` crate). The lab commands are listed here and run by `waggle-lab`
+//! ([`deploy::cli::lab`]): their arguments are forwarded before anything is parsed.
+
+use std::ffi::OsString;
 
 use clap::Parser;
 use deploy::cli;
+use deploy::cli::lab::LabArgs;
 
 #[derive(Parser)]
 #[command(
@@ -16,9 +20,9 @@ enum Cli {
     /// Run the local allocation policy on a set of offers.
     Allocate(cli::allocate::AllocateArgs),
     /// Fly a broadcast in one process and decode it with each observer's receiver.
-    Link(cli::link::LinkArgs),
+    Link(LabArgs),
     /// Fly a whole case (physics, cameras, performer, observers, scheduler) in one process.
-    Mission(cli::mission::MissionArgs),
+    Mission(LabArgs),
     /// Run a whole case as separate processes over Zenoh (simulator, cameras, performer,
     /// observers, scheduler), supervised, with a progress bar and a summary.
     Run(cli::run::RunArgs),
@@ -38,23 +42,23 @@ enum Cli {
     Bench(cli::bench::BenchArgs),
     /// Decode an event camera's recording (EVT 3.0 `.raw`) with one observer's event receiver:
     /// tokens, frames and payloads.
-    Decode(cli::decode::DecodeArgs),
+    Decode(LabArgs),
     /// Synthetic event camera tools (convert PNG frames into events).
-    Events(cli::events::EventsArgs),
+    Events(LabArgs),
     /// Run every case × modality (`waggle run` each), audit each and write DIR/report.md with
     /// the paper's tables and the figures; exit 1 if any run misses its expected outcome.
-    Sweep(cli::sweep::SweepArgs),
+    Sweep(LabArgs),
     /// Measure decode success against viewing angle and distance: observers placed at each
     /// viewpoint, one flight per group of up to eight, per receiver and rectification.
-    Viewpoints(cli::viewpoints::ViewpointsArgs),
+    Viewpoints(LabArgs),
     /// One condition, N seeded trials under a perturbation: success rate with its Wilson 95 %
     /// interval and per-trial measurements in DIR/trials.json.
-    Trials(cli::trials::TrialsArgs),
+    Trials(LabArgs),
     /// Run a study (conditions × levels × modalities as seeded trials) and write DIR/report.md
     /// with success probabilities, their 95 % intervals and a figure.
-    Study(cli::study::StudyArgs),
+    Study(LabArgs),
     /// Rebuild report.md and its figures from a run or sweep directory, without re-running.
-    Report(cli::report::ReportArgs),
+    Report(LabArgs),
     /// Re-run the event receivers from a recording's raw event packets and session controls
     /// and compare with the live decodes.
     Replay(cli::replay::ReplayArgs),
@@ -66,26 +70,50 @@ enum Cli {
 }
 
 fn main() -> anyhow::Result<()> {
+    let args: Vec<OsString> = std::env::args_os().skip(1).collect();
+    if cli::lab::lab_command(&args).is_some() {
+        return cli::lab::run(&args);
+    }
     match Cli::parse() {
         Cli::Payload(args) => cli::payload::run(args),
         Cli::Allocate(args) => cli::allocate::run(args),
-        Cli::Link(args) => cli::link::run(args),
-        Cli::Mission(args) => cli::mission::run(args),
         Cli::Run(args) => cli::run::run(args),
         Cli::Compose(args) => cli::compose::run(args),
         Cli::Up(args) => cli::up::run(args),
         Cli::Router(args) => cli::router::run(args),
         Cli::Bundle(args) => cli::bundle::run(args),
-        Cli::Events(args) => cli::events::run(args),
-        Cli::Decode(args) => cli::decode::run(args),
         Cli::Bench(args) => cli::bench::run(args),
         Cli::Replay(args) => cli::replay::run(args),
         Cli::Audit(args) => cli::audit::run(args),
         Cli::Export(args) => cli::export::run(args),
-        Cli::Sweep(args) => cli::sweep::run(args),
-        Cli::Report(args) => cli::report::run(args),
-        Cli::Viewpoints(args) => cli::viewpoints::run(args),
-        Cli::Trials(args) => cli::trials::run(args),
-        Cli::Study(args) => cli::study::run(args),
+        Cli::Link(_)
+        | Cli::Mission(_)
+        | Cli::Decode(_)
+        | Cli::Events(_)
+        | Cli::Sweep(_)
+        | Cli::Viewpoints(_)
+        | Cli::Trials(_)
+        | Cli::Study(_)
+        | Cli::Report(_) => cli::lab::run(&args),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    use super::Cli;
+    use deploy::cli::lab::LAB_COMMANDS;
+
+    /// Every command forwarded to `waggle-lab` is listed, with its description, by `waggle --help`.
+    #[test]
+    fn every_lab_command_is_listed() {
+        let cli = Cli::command();
+        for name in LAB_COMMANDS {
+            let command = cli
+                .find_subcommand(name)
+                .unwrap_or_else(|| panic!("waggle --help does not list {name}"));
+            assert!(command.get_about().is_some(), "{name} has no description");
+        }
     }
 }

@@ -1,6 +1,6 @@
 //! Embeds an rpath to the MuJoCo library unpacked by `deploy/setup.sh`, so every binary, test
 //! and bench finds `libmujoco` without `LD_LIBRARY_PATH`. Every package that links MuJoCo
-//! (`sim`, `perception` for its fixture example, `sim-node`, `deploy`, `tests`) names this one
+//! (`sim`, `perception` for its fixture example, `sim-node`, `lab`) names this one
 //! script (`build = "…/libs/sim/build.rs"`): link arguments reach only the package whose script
 //! prints them.
 //!

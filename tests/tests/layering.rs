@@ -1,16 +1,21 @@
 //! The crate graph keeps its layers (ARCHITECTURE.md): proto → libs → node processes → deploy →
-//! tests.
+//! lab → tests.
 //!
 //! Reads `cargo metadata --no-deps` and proves, for every dependency edge between workspace crates
 //! (normal, dev and build alike):
 //!
 //! - `proto` depends on no workspace crate;
 //! - a library in `libs/` depends only on `proto` and other libraries;
-//! - a node crate never depends on another node crate, on `deploy` or on the tests;
+//! - a node crate never depends on another node crate, on `deploy`, the lab or the tests;
+//! - `deploy` never depends on the lab;
 //! - nothing depends on the tests.
 //!
 //! Every workspace member must belong to a layer, so a new crate cannot slip past these rules.
 //! A failure names each offending edge.
+//!
+//! A second test keeps `waggle` free of MuJoCo (issue 29): `deploy` reaches no crate that links
+//! it (`sim`, `offscreen`, `mujoco-rs`) through its normal dependencies, and the built `waggle`
+//! binary, when present, loads no `libmujoco`.
 //!
 //! A second test keeps the repository self-contained: no tracked file may point at documents
 //! outside it, and every design-section citation must name a section `docs/DESIGN.md` has.
@@ -37,6 +42,7 @@ enum Layer {
     Lib,
     Node,
     Deploy,
+    Lab,
     Tests,
 }
 
@@ -67,12 +73,14 @@ fn layer_of(name: &str, dir: &Path, root: &Path) -> Layer {
         Layer::Lib
     } else if rel == Path::new("deploy") {
         Layer::Deploy
+    } else if rel == Path::new("lab") {
+        Layer::Lab
     } else if rel == Path::new("tests") {
         Layer::Tests
     } else {
         panic!(
             "workspace member {name} ({}) belongs to no layer: place it (proto, libs/, a node \
-             crate, deploy or tests) and classify it in tests/tests/layering.rs",
+             crate, deploy, lab or tests) and classify it in tests/tests/layering.rs",
             rel.display()
         )
     }
@@ -80,13 +88,14 @@ fn layer_of(name: &str, dir: &Path, root: &Path) -> Layer {
 
 /// Why the edge `from` → `to` breaks the layering, if it does.
 fn violation(from: Layer, to: Layer) -> Option<&'static str> {
-    use Layer::{Deploy, Lib, Node, Proto, Tests};
+    use Layer::{Deploy, Lab, Lib, Node, Proto, Tests};
     match (from, to) {
         (Proto, _) => Some("proto depends on no workspace crate"),
         (Lib, Proto | Lib) => None,
         (Lib, _) => Some("a library depends only on proto and other libraries"),
         (Node, Node) => Some("a node crate never depends on another node crate"),
-        (Node, Deploy) => Some("a node crate never depends on deploy"),
+        (Node, Deploy | Lab) => Some("a node crate never depends on deploy or the lab"),
+        (Deploy, Lab) => Some("deploy (the operations, no MuJoCo) never depends on the lab"),
         (_, Tests) => Some("nothing depends on the tests crate"),
         _ => None,
     }
@@ -142,17 +151,106 @@ fn workspace_crates_depend_only_on_lower_layers() {
     );
 }
 
+/// The crates that link libmujoco: none may be in `waggle`'s graph.
+const MUJOCO_CRATES: [&str; 3] = ["sim", "offscreen", "mujoco-rs"];
+
+/// `deploy` (the `waggle` binary) reaches no MuJoCo-linking crate through normal dependencies
+/// (what is linked into it), read from the resolved graph of `cargo metadata`.
+#[test]
+fn deploy_does_not_depend_on_mujoco() {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let out = Command::new(&cargo)
+        .args(["metadata", "--format-version", "1", "--offline"])
+        .current_dir(workspace_root())
+        .output()
+        .unwrap_or_else(|e| panic!("run {}: {e}", cargo.to_string_lossy()));
+    assert!(
+        out.status.success(),
+        "cargo metadata failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta: Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
+    let names: BTreeMap<&str, &str> = meta["packages"]
+        .as_array()
+        .expect("packages")
+        .iter()
+        .map(|p| (p["id"].as_str().unwrap(), p["name"].as_str().unwrap()))
+        .collect();
+    // Each package's normal dependencies (a dependency kind of `null`), by package id.
+    let normal: BTreeMap<&str, Vec<&str>> = meta["resolve"]["nodes"]
+        .as_array()
+        .expect("resolve.nodes")
+        .iter()
+        .map(|n| {
+            let deps = n["deps"]
+                .as_array()
+                .expect("deps")
+                .iter()
+                .filter(|d| {
+                    d["dep_kinds"]
+                        .as_array()
+                        .is_some_and(|k| k.iter().any(|k| k["kind"].is_null()))
+                })
+                .map(|d| d["pkg"].as_str().unwrap())
+                .collect();
+            (n["id"].as_str().unwrap(), deps)
+        })
+        .collect();
+    let deploy = names
+        .iter()
+        .find(|(_, n)| **n == "deploy")
+        .map(|(id, _)| *id)
+        .expect("a deploy package");
+    // Depth-first from deploy, remembering how each crate was reached.
+    let mut via: BTreeMap<&str, &str> = BTreeMap::from([(deploy, deploy)]);
+    let mut todo = vec![deploy];
+    while let Some(id) = todo.pop() {
+        for &d in normal.get(id).into_iter().flatten() {
+            if !via.contains_key(d) {
+                via.insert(d, id);
+                todo.push(d);
+            }
+        }
+    }
+    assert!(via.len() > 20, "deploy reaches only {} crates", via.len());
+    let path = |start| {
+        let mut id = start;
+        let mut chain = vec![names[id]];
+        while via[id] != id {
+            id = via[id];
+            chain.push(names[id]);
+        }
+        chain.reverse();
+        chain.join(" → ")
+    };
+    let linked: Vec<String> = via
+        .keys()
+        .filter(|id| MUJOCO_CRATES.iter().any(|m| *m == names[*id]))
+        .map(|id| path(*id))
+        .collect();
+    assert!(
+        linked.is_empty(),
+        "`waggle` (deploy) must not link MuJoCo; what needs the simulator belongs in the lab \
+         crate (`waggle-lab`):\n  {}",
+        linked.join("\n  ")
+    );
+}
+
 #[test]
 fn the_layering_rules_reject_the_edges_they_name() {
-    use Layer::{Deploy, Lib, Node, Proto, Tests};
+    use Layer::{Deploy, Lab, Lib, Node, Proto, Tests};
     for (from, to) in [
         (Proto, Lib),
         (Lib, Node),
         (Lib, Deploy),
+        (Lib, Lab),
         (Lib, Tests),
         (Node, Node),
         (Node, Deploy),
+        (Node, Lab),
+        (Deploy, Lab),
         (Deploy, Tests),
+        (Lab, Tests),
     ] {
         assert!(violation(from, to).is_some(), "{from:?} → {to:?} accepted");
     }
@@ -162,7 +260,10 @@ fn the_layering_rules_reject_the_edges_they_name() {
         (Node, Lib),
         (Node, Proto),
         (Deploy, Lib),
+        (Lab, Deploy),
+        (Lab, Lib),
         (Tests, Deploy),
+        (Tests, Lab),
         (Tests, Node),
     ] {
         assert!(violation(from, to).is_none(), "{from:?} → {to:?} rejected");

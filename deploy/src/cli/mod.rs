@@ -1,27 +1,19 @@
 //! The `waggle` command line: one small adapter per command, each parsing its arguments
-//! (clap), calling the library and printing the result. `src/main.rs` only dispatches.
+//! (clap), calling the library and printing the result. `src/main.rs` only dispatches; the lab
+//! commands go to the `waggle-lab` binary ([`lab`]), whose adapters are the `lab` crate's.
 
 pub mod allocate;
 pub mod audit;
 pub mod bench;
 pub mod bundle;
 pub mod compose;
-pub mod decode;
-pub mod events;
 pub mod export;
-pub mod link;
-pub mod mission;
+pub mod lab;
 pub mod payload;
 pub mod replay;
-pub mod report;
 pub mod router;
 pub mod run;
-pub mod shard;
-pub mod study;
-pub mod sweep;
-pub mod trials;
 pub mod up;
-pub mod viewpoints;
 
 /// `--flights sequential|concurrent`, shared by the commands that fly a whole case.
 #[derive(Debug, Clone, Copy, clap::Args)]

@@ -14,7 +14,8 @@
 //! `DIR/observers.json`, every token, frame and decision) and prints the same table as
 //! `waggle mission`. Ctrl-C stops every child and still writes what was gathered.
 //!
-//! [`sweep`] runs many cases, each as its own `waggle run`.
+//! `waggle sweep` (many cases, each as its own `waggle run`, then the report) is the `lab`
+//! crate's.
 
 pub mod bench;
 pub mod gather;
@@ -23,7 +24,6 @@ pub mod process;
 pub mod router;
 pub mod summarise;
 pub mod supervise;
-pub mod sweep;
 pub mod up;
 
 use std::path::{Path, PathBuf};

@@ -8,9 +8,9 @@ use plotters::style::text_anchor::HPos;
 use proto::{Action, PerformerActivity, SessionEvent, Token};
 
 use super::plot::{Chart, bar, hex, line, text_style};
-use crate::eval::summary::{decision_label, ns_s};
-use crate::run_dir::session::SessionRecord;
-use crate::run_dir::{ObserverRecord, RunFiles};
+use deploy::eval::summary::{decision_label, ns_s};
+use run_format::run_dir::session::SessionRecord;
+use run_format::run_dir::{ObserverRecord, RunFiles};
 
 const WIDTH: u32 = 1500;
 /// Height of one row, px.
@@ -93,7 +93,7 @@ pub fn timeline_svg(f: &RunFiles) -> Result<String> {
         let title = format!(
             "{} ({}) — session timeline, sim time 0–{:.2} s",
             m.case,
-            crate::eval::summary::receiver_text(m.modality),
+            deploy::eval::summary::receiver_text(m.modality),
             m.mission_time_s
         );
         let mut chart = ChartBuilder::on(&top)

@@ -1,5 +1,6 @@
-//! `waggle sweep`: every case × modality as its own `waggle run` (this executable, in a child
-//! process each), up to `--jobs` at a time, then the audit of each and `DIR/report.md`.
+//! `waggle sweep`: every case × modality as its own `waggle run` (the `waggle` beside
+//! `waggle-lab`, in a child process each), up to `--jobs` at a time, then the audit of each and
+//! `DIR/report.md`.
 //!
 //! A run goes to `DIR/<case>-<modality>/` (cleared first); its launcher's output to
 //! `waggle-run.out` / `waggle-run.log` there. `DIR/sweep.json` lists the planned runs and how
@@ -18,10 +19,10 @@ use clap::ValueEnum;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use nix::sys::signal::Signal;
 
-use super::process::{exit_label, signal};
-use crate::case::{Case, PAPER_CASES, Receiver};
-use crate::eval::report::{self, RunEntry};
-use crate::run_dir::{PlannedRun, SWEEP_FILE, SweepManifest};
+use crate::report::{self, RunEntry};
+use deploy::launch::process::{exit_label, signal};
+use run_format::case::{Case, PAPER_CASES, Receiver};
+use run_format::run_dir::{PlannedRun, SWEEP_FILE, SweepManifest};
 
 /// Which sensor modalities a sweep runs (a command-line selection).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -150,7 +151,7 @@ fn stderr_tail(out: &Path, job: &Job) -> Option<String> {
 
 /// Runs the jobs; returns the manifest.
 fn execute(args: &SweepOptions, jobs: &[Job]) -> Result<SweepManifest> {
-    let exe = std::env::current_exe().context("locating waggle")?;
+    let exe = crate::waggle_binary()?;
     let stop = bus::on_stop_signal();
     let started = Instant::now();
     let multi = MultiProgress::new();
@@ -324,8 +325,8 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::*;
-    use crate::eval::report::run_audit::check_against_case;
-    use crate::run_dir::audit::{AuditReport, AuditTiming};
+    use crate::report::run_audit::check_against_case;
+    use run_format::run_dir::audit::{AuditReport, AuditTiming};
 
     fn audit(messages: [usize; 3], work_units: u32, pass: bool) -> AuditReport {
         AuditReport {

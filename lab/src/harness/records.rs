@@ -87,7 +87,7 @@ fn cpu_model() -> String {
 }
 
 /// Mesa's EGL package version (Debian) and the driver overrides that change which rasteriser
-/// draws. `deploy` holds no GL context of its own (no `unsafe`), so this names the stack rather
+/// draws. The lab holds no GL context of its own (no `unsafe`), so this names the stack rather
 /// than asking it.
 fn renderer() -> String {
     let mesa = std::process::Command::new("dpkg-query")

@@ -30,12 +30,12 @@ use sim::lockstep::{TickReferences, mirror, sim_state};
 use sim::render::CameraRenderer;
 use sim::world::World;
 
-use crate::case::{Case, Receiver};
-use crate::eval::summary::{check_expected, ns_s, provenance_violations};
 use crate::harness::air::{Tracking, set_air};
 use crate::harness::mission_metrics::{MissionMetrics, Policy, measure};
 use crate::harness::mission_observer::MissionObserver;
-use crate::run_dir::{MissionSummary, ObserverRecord, ObserverSummary};
+use deploy::eval::summary::{check_expected, ns_s, provenance_violations};
+use run_format::case::{Case, Receiver};
+use run_format::run_dir::{MissionSummary, ObserverRecord, ObserverSummary};
 
 /// What a flown mission gives: its summary, its outcome measures and every observer's record
 /// (`observers.json`).
@@ -363,7 +363,7 @@ impl Mission {
             deaf_observers: Vec::new(),
             flights: proto::FlightMode::default(),
         };
-        crate::eval::summary::annotate_case(&mut summary, case);
+        deploy::eval::summary::annotate_case(&mut summary, case);
         summary.reasons = check_expected(case, &summary);
         summary.pass = summary.reasons.is_empty();
         summary

@@ -21,10 +21,10 @@ use perturb::Perturbation;
 use proto::RenderPath;
 use serde::{Deserialize, Serialize};
 
-use crate::case::{Case, Receiver};
 use crate::harness::mission::MissionOptions;
 use crate::harness::mission_metrics::Policy;
 use crate::harness::mission_trials::{MissionTrialsOptions, MissionTrialsOut, run_mission_trials};
+use run_format::case::{Case, Receiver};
 
 /// One way of allocating tasks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]

@@ -15,8 +15,8 @@ use proto::{Action, Token, TokenEvent, TrackSample};
 
 use super::plot::{hex, text_style};
 use super::timeline::action_colour;
-use crate::eval::summary::ns_s;
-use crate::run_dir::ObserverRecord;
+use deploy::eval::summary::ns_s;
+use run_format::run_dir::ObserverRecord;
 
 /// One decoded symbol with the track behind it.
 #[derive(Debug, Clone, PartialEq)]

@@ -11,32 +11,21 @@ pub use crate::harness::trials_out::{
     ObserverTrial, PlacementOut, TokenTiming, TrialRecord, TrialsCost, TrialsHeader, TrialsOut,
     TrialsSummary,
 };
-use std::collections::{BTreeMap, VecDeque};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::collections::BTreeMap;
+use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result, bail};
-use event_camera::{CameraConfig, EventCamera};
-use perception::perception::{Perception, SensorInput};
 use perturb::Perturbation;
-use perturb::link::LinkNoise;
-use perturb::rgb::RgbSensor;
 use perturb::seed::{Stream, rng, stream_seed, trial_seed};
-use proto::scene::{
-    Formation, IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, MAX_OBSERVERS, Placement, observer_name,
-};
-use proto::{
-    FrameChange, Modality, Rectification, ReleasedFrame, RenderPath, RgbFrame, Schedule,
-    SegmentToken,
-};
-use rand_chacha::ChaCha8Rng;
+use proto::scene::{Formation, MAX_OBSERVERS, Placement, observer_name};
+use proto::{Modality, Rectification, RenderPath, Schedule};
 use rand_distr::{Distribution, Normal};
 use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
-use crate::harness::link::{ObserverOut, bits6, broadcast_schedule, observer_out};
+use crate::harness::link::{ObserverOut, bits6, broadcast_schedule};
 use crate::harness::pool::run_pool_on;
-use crate::harness::rendered_flight::{
-    FlightSpec, Flown, Gusts, RenderedFlight, fly_rendered, fly_streamed,
-};
+use crate::harness::rendered_flight::{FlightSpec, Gusts, RenderedFlight, fly_rendered};
+use crate::harness::trial_observer::{Observed, Sensing, observe_cached, observe_flying};
 
 /// One condition and how many times to try it.
 #[derive(Debug, Clone)]
@@ -59,15 +48,16 @@ pub struct TrialsOptions {
     pub acquisition: Option<bool>,
 }
 
-/// What one observer's receiver made of a trial's sensor stream.
-struct Observed {
-    out: ObserverOut,
-    messages: u64,
-    lost: u64,
-    denoise: Option<perception::events::DenoiseCounts>,
-}
-
 impl TrialsOptions {
+    /// How this condition's observers sense.
+    fn sensing(&self) -> Sensing<'_> {
+        Sensing {
+            modality: self.modality,
+            rectification: self.rectification,
+            perturbation: &self.perturbation,
+        }
+    }
+
     /// Checks the condition before anything runs.
     pub fn check(&self) -> Result<()> {
         if self.payloads.is_empty() {
@@ -200,198 +190,6 @@ fn token_timing(ideal: &ObserverOut, got: &ObserverOut) -> TokenTiming {
     }
 }
 
-/// One observer's perturbed sensor and its receiver, fed the camera's renders in order (from
-/// the render cache or straight from a flight of the trial's own).
-struct Observer {
-    perception: Perception,
-    link: LinkNoise,
-    link_rng: ChaCha8Rng,
-    sensor: Sensor,
-    tokens: Vec<SegmentToken>,
-    frames: Vec<ReleasedFrame>,
-    messages: u64,
-    lost: u64,
-}
-
-/// What turns an observer's renders into sensor messages.
-enum Sensor {
-    Events(Box<EventCamera>),
-    Rgb {
-        sensor: Box<RgbSensor>,
-        /// Renders a frame averages (motion blur); 1: none.
-        keep: usize,
-        /// The last `keep` renders, oldest first (only when `keep > 1`).
-        recent: VecDeque<Vec<u8>>,
-        seq: u64,
-    },
-}
-
-impl Observer {
-    /// Observer `i` of `placement` under trial `seed`'s perturbation.
-    fn new(placement: &Placement, i: usize, opts: &TrialsOptions, seed: u64) -> Result<Self> {
-        let perception =
-            Perception::for_camera(opts.modality, placement.camera(), opts.rectification)?;
-        let sensor = match opts.modality {
-            Modality::Events => {
-                let config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX).with_model(
-                    opts.perturbation
-                        .event_sensor(stream_seed(seed, Stream::EventSensor, i)),
-                );
-                Sensor::Events(Box::new(EventCamera::new(config).context("event camera")?))
-            }
-            Modality::Rgb => {
-                let noise = opts.perturbation.rgb();
-                Sensor::Rgb {
-                    sensor: Box::new(noise.sensor(&mut rng(seed, Stream::RgbSensor, i))),
-                    keep: noise.blur_renders.max(1) as usize,
-                    recent: VecDeque::new(),
-                    seq: 0,
-                }
-            }
-        };
-        Ok(Self {
-            perception,
-            link: opts.perturbation.link(),
-            link_rng: rng(seed, Stream::Link, i),
-            sensor,
-            tokens: Vec::new(),
-            frames: Vec::new(),
-            messages: 0,
-            lost: 0,
-        })
-    }
-
-    /// The camera's next render: `rgb` the whole frame, `change` what differs from the previous.
-    fn render(&mut self, t: u64, rgb: &[u8], change: FrameChange) -> Result<()> {
-        match &mut self.sensor {
-            Sensor::Events(camera) => {
-                for packet in camera.push_frame_change(t, rgb, change)? {
-                    self.deliver(SensorInput::Events(&packet))?;
-                }
-            }
-            Sensor::Rgb {
-                sensor,
-                keep,
-                recent,
-                seq,
-            } => {
-                if *keep > 1 {
-                    if recent.len() == *keep {
-                        recent.pop_front();
-                    }
-                    recent.push_back(rgb.to_vec());
-                }
-                if !t.is_multiple_of(RGB_PERIOD_NS) {
-                    return Ok(());
-                }
-                let renders: Vec<&[u8]> = if *keep > 1 {
-                    recent.iter().map(Vec::as_slice).collect()
-                } else {
-                    vec![rgb]
-                };
-                let frame = RgbFrame {
-                    seq: *seq,
-                    stamp_ns: t,
-                    width: IMAGE_WIDTH_PX,
-                    height: IMAGE_HEIGHT_PX,
-                    valid: true,
-                    continuous: true,
-                    rgb: sensor.apply(&renders),
-                };
-                *seq += 1;
-                self.deliver(SensorInput::Rgb(&frame))?;
-            }
-        }
-        Ok(())
-    }
-
-    /// One sensor message over the perturbed link into the receiver.
-    fn deliver(&mut self, input: SensorInput<'_>) -> Result<()> {
-        self.messages += 1;
-        if !self.link.keeps(&mut self.link_rng) {
-            self.lost += 1;
-            return Ok(());
-        }
-        let step = self.perception.push(input)?;
-        self.tokens.extend(step.tokens);
-        self.frames.extend(step.frames);
-        Ok(())
-    }
-
-    /// What the receiver released, its instants shifted by the link's delay.
-    fn finish(self) -> Observed {
-        let mut out = observer_out(&self.tokens, &self.frames);
-        let delay_s = self.link.delay_ns() as f64 * 1e-9;
-        for f in &mut out.frames {
-            f.final_null_s += delay_s;
-        }
-        for t in &mut out.tokens {
-            t.t_s += delay_s;
-        }
-        Observed {
-            out,
-            messages: self.messages,
-            lost: self.lost,
-            denoise: self.perception.denoise_counts(),
-        }
-    }
-}
-
-/// Every observer of a trial fed from the render cache, one after another. `None` when `stop`
-/// was raised before they finished.
-fn observe_cached(
-    flight: &RenderedFlight,
-    opts: &TrialsOptions,
-    seed: u64,
-    stop: &AtomicBool,
-) -> Result<Option<Vec<Observed>>> {
-    let mut observed = Vec::new();
-    for (i, placement) in flight.spec.formation.placements().iter().enumerate() {
-        let mut observer = Observer::new(placement, i, opts, seed)?;
-        let mut finished = true;
-        flight.tracks[i].replay(|t, rgb, change| {
-            if stop.load(Ordering::Relaxed) {
-                finished = false;
-                return Ok(false);
-            }
-            observer.render(t, rgb, change)?;
-            Ok(true)
-        })?;
-        if !finished {
-            return Ok(None);
-        }
-        observed.push(observer.finish());
-    }
-    Ok(Some(observed))
-}
-
-/// Every observer of a trial fed straight from the trial's own flight of `spec`, render by
-/// render: nothing is kept (a flight that moves the cameras changes every pixel of every
-/// render, gigabytes a flight). Each observer sees the same renders in the same order as from
-/// the cache, so it decodes the same. `None` when `stop` was raised before the flight ended.
-fn observe_flying(
-    spec: &FlightSpec,
-    opts: &TrialsOptions,
-    seed: u64,
-    stop: &AtomicBool,
-) -> Result<Option<(Flown, Vec<Observed>)>> {
-    let mut observers = spec
-        .formation
-        .placements()
-        .iter()
-        .enumerate()
-        .map(|(i, placement)| Observer::new(placement, i, opts, seed))
-        .collect::<Result<Vec<_>>>()?;
-    let flown = fly_streamed(spec, |i, t, rgb, change| {
-        if stop.load(Ordering::Relaxed) {
-            return Ok(false);
-        }
-        observers[i].render(t, rgb, change)?;
-        Ok(true)
-    })?;
-    Ok(flown.map(|f| (f, observers.into_iter().map(Observer::finish).collect())))
-}
-
 /// Latency and comparison with the ideal receiver of each released frame.
 fn release_times(
     schedule: &Schedule,
@@ -433,14 +231,15 @@ fn run_trial(
     let own;
     let (spec, ideal, observed) = match shared {
         Some(f) => {
-            let Some(observed) = observe_cached(f, opts, seed, stop)? else {
+            let Some(observed) = observe_cached(f, &opts.sensing(), seed, stop)? else {
                 return Ok(None);
             };
             (&f.spec, &f.ideal, observed)
         }
         None => {
             let spec = opts.flight_spec(Some(seed))?;
-            let Some((flown, observed)) = observe_flying(&spec, opts, seed, stop)? else {
+            let Some((flown, observed)) = observe_flying(&spec, &opts.sensing(), seed, stop)?
+            else {
                 return Ok(None);
             };
             own = (spec, flown);
@@ -684,9 +483,13 @@ mod tests {
             let mut spec = opts.flight_spec(Some(11)).unwrap();
             spec.end_ns = 3_000_000_000;
             let stop = AtomicBool::new(false);
-            let (flown, streamed) = observe_flying(&spec, &opts, 11, &stop).unwrap().unwrap();
+            let (flown, streamed) = observe_flying(&spec, &opts.sensing(), 11, &stop)
+                .unwrap()
+                .unwrap();
             let cache = fly_rendered(spec).unwrap();
-            let cached = observe_cached(&cache, &opts, 11, &stop).unwrap().unwrap();
+            let cached = observe_cached(&cache, &opts.sensing(), 11, &stop)
+                .unwrap()
+                .unwrap();
             assert_eq!(digest(&streamed), digest(&cached), "{modality}");
             assert!(streamed.iter().all(|o| o.messages > 0), "{modality}");
             assert_eq!(

@@ -12,7 +12,6 @@ use proto::scene::{Formation, MAX_OBSERVERS, Placement};
 use proto::{Receiver, Rectification};
 
 use super::link::{parse_bits6, parse_viewpoint};
-use crate::case::Case;
 use crate::harness::mission_metrics::Policy;
 use crate::harness::mission_trials::{MissionTrialsOptions, mission_criterion, run_mission_trials};
 use crate::harness::pool::Tally;
@@ -20,7 +19,8 @@ use crate::harness::run_files::{PointCostSum, RunCost, RunKind, RunManifest, cpu
 use crate::harness::study_merge::{MergeOptions, Merged, merge};
 use crate::harness::study_run::{header, recorded, run_point};
 use crate::harness::trials::{TrialsOptions, criterion, definition};
-use crate::run_dir::lock::RunLock;
+use run_format::case::Case;
+use run_format::run_dir::lock::RunLock;
 
 #[derive(Debug, Args)]
 #[command(after_long_help = perturbation_help())]

@@ -112,7 +112,7 @@ impl ClusterArgs {
             time: self.time.clone(),
             mem: self.mem.clone(),
             cpus_per_task: self.cpus_per_task.max(1),
-            waggle: std::env::current_exe().context("finding this waggle binary")?,
+            waggle: crate::waggle_binary()?,
             extra,
         };
         if let Some(image) = &self.kubernetes {

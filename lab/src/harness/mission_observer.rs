@@ -19,9 +19,9 @@ use sim::render::CameraRenderer;
 use sim::sensor::{ObserverSensor, SensorOutput};
 use sim::world::World;
 
-use crate::case::{Case, Receiver};
 use crate::harness::mission_options::MissionOptions;
-use crate::run_dir::ObserverRecord;
+use run_format::case::{Case, Receiver};
+use run_format::run_dir::ObserverRecord;
 
 /// Where an observer's input comes from.
 enum Source {

@@ -7,12 +7,12 @@ use std::path::Path;
 
 use proto::{Offer, Site};
 
-use crate::case::Case;
-use crate::eval::audit::audit_recording;
-use crate::eval::summary::ns_s;
-use crate::run_dir::audit::{AuditReport, AuditTiming};
-use crate::run_dir::session::SessionRecord;
-use crate::run_dir::{RECORDING_FILE, RunFiles};
+use deploy::eval::audit::audit_recording;
+use deploy::eval::summary::ns_s;
+use run_format::case::Case;
+use run_format::run_dir::audit::{AuditReport, AuditTiming};
+use run_format::run_dir::session::SessionRecord;
+use run_format::run_dir::{RECORDING_FILE, RunFiles};
 
 /// Where an audit came from.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -18,10 +18,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
-use crate::case::{BUILT_IN, Case};
-use crate::run_dir::audit::AuditReport;
-use crate::run_dir::{PlannedRun, RunFiles, SUMMARY_FILE, SWEEP_FILE, SweepManifest};
 use run_audit::{AuditSource, audit_run, check_against_case};
+use run_format::case::{BUILT_IN, Case};
+use run_format::run_dir::audit::AuditReport;
+use run_format::run_dir::{PlannedRun, RunFiles, SUMMARY_FILE, SWEEP_FILE, SweepManifest};
 
 /// One run, audited and checked against its case.
 #[derive(Debug, Clone)]
@@ -481,7 +481,7 @@ fn run_section(md: &mut String, e: &RunEntry, figs: &Figures) {
             md,
             "- mission time {:.2} s ({}), wall {:.0} s; complete messages {}; work units {} {:?}",
             a.mission_time_s,
-            crate::eval::summary::end_reason_text(a.end_reason),
+            deploy::eval::summary::end_reason_text(a.end_reason),
             files.summary.mission.wall_seconds,
             messages_vector(a),
             a.work_units,

@@ -13,11 +13,11 @@ use perturb::seed::trial_seed;
 use proto::RenderPath;
 use serde::Serialize;
 
-use crate::case::{Case, Receiver};
 use crate::harness::mission::{MissionOptions, MissionRun, fly_case_with};
 use crate::harness::mission_metrics::{MissionMetrics, Policy};
 use crate::harness::pool::{Outcome, Tally, run_pool};
-use crate::run_dir::ObserverSummary;
+use run_format::case::{Case, Receiver};
+use run_format::run_dir::ObserverSummary;
 
 /// One case and how many times to fly it.
 #[derive(Debug, Clone)]

@@ -22,8 +22,8 @@ use sim::sensor::EVENT_RENDER_PERIOD_NS;
 use crate::harness::link::{LinkOptions, LinkOut, fly_link, observer_out, print_table};
 pub use crate::harness::link::{parse_bits6, parse_viewpoint};
 use crate::harness::rendered_flight::{FlightSpec, fly_rendered};
-use crate::run_dir::SensorRecord;
 use node_args::SensorArgs;
+use run_format::run_dir::SensorRecord;
 
 #[derive(Debug, Args)]
 pub struct LinkArgs {
@@ -80,7 +80,7 @@ fn sensor(args: &LinkArgs) -> Result<Option<(Perturbation, SensorRecord)>> {
         perturb: args.perturb.perturb.clone(),
         seed: args.seed,
     };
-    let Some(record) = crate::compose::sensor::record(&spec)? else {
+    let Some(record) = deploy::compose::sensor::record(&spec)? else {
         return Ok(None);
     };
     if args.modality != Receiver::Events {

@@ -1,12 +1,12 @@
 //! `waggle report DIR`: rebuild `report.md` and its figures from a run or sweep directory
-//! ([`crate::eval::report`]).
+//! ([`crate::report`]).
 
 use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
 
-use crate::eval::report::{gather, print_outcomes, verdict, write_report};
+use crate::report::{gather, print_outcomes, verdict, write_report};
 
 #[derive(Debug, Args)]
 pub struct ReportArgs {

@@ -1,12 +1,12 @@
 //! `waggle sweep`: every case × modality as its own `waggle run`, then the report
-//! ([`crate::launch::sweep`]).
+//! ([`crate::sweep`]).
 
 use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
 
-use crate::launch::sweep::{SweepModality, SweepOptions, run_sweep};
+use crate::sweep::{SweepModality, SweepOptions, run_sweep};
 
 #[derive(Debug, Args)]
 pub struct SweepArgs {

@@ -40,16 +40,25 @@ use crate::harness::trials::TrialsOptions;
 pub const BUILT_IN: &[(&str, &str)] = &[
     (
         "event-noise",
-        include_str!("../../studies/event-noise.toml"),
+        include_str!("../../../deploy/studies/event-noise.toml"),
     ),
-    ("rgb-noise", include_str!("../../studies/rgb-noise.toml")),
+    (
+        "rgb-noise",
+        include_str!("../../../deploy/studies/rgb-noise.toml"),
+    ),
     (
         "viewing-angle",
-        include_str!("../../studies/viewing-angle.toml"),
+        include_str!("../../../deploy/studies/viewing-angle.toml"),
     ),
-    ("distance", include_str!("../../studies/distance.toml")),
-    ("baselines", include_str!("../../studies/baselines.toml")),
-    ("light", include_str!("../../studies/light.toml")),
+    (
+        "distance",
+        include_str!("../../../deploy/studies/distance.toml"),
+    ),
+    (
+        "baselines",
+        include_str!("../../../deploy/studies/baselines.toml"),
+    ),
+    ("light", include_str!("../../../deploy/studies/light.toml")),
 ];
 
 /// A study of either kind: seeded link trials over levels, or whole-mission baselines.

@@ -14,7 +14,7 @@ use crate::harness::shard::Shard;
 use crate::harness::study::{Study, StudyFile, study_text};
 use crate::harness::study_merge::{MergeOptions, Merged, merge};
 use crate::harness::study_run::run_study_part;
-use crate::run_dir::lock::RunLock;
+use run_format::run_dir::lock::RunLock;
 
 #[derive(Debug, Args)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]

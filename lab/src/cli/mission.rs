@@ -5,11 +5,11 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 
-use crate::case::{Case, Receiver};
-use crate::eval::summary::print_summary;
 use crate::harness::mission::{MissionOptions, MissionRun, fly_case_with};
 use crate::harness::mission_metrics::{MissionMetrics, Policy};
-use crate::run_dir::{OBSERVERS_FILE, SUMMARY_FILE};
+use deploy::eval::summary::print_summary;
+use run_format::case::{Case, Receiver};
+use run_format::run_dir::{OBSERVERS_FILE, SUMMARY_FILE};
 
 #[derive(Debug, Args)]
 pub struct MissionArgs {

@@ -2,7 +2,7 @@
 //! ([`link`]), the performer's flight as physics references ([`performer_flight`]) and the
 //! offline PNG → events converter ([`convert`]), decode success against viewpoint
 //! ([`viewpoints`]), seeded perturbed trials on a flight rendered once ([`trials`],
-//! [`rendered_flight`]) and studies of them ([`study`]); per-trial records that make runs
+//! [`trial_observer`], [`rendered_flight`]) and studies of them ([`study`]); per-trial records that make runs
 //! resumable ([`records`], [`run_files`]), shards and their merge ([`shard`], [`study_run`],
 //! [`study_merge`]) and cluster job files ([`cluster`]).
 
@@ -28,6 +28,7 @@ pub mod study;
 pub mod study_merge;
 pub mod study_report;
 pub mod study_run;
+pub mod trial_observer;
 pub mod trials;
 pub mod trials_out;
 pub mod viewpoints;

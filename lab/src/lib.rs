@@ -1,0 +1,37 @@
+//! `lab`: the Waggle lab — what flies the simulator (MuJoCo) in-process, behind the
+//! `waggle-lab` binary that `waggle` hands its lab commands to (`waggle mission`, `link`,
+//! `trials`, `study`, `viewpoints`, `decode`, `events`, `report`, `sweep`).
+//!
+//! - [`harness`]: a whole mission in one process, the link bench, the performer's flight,
+//!   seeded perturbed trials on a flight rendered once, studies of them with their baselines,
+//!   metrics, shards and cluster job files, decoding recorded event streams and the PNG → events
+//!   converter.
+//! - [`report`]: the session report (`report.md`, its tables and figures; the sensor figure
+//!   re-simulates one camera).
+//! - [`sweep`]: every case × modality as its own `waggle run`, then the report.
+//! - [`cli`]: one small adapter per lab command.
+//!
+//! The operations (`waggle run`, `compose`, `up`, `router`, `bundle`, the recording's audit and
+//! replay) are the `deploy` crate's, which this one builds on and which never links MuJoCo.
+
+#![forbid(unsafe_code)]
+
+pub mod cli;
+pub mod harness;
+pub mod report;
+pub mod sweep;
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+
+/// The `waggle` binary beside this one (`waggle-lab` is started by it): what a sweep runs each
+/// case with and what cluster job files name.
+///
+/// # Errors
+///
+/// When this executable cannot be located.
+pub fn waggle_binary() -> Result<PathBuf> {
+    let exe = std::env::current_exe().context("locating the waggle-lab binary")?;
+    Ok(exe.with_file_name("waggle"))
+}
