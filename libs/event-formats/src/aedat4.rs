@@ -34,6 +34,7 @@ use event_camera::{Event, Polarity};
 
 use crate::evt3::Geometry;
 use crate::flatbuf::{self, FbError, Table};
+use crate::input::{EventsError, check_events};
 
 /// The version line every AEDAT 4.0 file starts with.
 pub const MAGIC: &[u8] = b"#!AER-DAT4.0\r\n";
@@ -52,15 +53,8 @@ const RELATIVE_CLOCK_US: i64 = 1 << 32;
 pub enum Aedat4Error {
     #[error("writing AEDAT4: {0}")]
     Io(#[from] std::io::Error),
-    #[error("event at ({x}, {y}) is outside the {width}×{height} sensor")]
-    Outside {
-        x: u16,
-        y: u16,
-        width: u16,
-        height: u16,
-    },
-    #[error("events must be in time order: {t_ns} ns after {previous_ns} ns")]
-    NotSorted { t_ns: u64, previous_ns: u64 },
+    #[error(transparent)]
+    Events(#[from] EventsError),
     #[error("sensor {width}×{height}: AEDAT4 carries at most 32767×32767")]
     SensorTooLarge { width: u16, height: u16 },
     #[error("byte {offset}: {what}")]
@@ -219,25 +213,7 @@ pub fn write(
     if width == 0 || height == 0 || width > 32767 || height > 32767 {
         return Err(Aedat4Error::SensorTooLarge { width, height });
     }
-    let mut previous_ns = 0;
-    for e in events {
-        if e.x >= width || e.y >= height {
-            let (x, y) = (e.x, e.y);
-            return Err(Aedat4Error::Outside {
-                x,
-                y,
-                width,
-                height,
-            });
-        }
-        if e.t_ns < previous_ns {
-            return Err(Aedat4Error::NotSorted {
-                t_ns: e.t_ns,
-                previous_ns,
-            });
-        }
-        previous_ns = e.t_ns;
-    }
+    check_events(events, width, height, 0)?;
     out.write_all(MAGIC)?;
     let info = info_node(width, height, opts.compression);
     out.write_all(&flatbuf::io_header(opts.compression.code(), -1, &info))?;
@@ -676,7 +652,10 @@ mod tests {
         let mut out = Vec::new();
         let opts = WriteOptions::default();
         let e = write(&mut out, 640, 480, &[ev(0, 640, 0, true)], &opts).unwrap_err();
-        assert!(matches!(e, Aedat4Error::Outside { x: 640, .. }), "{e}");
+        assert!(
+            matches!(e, Aedat4Error::Events(EventsError::Outside { x: 640, .. })),
+            "{e}"
+        );
         let e = write(
             &mut out,
             640,
@@ -685,7 +664,10 @@ mod tests {
             &opts,
         )
         .unwrap_err();
-        assert!(matches!(e, Aedat4Error::NotSorted { .. }), "{e}");
+        assert!(
+            matches!(e, Aedat4Error::Events(EventsError::NotSorted { .. })),
+            "{e}"
+        );
     }
 
     #[test]

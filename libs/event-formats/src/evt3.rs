@@ -30,6 +30,8 @@ use std::io::Write;
 
 use event_camera::{Event, Polarity};
 
+use crate::input::{EventsError, check_events};
+
 /// Largest coordinate EVT 3.0 can carry (11 bits).
 pub const MAX_COORD: u16 = 2047;
 
@@ -38,17 +40,10 @@ pub const MAX_COORD: u16 = 2047;
 pub enum Evt3Error {
     #[error("writing EVT 3.0: {0}")]
     Io(#[from] std::io::Error),
-    #[error("event at ({x}, {y}) is outside the {width}×{height} sensor")]
-    Outside {
-        x: u16,
-        y: u16,
-        width: u16,
-        height: u16,
-    },
+    #[error(transparent)]
+    Events(#[from] EventsError),
     #[error("sensor {width}×{height}: EVT 3.0 carries at most 2048×2048")]
     SensorTooLarge { width: u16, height: u16 },
-    #[error("events must be in time order: {t_ns} ns after {previous_ns} ns")]
-    NotSorted { t_ns: u64, previous_ns: u64 },
     #[error("header: {0}")]
     Header(String),
     #[error("byte {offset}: {what}")]
@@ -160,24 +155,7 @@ impl StreamEncoder {
     /// Appends the words of `events` (in time order, also after the events encoded before) to
     /// `buf`. On an error nothing of `events` is appended.
     pub fn encode(&mut self, events: &[Event], buf: &mut Vec<u8>) -> Result<(), Evt3Error> {
-        let mut previous_ns = self.previous_ns;
-        for e in events {
-            if e.x >= self.width || e.y >= self.height {
-                return Err(Evt3Error::Outside {
-                    x: e.x,
-                    y: e.y,
-                    width: self.width,
-                    height: self.height,
-                });
-            }
-            if e.t_ns < previous_ns {
-                return Err(Evt3Error::NotSorted {
-                    t_ns: e.t_ns,
-                    previous_ns,
-                });
-            }
-            previous_ns = e.t_ns;
-        }
+        let previous_ns = check_events(events, self.width, self.height, self.previous_ns)?;
         buf.reserve(events.len() * 2 + 8);
         for e in events {
             self.push(e, buf);
@@ -483,8 +461,14 @@ mod tests {
         assert!(read(b"% evt 3.0\n").is_err());
         let mut out = Vec::new();
         let e = write(&mut out, 640, 480, &[ev(0, 640, 0, true)]).unwrap_err();
-        assert!(matches!(e, Evt3Error::Outside { x: 640, .. }), "{e}");
+        assert!(
+            matches!(e, Evt3Error::Events(EventsError::Outside { x: 640, .. })),
+            "{e}"
+        );
         let e = write(&mut out, 640, 480, &[ev(5, 1, 0, true), ev(4, 1, 0, true)]).unwrap_err();
-        assert!(matches!(e, Evt3Error::NotSorted { .. }), "{e}");
+        assert!(
+            matches!(e, Evt3Error::Events(EventsError::NotSorted { .. })),
+            "{e}"
+        );
     }
 }

@@ -7,3 +7,6 @@
 pub mod aedat4;
 pub mod evt3;
 mod flatbuf;
+pub mod input;
+
+pub use input::EventsError;

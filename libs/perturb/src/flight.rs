@@ -36,7 +36,7 @@ impl Perturbation {
     /// The wind of trial `trial_seed`, or `None` when there is none (no mean, no turbulence).
     pub fn wind_of(&self, trial_seed: u64) -> Option<WindTerms> {
         let mean_mps = self.get("wind.mean_mps");
-        let sigma_mps = self.get("wind.sigma_mps");
+        let sigma_mps = self.get("wind.sigma_mps") + self.get("wind.intensity") * mean_mps;
         (mean_mps > 0.0 || sigma_mps > 0.0).then(|| WindTerms {
             mean_mps,
             direction_deg: self.get("wind.direction_deg"),
@@ -93,5 +93,24 @@ mod tests {
         );
         assert!(c.reflies());
         assert!(Perturbation::parse(&["flight.cascade=0.5"]).is_err());
+    }
+
+    #[test]
+    fn turbulence_intensity_scales_the_gusts_with_the_mean_wind() {
+        let p = Perturbation::parse(&["wind.intensity=0.25"]).unwrap();
+        assert!(
+            p.wind().is_none(),
+            "intensity without a mean wind is still air"
+        );
+        let p = Perturbation::parse(&["wind.intensity=0.25", "wind.mean_mps=2"]).unwrap();
+        assert_eq!(p.wind().unwrap().sigma_mps, 0.5);
+        let p = Perturbation::parse(&[
+            "wind.intensity=0.25",
+            "wind.mean_mps=2",
+            "wind.sigma_mps=0.1",
+        ])
+        .unwrap();
+        assert!((p.wind().unwrap().sigma_mps - 0.6).abs() < 1e-12);
+        assert!(Perturbation::parse(&["wind.intensity=1.5"]).is_err());
     }
 }

@@ -285,6 +285,16 @@ pub const PARAMETERS: &[Parameter] = &[
         "Dryden turbulence: horizontal σ_u = σ_v; σ_w = 0.51 σ_u (MIL-HDBK-1797 low altitude)",
     ),
     p(
+        "wind.intensity",
+        "σ/mean",
+        0.0,
+        0.0,
+        1.0,
+        false,
+        "turbulence intensity: adds intensity × wind.mean_mps to wind.sigma_mps (so one value \
+         scales the gusts with the mean wind, as in a study over wind speeds)",
+    ),
+    p(
         "wind.length_m",
         "m",
         0.0,

@@ -137,15 +137,8 @@ impl ImageBag {
             .iter()
             .enumerate()
             .map(|(i, (_, log_time, cdr))| {
-                let at = |reason: String| {
-                    bag_error(
-                        &self.path,
-                        format!(
-                            "{} message {i} (log time {log_time} ns): {reason}",
-                            self.topic
-                        ),
-                    )
-                };
+                let at =
+                    |reason: String| message_error(&self.path, &self.topic, i, *log_time, reason);
                 if self.compressed {
                     let msg = CompressedImageMsg::from_cdr(cdr).map_err(|e| at(e.to_string()))?;
                     compressed_image(&msg).map_err(at)
@@ -263,6 +256,20 @@ pub fn mcap_files(path: &Path) -> Result<Vec<PathBuf>, Ros2Error> {
     Ok(files)
 }
 
+/// A bad message: the topic, its index and log time, and what is wrong.
+fn message_error(
+    path: &Path,
+    topic: &str,
+    i: usize,
+    log_time_ns: u64,
+    reason: String,
+) -> Ros2Error {
+    bag_error(
+        path,
+        format!("{topic} message {i} (log time {log_time_ns} ns): {reason}"),
+    )
+}
+
 fn bag_error(path: &Path, reason: impl Into<String>) -> Ros2Error {
     Ros2Error::BagRead {
         path: path.display().to_string(),
@@ -372,15 +379,7 @@ fn decode_packets(path: &Path, found: TopicMessages) -> Result<EventBag, Ros2Err
     let mut decoder = StreamDecoder::new();
     let mut triggers = Vec::new();
     for (i, (_, log_time, cdr)) in found.messages.iter().enumerate() {
-        let at = |reason: String| {
-            bag_error(
-                path,
-                format!(
-                    "{} message {i} (log time {log_time} ns): {reason}",
-                    out.topic
-                ),
-            )
-        };
+        let at = |reason: String| message_error(path, &out.topic, i, *log_time, reason);
         let msg = EventPacketMsg::from_cdr(cdr).map_err(|e| at(e.to_string()))?;
         if msg.encoding != "evt3" || msg.is_bigendian {
             return Err(at(format!(

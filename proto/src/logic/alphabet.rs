@@ -2,7 +2,8 @@
 //!
 //! Both receivers resample a candidate path to [`RESAMPLE_POINTS`] arc-length-spaced points,
 //! subtract their centroid and divide by the path's largest coordinate span, then score it by the
-//! RMS distance `E_a` to each template (normalised the same way). Dividing by the *largest* span
+//! RMS distance `E_a` to each template (normalised the same way), after the best order-preserving
+//! re-registration of the samples within ±[`WARP_BAND`] ([`warped_rms_error`]). Dividing by the *largest* span
 //! (not per axis) keeps a pure vertical START and a pure horizontal END distinct instead of
 //! blowing up the flat axis.
 //!
@@ -15,6 +16,12 @@
 //! then flies the stroke; with the first point as origin that alone pushed correct strokes past
 //! the error limit (issue 28). Template separation is unchanged where it is smallest (START vs
 //! END 0.41, the acquisition sweep vs END 0.41: both pairs are centred already).
+//!
+//! The warp (banded dynamic time warping) answers the next distortion of that flight: wander
+//! during a stroke adds arc length to part of it, so the later samples slide along a correctly
+//! shaped path and the fixed pairing measures the slide. It never costs more than the fixed
+//! pairing, and the templates stay apart (closest pair START/END 0.41 → 0.35, still far above
+//! the runner-up margins of 0.065–0.075).
 //! Acceptance additionally requires minimum support, closure, an error limit and a margin over
 //! the runner-up; a rejected path says which test failed.
 
@@ -199,6 +206,51 @@ pub fn rms_error(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
     (sum / n as f64).sqrt()
 }
 
+/// Largest shift, in samples, by which [`warped_rms_error`] may slide a path's samples along its
+/// template (±10 % of the [`RESAMPLE_POINTS`]).
+pub const WARP_BAND: usize = 8;
+
+/// RMS distance between two point sequences after the best order-preserving re-registration of
+/// their samples: dynamic time warping with the symmetric step pattern (a diagonal step weighs
+/// twice, a horizontal or vertical one once, normalised by `a.len() + b.len()`) inside a
+/// Sakoe–Chiba band of `band` samples. Without warping (the diagonal) this is exactly
+/// [`rms_error`], so it is never larger; infinite when either sequence is empty.
+///
+/// Why: a performer that wanders while flying a stroke adds length to parts of its path, so
+/// its 80 arc-length samples slide along the template's shape even when the shape is right;
+/// the fixed pairing then measures the slide, not the shape (issue 28). The band keeps the
+/// pairing local, so the shape's order still decides (a V cannot become an inverted V).
+pub fn warped_rms_error(a: &[[f64; 2]], b: &[[f64; 2]], band: usize) -> f64 {
+    let (n, m) = (a.len(), b.len());
+    if n == 0 || m == 0 {
+        return f64::INFINITY;
+    }
+    // Row-by-row cumulative cost; cells outside the band stay infinite.
+    let mut prev = vec![f64::INFINITY; m];
+    let mut row = vec![f64::INFINITY; m];
+    for i in 0..n {
+        row.fill(f64::INFINITY);
+        let (lo, hi) = (i.saturating_sub(band), (i + band).min(m - 1));
+        for j in lo..=hi {
+            let d = dist_sq(a[i], b[j]);
+            row[j] = if i == 0 && j == 0 {
+                2.0 * d
+            } else {
+                let diagonal = if i > 0 && j > 0 {
+                    prev[j - 1] + 2.0 * d
+                } else {
+                    f64::INFINITY
+                };
+                let vertical = if i > 0 { prev[j] + d } else { f64::INFINITY };
+                let horizontal = if j > 0 { row[j - 1] + d } else { f64::INFINITY };
+                diagonal.min(vertical).min(horizontal)
+            };
+        }
+        std::mem::swap(&mut prev, &mut row);
+    }
+    (prev[m - 1] / (n + m) as f64).sqrt()
+}
+
 /// The normalised, resampled template of `action` (image coordinates, y down).
 pub fn template(action: Action) -> &'static [[f64; 2]] {
     static TEMPLATES: OnceLock<[Vec<[f64; 2]>; 4]> = OnceLock::new();
@@ -208,10 +260,11 @@ pub fn template(action: Action) -> &'static [[f64; 2]] {
     &all[action.index()]
 }
 
-/// RMS error of a raw image path to every template, indexed like [`Action::ALL`].
+/// Error of a raw image path to every template ([`warped_rms_error`] within [`WARP_BAND`]),
+/// indexed like [`Action::ALL`].
 pub fn template_errors(path_px: &[[f64; 2]]) -> [f64; 4] {
     let u = normalise(&resample_arc_length(path_px, RESAMPLE_POINTS));
-    Action::ALL.map(|a| rms_error(&u, template(a)))
+    Action::ALL.map(|a| warped_rms_error(&u, template(a), WARP_BAND))
 }
 
 /// Classifies a raw image-plane path (pixels, y down) as one of the four actions.
@@ -385,6 +438,84 @@ mod tests {
                 assert_eq!(c.action, a);
                 assert!(c.error < 0.065, "{a} direction {k}: error {:.3}", c.error);
             }
+        }
+    }
+
+    #[test]
+    fn warping_never_costs_more_than_the_fixed_pairing_and_nothing_on_itself() {
+        for a in Action::ALL {
+            let t = template(a);
+            assert_eq!(warped_rms_error(t, t, WARP_BAND), 0.0);
+            for b in Action::ALL {
+                let (fixed, warped) = (
+                    rms_error(t, template(b)),
+                    warped_rms_error(t, template(b), WARP_BAND),
+                );
+                assert!(warped <= fixed + 1e-12, "{a} vs {b}: {warped} > {fixed}");
+                // No band: the fixed pairing itself.
+                assert!((warped_rms_error(t, template(b), 0) - fixed).abs() < 1e-12);
+            }
+        }
+        assert_eq!(
+            warped_rms_error(&[], template(Action::ALL[0]), 8),
+            f64::INFINITY
+        );
+    }
+
+    #[test]
+    fn templates_stay_apart_under_warping() {
+        // The smallest distance between two templates, warped, must stay well above the
+        // receivers' runner-up margins and near the fixed pairing's (START vs END 0.41).
+        let mut closest = f64::INFINITY;
+        for a in Action::ALL {
+            for b in Action::ALL.into_iter().filter(|&b| b != a) {
+                let warped = warped_rms_error(template(a), template(b), WARP_BAND);
+                eprintln!(
+                    "{a} vs {b}: fixed {:.3}, warped {warped:.3}",
+                    rms_error(template(a), template(b))
+                );
+                closest = closest.min(warped);
+            }
+        }
+        assert!(
+            closest > 0.3,
+            "closest templates {closest:.3} apart when warped"
+        );
+    }
+
+    #[test]
+    fn samples_slid_along_the_shape_cost_little_when_warped() {
+        // A stroke flown with a wobble on its first half: the extra arc length there slides
+        // every later sample along the shape. The shape itself is right.
+        for a in Action::ALL {
+            let clean = drawn(a, 90.0, [320.0, 240.0], 8);
+            let span = largest_span(&clean);
+            let dense = resample_arc_length(&clean, 400);
+            let wobbly: Vec<[f64; 2]> = dense
+                .iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    let w = if i < 200 {
+                        0.02 * span * (i as f64 * 0.9).sin()
+                    } else {
+                        0.0
+                    };
+                    [p[0] + w, p[1] - w]
+                })
+                .collect();
+            let u = normalise(&resample_arc_length(&wobbly, RESAMPLE_POINTS));
+            let (fixed, warped) = (
+                rms_error(&u, template(a)),
+                warped_rms_error(&u, template(a), WARP_BAND),
+            );
+            assert!(
+                warped < 0.8 * fixed,
+                "{a}: warped {warped:.3}, fixed {fixed:.3}"
+            );
+            assert_eq!(
+                classify(&wobbly, &MatchSettings::rgb()).map(|c| c.action),
+                Ok(a)
+            );
         }
     }
 
