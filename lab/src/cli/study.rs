@@ -22,7 +22,7 @@ pub struct StudyArgs {
     #[command(subcommand)]
     command: Option<StudyCommand>,
     /// A study file (TOML) or a built-in study: event-noise, rgb-noise, light, viewing-angle,
-    /// distance, baselines (`--print` shows one to copy and edit).
+    /// distance, baselines, wind, wind-links (`--print` shows one to copy and edit).
     #[arg(required = true)]
     study: Option<String>,
     /// Output directory: one subdirectory per point (trials.json, cost.json, the per-trial

@@ -6,7 +6,7 @@
 
 use anyhow::{Context, Result};
 use perturb::Perturbation;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use sim::cascade::CascadeConfig;
 use sim::wind::WindConfig;
 use sim::world::{ControllerKind, DroneIndex, World};
@@ -30,7 +30,7 @@ pub fn set_air(world: &mut World, p: &Perturbation, seed: u64) -> Result<bool> {
 
 /// How closely a drone followed its reference over a flight (true position against the
 /// reference, every physics step).
-#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct Tracking {
     pub rms_m: f64,
     pub max_m: f64,
@@ -44,5 +44,46 @@ impl Tracking {
             rms_m: t.rms_m,
             max_m: t.max_m,
         }
+    }
+}
+
+/// The performer's tracking over a set of trials (a study point's).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct PointTracking {
+    /// Mean over the trials of each flight's RMS error, m.
+    pub mean_rms_m: f64,
+    /// Largest error of any trial, m.
+    pub max_m: f64,
+    /// Trials with a contact between drones.
+    pub contact_trials: u64,
+}
+
+impl PointTracking {
+    /// Pools `parts` (each with its trial count); `None` when there is none.
+    pub fn pooled(parts: impl Iterator<Item = (u64, PointTracking)>) -> Option<Self> {
+        let (mut n, mut sum, mut max_m, mut contact_trials) = (0u64, 0.0, 0.0f64, 0);
+        for (trials, t) in parts {
+            n += trials;
+            sum += t.mean_rms_m * trials as f64;
+            max_m = max_m.max(t.max_m);
+            contact_trials += t.contact_trials;
+        }
+        (n > 0).then(|| Self {
+            mean_rms_m: sum / n as f64,
+            max_m,
+            contact_trials,
+        })
+    }
+
+    /// The report's cells: `mean RMS / max` in mm, and the trials with contact.
+    pub fn cells(tracking: Option<&Self>) -> String {
+        tracking.map_or("— | —".to_owned(), |t| {
+            format!(
+                "{:.1} / {:.1} | {}",
+                t.mean_rms_m * 1e3,
+                t.max_m * 1e3,
+                t.contact_trials
+            )
+        })
     }
 }

@@ -9,7 +9,14 @@
 //! trials = 1          # per case × arm; > 1 only makes sense with a perturbation
 //! seed = 1
 //! perturb = {}        # e.g. { "flight.gust_sigma_n" = 0.005 }
+//! [[vary]]            # optional, at most one: every case × arm at each level of one term
+//! key = "wind.mean_mps"
+//! levels = [0.0, 1.0, 2.0]
 //! ```
+//!
+//! Every trial also reports its safety: the closest any two drones came and whether they
+//! touched. A trial closer than [`SAFE_SEPARATION_M`] or with a contact is counted as unsafe
+//! (the safety router keeps 0.4 m; the wind study's targets count such a trial as failed).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -21,10 +28,15 @@ use perturb::Perturbation;
 use proto::RenderPath;
 use serde::{Deserialize, Serialize};
 
+use crate::harness::air::PointTracking;
 use crate::harness::mission::MissionOptions;
 use crate::harness::mission_metrics::Policy;
 use crate::harness::mission_trials::{MissionTrialsOptions, MissionTrialsOut, run_mission_trials};
+use crate::harness::vary::Vary;
 use run_format::case::{Case, Receiver};
+
+/// Closest approach of two drones below which a trial counts as unsafe, m.
+pub const SAFE_SEPARATION_M: f64 = 0.35;
 
 /// One way of allocating tasks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
@@ -72,6 +84,9 @@ pub struct BaselineStudy {
     pub seed: u64,
     #[serde(default)]
     pub perturb: BTreeMap<String, f64>,
+    /// At most one perturbation term and its levels: every case × arm at each level.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub vary: Vec<Vary>,
 }
 
 /// Means over one arm's trials of one case.
@@ -79,6 +94,9 @@ pub struct BaselineStudy {
 pub struct ArmResult {
     pub case: String,
     pub arm: String,
+    /// The level of the study's `vary` term (none without one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub level: Option<f64>,
     pub trials: u64,
     pub successes: u64,
     pub ci95: [f64; 2],
@@ -93,6 +111,13 @@ pub struct ArmResult {
     pub not_reassigned: usize,
     pub broadcast_symbols: f64,
     pub broadcast_s: f64,
+    /// The closest two drones came in any trial, m.
+    pub min_separation_m: f64,
+    /// Trials closer than [`SAFE_SEPARATION_M`] or with a contact.
+    pub unsafe_trials: u64,
+    /// The performer's tracking (trials that flew the cascade or wind; none otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tracking: Option<PointTracking>,
 }
 
 impl BaselineStudy {
@@ -107,6 +132,20 @@ impl BaselineStudy {
         let mut p = Perturbation::default();
         for (k, v) in &self.perturb {
             p.set(k, *v).context("perturb")?;
+        }
+        if self.vary.len() > 1 {
+            bail!(
+                "a baselines study varies at most one term ([[vary]] given {} times)",
+                self.vary.len()
+            );
+        }
+        if let Some(vary) = self.vary.first() {
+            if vary.levels.is_empty() {
+                bail!("vary.levels must not be empty");
+            }
+            for &level in &vary.levels {
+                p.clone().set(&vary.key, level).context("vary")?;
+            }
         }
         MissionOptions {
             perturbation: p.clone(),
@@ -136,15 +175,19 @@ fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
     (n > 0).then(|| sum / n as f64)
 }
 
-fn arm_result(case: &str, arm: Arm, out: &MissionTrialsOut) -> ArmResult {
+fn arm_result(case: &str, arm: Arm, level: Option<f64>, out: &MissionTrialsOut) -> ArmResult {
     let m = || out.per_trial.iter().map(|t| &t.metrics);
     let avg = |f: &dyn Fn(&crate::harness::mission_metrics::MissionMetrics) -> f64| {
         mean(m().map(f)).unwrap_or(f64::NAN)
     };
     let responses = || m().flat_map(|x| x.reassignments.iter());
+    let unsafe_trial = |t: &crate::harness::mission_trials::MissionTrial| {
+        t.contact_steps > 0 || t.min_separation_m < SAFE_SEPARATION_M
+    };
     ArmResult {
         case: case.to_owned(),
         arm: arm.label().to_owned(),
+        level,
         trials: out.tally.trials,
         successes: out.tally.successes,
         ci95: out.tally.ci95,
@@ -157,6 +200,24 @@ fn arm_result(case: &str, arm: Arm, out: &MissionTrialsOut) -> ArmResult {
         not_reassigned: responses().filter(|r| r.delay_s.is_none()).count(),
         broadcast_symbols: avg(&|x| x.broadcast_symbols as f64),
         broadcast_s: avg(&|x| x.broadcast_s),
+        min_separation_m: out
+            .per_trial
+            .iter()
+            .map(|t| t.min_separation_m)
+            .fold(f64::INFINITY, f64::min),
+        unsafe_trials: out.per_trial.iter().filter(|t| unsafe_trial(t)).count() as u64,
+        tracking: PointTracking::pooled(out.per_trial.iter().filter_map(|t| {
+            t.metrics.performer_tracking.map(|k| {
+                (
+                    1,
+                    PointTracking {
+                        mean_rms_m: k.rms_m,
+                        max_m: k.max_m,
+                        contact_trials: u64::from(t.contact_steps > 0),
+                    },
+                )
+            })
+        })),
     }
 }
 
@@ -172,13 +233,21 @@ pub fn run_baselines(
 ) -> Result<Vec<ArmResult>> {
     let perturbation = study.check()?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let points: Vec<(String, Arm)> = study
-        .cases
+    let levels: Vec<Option<f64>> = match study.vary.first() {
+        Some(v) => v.levels.iter().map(|&l| Some(l)).collect(),
+        None => vec![None],
+    };
+    let points: Vec<(Option<f64>, String, Arm)> = levels
         .iter()
-        .flat_map(|c| study.arms.iter().map(move |a| (c.clone(), *a)))
+        .flat_map(|&l| {
+            study
+                .cases
+                .iter()
+                .flat_map(move |c| study.arms.iter().map(move |a| (l, c.clone(), *a)))
+        })
         .collect();
     let mut results = Vec::new();
-    for (k, (case_name, arm)) in points.iter().enumerate() {
+    for (k, (level, case_name, arm)) in points.iter().enumerate() {
         if stop.load(Ordering::SeqCst) {
             break;
         }
@@ -190,14 +259,24 @@ pub fn run_baselines(
             policy,
             trials: study.trials,
             seed: study.seed,
-            perturbation: perturbation.clone(),
+            perturbation: match (study.vary.first(), level) {
+                (Some(v), Some(l)) => {
+                    let mut p = perturbation.clone();
+                    p.set(&v.key, *l).context("vary")?;
+                    p
+                }
+                _ => perturbation.clone(),
+            },
             jobs,
             render,
         };
         let trials = run_mission_trials(&opts, stop, |done, _| {
             progress(k, points.len(), done, study.trials);
         })?;
-        let dir = out.join(format!("{}-{}", opts.case.name, arm.label()));
+        let dir = out.join(match (study.vary.first(), level) {
+            (Some(v), Some(l)) => format!("{}-{}-{}-{l}", opts.case.name, arm.label(), v.key),
+            _ => format!("{}-{}", opts.case.name, arm.label()),
+        });
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
         std::fs::write(
             dir.join("trials.json"),
@@ -205,7 +284,7 @@ pub fn run_baselines(
         )
         .with_context(|| format!("writing {}", dir.display()))?;
         if trials.tally.trials > 0 {
-            results.push(arm_result(&opts.case.name, *arm, &trials));
+            results.push(arm_result(&opts.case.name, *arm, *level, &trials));
         }
     }
     std::fs::write(
@@ -246,14 +325,29 @@ pub fn report(study: &BaselineStudy, results: &[ArmResult]) -> String {
             )
         }
     );
+    if let Some(v) = study.vary.first() {
+        s.push_str(&format!(
+            "\nVaried: `{}` over {:?}. Safety: min separation is the closest two drones came in \
+             any trial; a trial closer than {SAFE_SEPARATION_M} m or with a contact is unsafe. \
+             Tracking: the performer against its reference, mean over trials of each flight's \
+             RMS / the largest error of any trial.\n",
+            v.key, v.levels
+        ));
+    }
     let opt = |v: Option<f64>| v.map_or("—".to_owned(), |x| format!("{x:.2}"));
+    let level_head = study
+        .vary
+        .first()
+        .map_or(String::new(), |v| format!("{} | ", v.key));
     for case in &study.cases {
         s.push_str(&format!(
-            "\n## {case}\n\n| arm | expected outcome met | work units | reward | unserved capacity | completion (s) | wasted trips | reassignment delay (s) | not reassigned | symbols | broadcast (s) |\n| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
+            "\n## {case}\n\n| {level_head}arm | expected outcome met | work units | reward | unserved capacity | completion (s) | wasted trips | reassignment delay (s) | not reassigned | symbols | broadcast (s) | min separation (m) | unsafe trials | tracking RMS / max (mm) | trials with contact |\n| {}--- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+            if study.vary.is_empty() { "" } else { "---: | " }
         ));
         for r in results.iter().filter(|r| &r.case == case) {
             s.push_str(&format!(
-                "| {} | {}/{} [{:.2}, {:.2}] | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} | {:.0} | {:.2} |\n",
+                "| {}{} | {}/{} [{:.2}, {:.2}] | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {} | {:.0} | {:.2} | {:.3} | {} | {} |\n",
+                r.level.map_or(String::new(), |l| format!("{l} | ")),
                 r.arm,
                 r.successes,
                 r.trials,
@@ -267,9 +361,74 @@ pub fn report(study: &BaselineStudy, results: &[ArmResult]) -> String {
                 opt(r.reassignment_delay_s),
                 r.not_reassigned,
                 r.broadcast_symbols,
-                r.broadcast_s
+                r.broadcast_s,
+                r.min_separation_m,
+                r.unsafe_trials,
+                PointTracking::cells(r.tracking.as_ref()),
             ));
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn study(extra: &str) -> Result<BaselineStudy> {
+        let text = format!(
+            "name = \"t\"\ncases = [\"only-a\"]\narms = [\"ideal\"]\ntrials = 2\n\
+             perturb = {{ \"flight.cascade\" = 1.0 }}\n{extra}"
+        );
+        let s: BaselineStudy = toml::from_str(&text)?;
+        s.check()?;
+        Ok(s)
+    }
+
+    #[test]
+    fn one_term_may_be_varied_over_checked_levels() {
+        let s = study("[[vary]]\nkey = \"wind.mean_mps\"\nlevels = [0.0, 2.0]\n").unwrap();
+        assert_eq!(s.vary[0].levels, [0.0, 2.0]);
+        let err = |extra: &str| format!("{:#}", study(extra).unwrap_err());
+        assert!(
+            err("[[vary]]\nkey = \"wind.mean_mps\"\nlevels = [-1.0]\n").contains("wind.mean_mps")
+        );
+        assert!(err("[[vary]]\nkey = \"wind.speed\"\nlevels = [1.0]\n").contains("wind.speed"));
+        assert!(err("[[vary]]\nkey = \"wind.mean_mps\"\nlevels = []\n").contains("empty"));
+        let two = "[[vary]]\nkey = \"wind.mean_mps\"\nlevels = [1.0]\n".repeat(2);
+        assert!(err(&two).contains("at most one"));
+    }
+
+    #[test]
+    fn a_varied_report_has_a_row_per_level_with_safety_and_tracking() {
+        let s = study("[[vary]]\nkey = \"wind.mean_mps\"\nlevels = [0.0, 2.0]\n").unwrap();
+        let row = |level: f64, separation_m: f64| ArmResult {
+            case: "only-a".into(),
+            arm: "ideal-message".into(),
+            level: Some(level),
+            trials: 2,
+            successes: 1,
+            ci95: [0.1, 0.9],
+            work_units: 0.0,
+            reward: 0.0,
+            unserved_capacity: 0.0,
+            completion_time_s: 1.0,
+            wasted_trips: 0.0,
+            reassignment_delay_s: None,
+            not_reassigned: 0,
+            broadcast_symbols: 1.0,
+            broadcast_s: 1.0,
+            min_separation_m: separation_m,
+            unsafe_trials: u64::from(separation_m < SAFE_SEPARATION_M),
+            tracking: Some(PointTracking {
+                mean_rms_m: 0.0012,
+                max_m: 0.004,
+                contact_trials: 0,
+            }),
+        };
+        let md = report(&s, &[row(0.0, 0.9), row(2.0, 0.3)]);
+        assert!(md.contains("| wind.mean_mps | arm |"), "{md}");
+        assert!(md.contains("| 2 | ideal-message | 1/2"), "{md}");
+        assert!(md.contains("| 0.300 | 1 | 1.2 / 4.0 | 0 |"), "{md}");
+    }
 }

@@ -31,4 +31,5 @@ pub mod study_run;
 pub mod trial_observer;
 pub mod trials;
 pub mod trials_out;
+pub mod vary;
 pub mod viewpoints;

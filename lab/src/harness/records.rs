@@ -274,6 +274,7 @@ mod tests {
             seed: 0x1234_5678_9abc_def0 ^ index,
             success: index.is_multiple_of(2),
             observers: BTreeMap::new(),
+            flight: None,
         }
     }
 

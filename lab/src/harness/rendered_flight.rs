@@ -23,6 +23,7 @@ use rand_distr::{Distribution, Normal};
 use sim::render::CameraRenderer;
 use sim::world::World;
 
+use crate::harness::air::Tracking;
 use crate::harness::link::{IDEAL_PERIOD_NS, ObserverOut, observer_out};
 use crate::harness::performer_flight::step_along;
 
@@ -158,6 +159,8 @@ pub struct Flown {
     pub ideal: BTreeMap<Modality, Vec<ObserverOut>>,
     pub sim_ns: u64,
     pub performer_max_tracking_error_m: f64,
+    /// The performer's tracking of its reference over the flight (RMS and max).
+    pub performer_tracking: Tracking,
     pub contact_steps: u64,
 }
 
@@ -264,6 +267,7 @@ pub fn fly_streamed(
         ideal,
         sim_ns: world.time_ns(),
         performer_max_tracking_error_m: max_err_m,
+        performer_tracking: Tracking::of(&world, PERFORMER),
         contact_steps: world.contact_stats().contact_steps,
     }))
 }

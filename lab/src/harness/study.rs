@@ -31,8 +31,10 @@ use proto::scene::{Formation, Placement};
 use proto::{Modality, Rectification, RenderPath};
 use serde::{Deserialize, Serialize};
 
+use crate::harness::air::PointTracking;
 use crate::harness::baselines::BaselineStudy;
 use crate::harness::link::{parse_bits6, parse_viewpoint};
+pub use crate::harness::vary::Vary;
 
 use crate::harness::trials::TrialsOptions;
 
@@ -59,6 +61,11 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../../../deploy/studies/baselines.toml"),
     ),
     ("light", include_str!("../../../deploy/studies/light.toml")),
+    ("wind", include_str!("../../../deploy/studies/wind.toml")),
+    (
+        "wind-links",
+        include_str!("../../../deploy/studies/wind-links.toml"),
+    ),
 ];
 
 /// A study of either kind: seeded link trials over levels, or whole-mission baselines.
@@ -141,14 +148,6 @@ pub struct StudyFile {
     pub vary: Vec<Vary>,
 }
 
-/// The axis of a study.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct Vary {
-    pub key: String,
-    pub levels: Vec<f64>,
-}
-
 /// One point: a modality at one level of one condition.
 #[derive(Debug, Clone)]
 pub struct Point {
@@ -192,6 +191,9 @@ pub struct PointResult {
     pub sensor_messages: u64,
     /// Events received over every trial and observer (0 for RGB).
     pub events: u64,
+    /// Points whose trials fly their own flights: the performer's tracking over them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tracking: Option<PointTracking>,
 }
 
 impl PointResult {
@@ -556,7 +558,8 @@ levels = [0.0, 0.5]
     fn every_built_in_study_loads() {
         for (name, _) in BUILT_IN {
             let study = Study::load(name).unwrap_or_else(|e| panic!("{name}: {e:#}"));
-            assert_eq!(*name == "baselines", matches!(study, Study::Baselines(_)));
+            let missions = ["baselines", "wind"].contains(name);
+            assert_eq!(missions, matches!(study, Study::Baselines(_)), "{name}");
         }
     }
 

@@ -15,6 +15,7 @@ use anyhow::{Context, Result, bail};
 use proto::RenderPath;
 use serde::Serialize;
 
+use crate::harness::air::PointTracking;
 use crate::harness::records::{Provenance, scan, write_atomic, write_json};
 use crate::harness::run_files::{RunCost, RunKind, RunManifest};
 use crate::harness::shard::Shard;
@@ -293,6 +294,18 @@ fn point_result(point: &Point, t: &TrialsOut) -> PointResult {
         decoded_messages: observer_sum(t, |o| o.released.len() as u64),
         sensor_messages: observer_sum(t, |o| o.messages),
         events: observer_sum(t, |o| o.events_received.unwrap_or(0)),
+        tracking: PointTracking::pooled(t.per_trial.iter().filter_map(|r| {
+            r.flight.map(|f| {
+                (
+                    1,
+                    PointTracking {
+                        mean_rms_m: f.performer_tracking.rms_m,
+                        max_m: f.performer_tracking.max_m,
+                        contact_trials: u64::from(f.contact_steps > 0),
+                    },
+                )
+            })
+        })),
     }
 }
 

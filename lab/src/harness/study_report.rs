@@ -5,6 +5,7 @@
 
 use anyhow::Result;
 
+use crate::harness::air::PointTracking;
 use crate::harness::run_files::RunCost;
 use crate::harness::study::{PointResult, StudyFile, Vary, cross_key, figure_name};
 
@@ -57,15 +58,26 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
             "\n## {key}\n\n![success probability against {key}]({})\n",
             figure_name(key)
         ));
+        // Points that fly their own flights also show how the performer flew them.
+        let flown = results
+            .iter()
+            .any(|r| &r.key == key && r.tracking.is_some());
         for m in &study.modalities {
             let m = m.to_string();
             s.push_str(&format!(
-                "\n### {m}\n\n| {key} | successes / trials | P(success) | 95 % CI (Wilson) |\n| ---: | ---: | ---: | :---: |\n"
+                "\n### {m}\n\n| {key} | successes / trials | P(success) | 95 % CI (Wilson) |{}\n| ---: | ---: | ---: | :---: |{}\n",
+                if flown { " performer tracking, mean RMS / max (mm) | trials with contact |" } else { "" },
+                if flown { " ---: | ---: |" } else { "" },
             ));
             for r in results.iter().filter(|r| r.modality == m && &r.key == key) {
                 let (p, ci) = r.rate_cells();
+                let tracking = if flown {
+                    format!(" {} |", PointTracking::cells(r.tracking.as_ref()))
+                } else {
+                    String::new()
+                };
                 s.push_str(&format!(
-                    "| {} | {} / {} | {p} | {ci} |\n",
+                    "| {} | {} / {} | {p} | {ci} |{tracking}\n",
                     r.level, r.successes, r.trials
                 ));
             }
@@ -109,6 +121,9 @@ pub fn marginals(study: &StudyFile, results: &[PointResult]) -> Vec<PointResult>
                     decoded_messages: sum(|r| r.decoded_messages),
                     sensor_messages: sum(|r| r.sensor_messages),
                     events: sum(|r| r.events),
+                    tracking: PointTracking::pooled(
+                        at.iter().filter_map(|r| r.tracking.map(|t| (r.trials, t))),
+                    ),
                 });
             }
         }

@@ -8,8 +8,8 @@
 //! (no wall-clock value), so the same seed gives identical records whatever `--jobs`.
 
 pub use crate::harness::trials_out::{
-    ObserverTrial, PlacementOut, TokenTiming, TrialRecord, TrialsCost, TrialsHeader, TrialsOut,
-    TrialsSummary,
+    ObserverTrial, PlacementOut, TokenTiming, TrialFlight, TrialRecord, TrialsCost, TrialsHeader,
+    TrialsOut, TrialsSummary,
 };
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
@@ -229,6 +229,7 @@ fn run_trial(
 ) -> Result<Option<TrialRecord>> {
     let seed = trial_seed(opts.seed, index);
     let own;
+    let mut flight = None;
     let (spec, ideal, observed) = match shared {
         Some(f) => {
             let Some(observed) = observe_cached(f, &opts.sensing(), seed, stop)? else {
@@ -242,6 +243,10 @@ fn run_trial(
             else {
                 return Ok(None);
             };
+            flight = Some(TrialFlight {
+                performer_tracking: flown.performer_tracking,
+                contact_steps: flown.contact_steps,
+            });
             own = (spec, flown);
             (&own.0, &own.1.ideal, observed)
         }
@@ -283,8 +288,10 @@ fn run_trial(
     Ok(Some(TrialRecord {
         index,
         seed,
-        success: observers.values().all(|o| o.success),
+        success: observers.values().all(|o| o.success)
+            && flight.is_none_or(|f| f.contact_steps == 0),
         observers,
+        flight,
     }))
 }
 

@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use crate::harness::air::Tracking;
 use crate::harness::pool::{Outcome, Tally};
 
 /// How one observer's token stamps compare with the ideal receiver's on the same flight.
@@ -51,8 +52,21 @@ pub struct ObserverTrial {
 pub struct TrialRecord {
     pub index: u64,
     pub seed: u64,
+    /// Every observer succeeded and, on a trial's own flight, no drone touched another.
     pub success: bool,
     pub observers: BTreeMap<String, ObserverTrial>,
+    /// A trial that flew its own flight (wind, cascade, gusts, placement): how it flew.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flight: Option<TrialFlight>,
+}
+
+/// How a trial's own flight went.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct TrialFlight {
+    /// The performer against its reference, every physics step.
+    pub performer_tracking: Tracking,
+    /// Physics steps with a contact between drones (any fails the trial).
+    pub contact_steps: u64,
 }
 
 impl Outcome for TrialRecord {

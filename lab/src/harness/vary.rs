@@ -1,0 +1,12 @@
+//! One condition of a study: a perturbation term (or, in link studies, a viewpoint axis) and
+//! the levels it takes.
+
+use serde::{Deserialize, Serialize};
+
+/// The axis of a study.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Vary {
+    pub key: String,
+    pub levels: Vec<f64>,
+}
