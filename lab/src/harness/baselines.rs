@@ -29,6 +29,7 @@ use proto::RenderPath;
 use serde::{Deserialize, Serialize};
 
 use crate::harness::air::PointTracking;
+use crate::harness::figure::{FigurePoint, success_figure};
 use crate::harness::mission::MissionOptions;
 use crate::harness::mission_metrics::Policy;
 use crate::harness::mission_trials::{MissionTrialsOptions, MissionTrialsOut, run_mission_trials};
@@ -294,7 +295,37 @@ pub fn run_baselines(
     .with_context(|| format!("writing {}", out.join("study.json").display()))?;
     std::fs::write(out.join("report.md"), report(study, &results))
         .with_context(|| format!("writing {}", out.join("report.md").display()))?;
+    if let Some(vary) = study.vary.first() {
+        for case in &study.cases {
+            let path = out.join(figure_name(case, &vary.key));
+            std::fs::write(&path, figure(study, vary, case, &results)?)
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+    }
     Ok(results)
+}
+
+/// The figure of `case` in a study varying `key`: `success-<case>-<key>.svg`.
+pub fn figure_name(case: &str, key: &str) -> String {
+    format!("success-{case}-{key}.svg")
+}
+
+/// `case`'s expected outcome met against the varied term's levels, one series per arm.
+fn figure(study: &BaselineStudy, vary: &Vary, case: &str, results: &[ArmResult]) -> Result<String> {
+    let series: Vec<String> = study.arms.iter().map(|a| a.label().to_owned()).collect();
+    let points: Vec<FigurePoint> = results
+        .iter()
+        .filter(|r| r.case == case)
+        .filter_map(|r| {
+            Some(FigurePoint {
+                series: r.arm.clone(),
+                level: r.level?,
+                success_rate: (r.trials > 0).then(|| r.successes as f64 / r.trials as f64),
+                ci95: r.ci95,
+            })
+        })
+        .collect();
+    success_figure(&format!("{} ({case})", study.name), &series, vary, &points)
 }
 
 /// `report.md`: one table of outcome measures per case.
@@ -340,8 +371,17 @@ pub fn report(study: &BaselineStudy, results: &[ArmResult]) -> String {
         .first()
         .map_or(String::new(), |v| format!("{} | ", v.key));
     for case in &study.cases {
+        if let Some(v) = study.vary.first() {
+            s.push_str(&format!(
+                "\n## {case}\n\n![expected outcome met against {}]({})\n",
+                v.key,
+                figure_name(case, &v.key)
+            ));
+        } else {
+            s.push_str(&format!("\n## {case}\n"));
+        }
         s.push_str(&format!(
-            "\n## {case}\n\n| {level_head}arm | expected outcome met | work units | reward | unserved capacity | completion (s) | wasted trips | reassignment delay (s) | not reassigned | symbols | broadcast (s) | min separation (m) | unsafe trials | tracking RMS / max (mm) | trials with contact |\n| {}--- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+            "\n| {level_head}arm | expected outcome met | work units | reward | unserved capacity | completion (s) | wasted trips | reassignment delay (s) | not reassigned | symbols | broadcast (s) | min separation (m) | unsafe trials | tracking RMS / max (mm) | trials with contact |\n| {}--- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
             if study.vary.is_empty() { "" } else { "---: | " }
         ));
         for r in results.iter().filter(|r| &r.case == case) {

@@ -11,6 +11,7 @@ pub mod baselines;
 pub mod cluster;
 pub mod convert;
 pub mod decode;
+pub mod figure;
 pub mod link;
 pub mod mission;
 pub mod mission_metrics;

@@ -6,6 +6,7 @@
 use anyhow::Result;
 
 use crate::harness::air::PointTracking;
+use crate::harness::figure::{FigurePoint, success_figure};
 use crate::harness::run_files::RunCost;
 use crate::harness::study::{PointResult, StudyFile, Vary, cross_key, figure_name};
 
@@ -247,74 +248,16 @@ fn cost_table(key: &str, results: &[PointResult], costs: &RunCost) -> String {
 /// The success probability with its interval against the levels of `vary`, one series per
 /// modality.
 pub fn figure(study: &StudyFile, vary: &Vary, results: &[PointResult]) -> Result<String> {
-    use plotters::prelude::*;
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (720, 420)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
-        // Levels are often geometric (0, 0.0003, 0.001, …): one evenly spaced slot per level,
-        // labelled with its value, keeps every point readable.
-        let levels = &vary.levels;
-        let slot = |level: f64| levels.iter().position(|&l| l == level).unwrap_or(0) as f64;
-        let n = levels.len() as f64;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!("{}: P(success) ± 95 % CI against {}", study.name, vary.key),
-                ("sans-serif", 18),
-            )
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(50)
-            .build_cartesian_2d(-0.5..n - 0.5, 0.0..1.05)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        chart
-            .configure_mesh()
-            .x_labels(levels.len())
-            .x_label_formatter(&|x| {
-                let k = x.round();
-                levels
-                    .get(k as usize)
-                    .filter(|_| (x - k).abs() < 1e-6 && k >= 0.0)
-                    .map_or(String::new(), |l| format!("{l}"))
-            })
-            .x_desc(vary.key.as_str())
-            .y_desc("P(success)")
-            .draw()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        for (k, m) in study.modalities.iter().enumerate() {
-            let colour = Palette99::pick(k).to_rgba();
-            let m = m.to_string();
-            let pts: Vec<&PointResult> = results
-                .iter()
-                .filter(|r| r.modality == m && r.key == vary.key)
-                .collect();
-            chart
-                .draw_series(LineSeries::new(
-                    pts.iter()
-                        .filter_map(|r| r.success_rate.map(|p| (slot(r.level), p))),
-                    colour.stroke_width(2),
-                ))
-                .map_err(|e| anyhow::anyhow!("{e}"))?
-                .label(m.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
-                });
-            chart
-                .draw_series(pts.iter().map(|r| {
-                    PathElement::new(
-                        vec![(slot(r.level), r.ci95[0]), (slot(r.level), r.ci95[1])],
-                        colour.stroke_width(1),
-                    )
-                }))
-                .map_err(|e| anyhow::anyhow!("{e}"))?;
-        }
-        chart
-            .configure_series_labels()
-            .border_style(BLACK)
-            .background_style(WHITE)
-            .draw()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
-    }
-    Ok(svg)
+    let series: Vec<String> = study.modalities.iter().map(ToString::to_string).collect();
+    let points: Vec<FigurePoint> = results
+        .iter()
+        .filter(|r| r.key == vary.key)
+        .map(|r| FigurePoint {
+            series: r.modality.clone(),
+            level: r.level,
+            success_rate: r.success_rate,
+            ci95: r.ci95,
+        })
+        .collect();
+    success_figure(&study.name, &series, vary, &points)
 }
