@@ -13,19 +13,8 @@
 use std::path::Path;
 use std::process::Command;
 
+use deploy::cli::lab::LAB_COMMANDS;
 use waggle_tests::{bin, succeed, waggle};
-
-const LAB_COMMANDS: [&str; 9] = [
-    "link",
-    "mission",
-    "decode",
-    "events",
-    "sweep",
-    "viewpoints",
-    "trials",
-    "study",
-    "report",
-];
 
 fn ldd(path: &Path) -> Option<String> {
     let out = Command::new("ldd").arg(path).output().ok()?;
