@@ -6,11 +6,12 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use event_camera::picture::{Inset, encode_png, event_picture};
 use proto::EventPacket;
+use proto::Modality;
 use proto::scene::{PERFORMER_HOVER_M, observer_name};
 use serde::Serialize;
 use sim::control::Reference;
 use sim::render::CameraRenderer;
-use sim::sensor::{EVENT_RENDER_PERIOD_NS, Modality, ObserverSensor, SensorOutput};
+use sim::sensor::{EVENT_RENDER_PERIOD_NS, ObserverSensor, SensorOutput};
 use sim::world::World;
 
 /// Amplitude and period of the left–right motion.

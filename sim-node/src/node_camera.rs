@@ -13,6 +13,7 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use node_args::CameraArgs;
+use proto::Modality;
 use proto::clock::EVENT_RENDER_PERIOD_NS;
 use proto::{
     CameraReport, Fault, FaultKind, FrameChange, ObserverId, PixelRect, RejectReason, RgbFrame,
@@ -20,7 +21,7 @@ use proto::{
 };
 use sim::lockstep::mirror;
 use sim::render::{CameraRenderer, RenderCounts, RenderPath};
-use sim::sensor::{Modality, ObserverSensor, SensorOutput};
+use sim::sensor::{ObserverSensor, SensorOutput};
 use sim::world::World;
 
 /// `sim-node camera`'s command line: the camera's own arguments (the contract the composer

@@ -19,9 +19,9 @@ use std::collections::BTreeMap;
 
 use anyhow::{Context, Result, bail};
 use perception::observer::{ObserverCore, Processed};
-use perception::perception::Modality;
 use perception::runtime::ObserverRuntime;
 use perception::tick::MissingReason;
+use proto::Modality;
 use proto::{
     Decision, EventPacket, FrameEvent, InputState, ObserverId, RgbReassembler, RgbUpdate, Roster,
     SessionControl, TICK_NS, TokenEvent,

@@ -12,7 +12,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use event_camera::{CameraConfig, EventCamera};
-use perception::perception::{Perception, SensorInput};
+use perception::{Perception, SensorInput};
 use perturb::Perturbation;
 use perturb::seed::{Stream, stream_seed};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, Placement, observer_name};

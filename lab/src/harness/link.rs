@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use evaluation::IdealReceiver;
-use perception::perception::{Perception, SensorInput};
+use perception::{Perception, SensorInput};
 use proto::ReleasedFrame;
 use proto::scene::{Formation, MAX_OBSERVERS, Placement, distance_m, observer_name};
 use proto::{GestureConfig, Receiver, Rectification, RenderPath, Schedule, broadcast};

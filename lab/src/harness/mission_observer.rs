@@ -5,8 +5,8 @@
 
 use anyhow::{Context, Result};
 use evaluation::ideal_receiver::ideal_sample;
+use perception::Perception;
 use perception::observer::{ObserverCore, Processed};
-use perception::perception::Perception;
 use perception::runtime::ObserverRuntime;
 use perception::tick::{MissingReason, SensorPacket};
 use perturb::link::LinkNoise;

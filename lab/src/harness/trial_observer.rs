@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result};
 use event_camera::{CameraConfig, EventCamera};
-use perception::perception::{Perception, SensorInput};
+use perception::{Perception, SensorInput};
 use perturb::Perturbation;
 use perturb::link::LinkNoise;
 use perturb::rgb::RgbSensor;

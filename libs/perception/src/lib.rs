@@ -4,7 +4,7 @@
 //!
 //! - [`events`]: the event-only receiver (event packets in, tokens and frames out);
 //! - [`rgb`]: the RGB receiver (KLT trajectory extraction; RGB frames in, tokens and frames out);
-//! - [`perception`]: one receiver of either modality behind one interface;
+//! - [`sensing`]: one receiver of either modality behind one interface ([`Perception`]);
 //! - [`agent`]: offer cache, allocation and the observer's decisions;
 //! - [`runtime`]: perception + frame parser + agent, one step per tick;
 //! - [`tick`]: the sans-IO tick assembler that decides which tick the runtime processes next
@@ -18,7 +18,9 @@
 pub mod agent;
 pub mod events;
 pub mod observer;
-pub mod perception;
 pub mod rgb;
 pub mod runtime;
+pub mod sensing;
 pub mod tick;
+
+pub use sensing::{Perception, PerceptionError, SensorInput};

@@ -9,8 +9,8 @@
 //! `None`, then [`ObserverCore::ended`] says whether the session ended the mission or more
 //! input is needed.
 
-use crate::perception::PerceptionError;
 use crate::runtime::{ObserverRuntime, TickReport};
+use crate::sensing::PerceptionError;
 use crate::tick::{MissingReason, SensorPacket, Step, TickAssembler, TickInput, Waiting};
 use proto::{ObserverId, SessionControl};
 

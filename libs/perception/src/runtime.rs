@@ -16,7 +16,8 @@ use proto::{
 };
 
 use crate::agent::ObserverAgent;
-use crate::perception::{Modality, Perception, PerceptionError, SensorInput};
+use crate::sensing::{Perception, PerceptionError, SensorInput};
+use proto::Modality;
 use proto::decoder::DecodeStep;
 
 /// What the observer has for one tick.

@@ -81,8 +81,8 @@ use std::fmt;
 
 use proto::{EventPacket, RgbFrame, Sample, SessionControl, TICK_NS};
 
-use crate::perception::SensorInput;
 use crate::runtime::TickData;
+use crate::sensing::SensorInput;
 
 /// One packet of the observer's own sensor, owned while it waits for its tick.
 #[derive(Debug, Clone, PartialEq)]

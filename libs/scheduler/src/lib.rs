@@ -93,7 +93,7 @@ pub mod reservation;
 pub mod scheduler;
 pub mod trajectory;
 
-pub use config::{FlightLimits, FlightMode, Modality, SchedulerConfig, Timing};
+pub use config::{FlightLimits, FlightMode, SchedulerConfig, Timing};
 pub use error::{ConfigError, NavError, SchedulerError};
 pub use log::{DecisionReject, EndReason, EventKind, LogEvent, PoseReject};
 pub use proto::Kinematics;

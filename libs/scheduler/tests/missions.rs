@@ -5,9 +5,10 @@ mod harness;
 use std::collections::BTreeMap;
 
 use harness::{Case, NS_PER_S, Run, run, secs};
+use proto::Modality;
 use proto::sched::SessionEvent;
 use proto::{ObserverId, Site};
-use scheduler::{DecisionNotice, DecisionReject, EndReason, EventKind, Modality};
+use scheduler::{DecisionNotice, DecisionReject, EndReason, EventKind};
 
 use Site::{A, B};
 

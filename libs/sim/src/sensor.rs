@@ -15,7 +15,7 @@ pub const RGB_PERIOD_NS: u64 = 40_000_000;
 pub const EVENT_RENDER_PERIOD_NS: u64 = 10_000_000;
 
 /// Which sensor an observer carries.
-pub use proto::Modality;
+use proto::Modality;
 
 /// What a sensor delivered at one render instant.
 #[derive(Debug, Clone, PartialEq)]

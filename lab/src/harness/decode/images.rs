@@ -8,7 +8,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use event_camera::picture::decode_png;
-use perception::perception::{Perception, SensorInput};
+use perception::{Perception, SensorInput};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX};
 use proto::{Modality, RgbFrame};
 

@@ -20,7 +20,7 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use event_camera::Event;
-use perception::perception::{Perception, SensorInput};
+use perception::{Perception, SensorInput};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, Placement};
 use proto::{EventPacket, Modality, Rectification};
 use serde::Serialize;

@@ -8,10 +8,9 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use proto::allocation::{CachedOffer, OfferCache, Roster};
 use proto::sched::SessionEvent;
-use proto::{ClockTick, ObserverId, Site, TICK_NS, decide};
+use proto::{ClockTick, Modality, ObserverId, Site, TICK_NS, decide};
 use scheduler::{
-    DecisionNotice, EndReason, EventKind, Modality, Scheduler, SchedulerConfig, SchedulerInput,
-    TickOutput,
+    DecisionNotice, EndReason, EventKind, Scheduler, SchedulerConfig, SchedulerInput, TickOutput,
 };
 
 pub const NS_PER_S: u64 = 1_000_000_000;

@@ -16,7 +16,7 @@ use crate::events::{EventReceiver, EventReceiverConfig, EventReceiverError};
 use crate::rgb::{RgbReceiver, RgbReceiverConfig, RgbReceiverError};
 use proto::decoder::DecodeStep;
 
-pub use proto::Modality;
+use proto::Modality;
 
 /// One input from the observer's own sensor.
 #[derive(Debug, Clone, Copy)]
