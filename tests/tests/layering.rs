@@ -46,11 +46,12 @@ enum Layer {
     Tests,
 }
 
-/// `cargo metadata --format-version 1 --no-deps` of the workspace.
-fn metadata() -> Value {
+/// `cargo metadata --format-version 1 ARGS…` of the workspace.
+fn cargo_metadata(args: &[&str]) -> Value {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let out = Command::new(&cargo)
-        .args(["metadata", "--format-version", "1", "--no-deps"])
+        .args(["metadata", "--format-version", "1"])
+        .args(args)
         .current_dir(workspace_root())
         .output()
         .unwrap_or_else(|e| panic!("run {}: {e}", cargo.to_string_lossy()));
@@ -60,6 +61,11 @@ fn metadata() -> Value {
         String::from_utf8_lossy(&out.stderr)
     );
     serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON")
+}
+
+/// The workspace's own packages (`--no-deps`).
+fn metadata() -> Value {
+    cargo_metadata(&["--no-deps"])
 }
 
 /// The layer of the workspace member whose manifest is in `dir`, from where it lives.
@@ -158,18 +164,7 @@ const MUJOCO_CRATES: [&str; 3] = ["sim", "offscreen", "mujoco-rs"];
 /// (what is linked into it), read from the resolved graph of `cargo metadata`.
 #[test]
 fn deploy_does_not_depend_on_mujoco() {
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let out = Command::new(&cargo)
-        .args(["metadata", "--format-version", "1", "--offline"])
-        .current_dir(workspace_root())
-        .output()
-        .unwrap_or_else(|e| panic!("run {}: {e}", cargo.to_string_lossy()));
-    assert!(
-        out.status.success(),
-        "cargo metadata failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let meta: Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
+    let meta = cargo_metadata(&["--offline"]);
     let names: BTreeMap<&str, &str> = meta["packages"]
         .as_array()
         .expect("packages")

@@ -522,14 +522,7 @@ fn rebase(out: &mut Aedat4Recording, stamps: &[i64]) -> Result<(), Aedat4Error> 
 mod tests {
     use super::*;
 
-    fn ev(t_ns: u64, x: u16, y: u16, on: bool) -> Event {
-        Event {
-            t_ns,
-            x,
-            y,
-            polarity: if on { Polarity::On } else { Polarity::Off },
-        }
-    }
+    use crate::test_event as ev;
 
     fn events(n: u64) -> Vec<Event> {
         (0..n)

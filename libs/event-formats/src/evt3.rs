@@ -394,14 +394,7 @@ impl StreamDecoder {
 mod tests {
     use super::*;
 
-    fn ev(t_ns: u64, x: u16, y: u16, on: bool) -> Event {
-        Event {
-            t_ns,
-            x,
-            y,
-            polarity: if on { Polarity::On } else { Polarity::Off },
-        }
-    }
+    use crate::test_event as ev;
 
     #[test]
     fn vectors_and_triggers_decode_as_the_format_says() {

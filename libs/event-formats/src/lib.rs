@@ -10,3 +10,18 @@ mod flatbuf;
 pub mod input;
 
 pub use input::EventsError;
+
+/// An event for the format tests.
+#[cfg(test)]
+pub(crate) fn test_event(t_ns: u64, x: u16, y: u16, on: bool) -> event_camera::Event {
+    event_camera::Event {
+        t_ns,
+        x,
+        y,
+        polarity: if on {
+            event_camera::Polarity::On
+        } else {
+            event_camera::Polarity::Off
+        },
+    }
+}
