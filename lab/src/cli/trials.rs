@@ -232,11 +232,12 @@ fn write_results(dir: &std::path::Path, stop: &AtomicBool) -> Result<()> {
     let path = dir.join("trials.json");
     println!(
         "{} ({}): {} -> {}",
-        out.modality,
-        if out.perturb.is_empty() {
+        out.header.modality,
+        if out.header.perturb.is_empty() {
             "no perturbation".to_owned()
         } else {
-            out.perturb
+            out.header
+                .perturb
                 .iter()
                 .map(|(k, v)| format!("{k}={v}"))
                 .collect::<Vec<_>>()

@@ -86,24 +86,15 @@ pub struct TrialsSummary {
     pub messages_lost: u64,
 }
 
-/// What `trials.json` holds (no wall-clock value: same seed, same file).
+/// What `trials.json` holds (no wall-clock value: same seed, same file): the header's fields,
+/// then the tally, the summary and every trial.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct TrialsOut {
-    pub criterion: String,
-    pub link: Vec<String>,
-    pub observers: usize,
-    /// Each observer's nominal placement.
-    pub placements: BTreeMap<String, PlacementOut>,
-    pub modality: String,
-    pub perturb: BTreeMap<String, f64>,
-    /// `shared` (one rendered flight for every trial) or `per trial` (re-flown).
-    pub flight: String,
-    pub seed: u64,
+    #[serde(flatten)]
+    pub header: TrialsHeader,
     #[serde(flatten)]
     pub tally: Tally,
     pub summary: TrialsSummary,
-    /// The ideal receiver's releases on the unperturbed flight (the reference).
-    pub ideal_released: BTreeMap<String, Vec<String>>,
     pub per_trial: Vec<TrialRecord>,
 }
 
@@ -141,29 +132,10 @@ impl TrialsOut {
             mean_latency_s: mean(all_observers().flat_map(|o| o.latency_s.iter().copied())),
             messages_lost: all_observers().map(|o| o.messages_lost).sum(),
         };
-        let TrialsHeader {
-            criterion,
-            link,
-            observers,
-            placements,
-            modality,
-            perturb,
-            flight,
-            seed,
-            ideal_released,
-        } = header;
         Self {
-            criterion,
-            link,
-            observers,
-            placements,
-            modality,
-            perturb,
-            flight,
-            seed,
+            header,
             tally,
             summary,
-            ideal_released,
             per_trial,
         }
     }
