@@ -245,6 +245,27 @@ impl Injected {
         }
     }
 
+    /// The throttle on `o`'s camera, if this is one (handed to the camera on its command line).
+    pub fn throttle_of(&self, o: &ObserverId) -> Option<node_args::CameraThrottle> {
+        match self {
+            Injected::Message(Fault {
+                observer,
+                kind:
+                    FaultKind::Throttle {
+                        drop_per_mille,
+                        delay_ms,
+                    },
+                from_ns,
+                until_ns: None,
+            }) if observer == o => Some(node_args::CameraThrottle {
+                from_ns: *from_ns,
+                drop_per_mille: *drop_per_mille,
+                delay_ms: *delay_ms,
+            }),
+            _ => None,
+        }
+    }
+
     /// True for black input of `o` from start-up (its camera starts black).
     pub fn black_from_start(&self, o: &ObserverId) -> bool {
         matches!(self, Injected::Message(Fault { observer, kind: FaultKind::BlackInput, from_ns: 0, .. }) if observer == o)

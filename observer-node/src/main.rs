@@ -7,8 +7,9 @@
 //! The process is a thin shell around [`perception::observer::ObserverCore`] (the tick
 //! assembler and the observer runtime, driven as one): tick k is processed once `clock{k}` has arrived,
 //! the session controls of tick k−1 are applied and packet k is in hand — or judged missing: a
-//! later packet arrived (decided by the assembler), the camera's liveliness token is gone, or
-//! `--grace-ms` of wall time passed since `clock{k}` (throttled publishers). The wall clock
+//! later packet arrived or the camera said it dropped it (`sensor/Oi/dropped`; both decided by
+//! the assembler), the camera's liveliness token is gone, or — a last resort for a camera that is
+//! alive but silent — `--grace-ms` of wall time passed since `clock{k}`. The wall clock
 //! lives here, in the shell, never in the assembler. Input the decoder rejects is logged and
 //! dropped; it never ends the process. The process ends on `MissionEnd`, or when the simulator
 //! and the scheduler are both gone.
@@ -24,8 +25,8 @@ use perception::observer::{ObserverCore, Processed};
 use perception::runtime::ObserverRuntime;
 use perception::tick::{MissingReason, SensorPacket};
 use proto::{
-    ClockTick, EventPacket, Keys, Modality, ObserverId, RejectReason, RgbReassembler, RgbUpdate,
-    Role, Roster, SessionTick,
+    ClockTick, EventPacket, Keys, Modality, ObserverId, PacketDropped, RejectReason,
+    RgbReassembler, RgbUpdate, Role, Roster, SessionTick,
 };
 
 #[derive(Parser)]
@@ -95,6 +96,7 @@ struct Observer {
     clock_key: String,
     session_key: String,
     sensor_key: String,
+    dropped_key: String,
     camera_alive: String,
     sim_alive: String,
     scheduler_alive: String,
@@ -120,6 +122,7 @@ impl Observer {
             clock_key: keys.clock(),
             session_key: keys.sched_session(),
             sensor_key,
+            dropped_key: keys.sensor_dropped(&args.own.id),
             camera_alive: keys.alive(Role::Camera, args.own.id.as_str())?,
             sim_alive: keys.alive(Role::Sim, Role::Sim.as_str())?,
             scheduler_alive: keys.alive(Role::Scheduler, Role::Scheduler.as_str())?,
@@ -224,6 +227,15 @@ impl Observer {
         } else if key == self.session_key {
             if let Some(s) = self.rejects.decode::<SessionTick>(key, payload) {
                 self.core.session(s.tick, s.controls);
+            }
+        } else if key == self.dropped_key {
+            if let Some(d) = self.rejects.decode::<PacketDropped>(key, payload) {
+                if d.observer == self.id {
+                    self.core.dropped(d.tick);
+                } else {
+                    let why = format!("drop notice of {} on {}'s key", d.observer, self.id);
+                    self.rejects.reject(key, RejectReason::OutOfContract, &why);
+                }
             }
         } else if key == self.sensor_key {
             let packet: Option<SensorPacket> = match self.modality {

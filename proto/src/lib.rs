@@ -55,7 +55,8 @@ pub use segmenter::{
     Interruption, Sample, SegmentToken, Segmenter, SegmenterConfig, SegmenterError, TokenCause,
 };
 pub use sensor::{
-    EventPacket, FrameChange, PixelRect, Polarity, RgbFrame, RgbReassembler, RgbUpdate, Unassembled,
+    EventPacket, FrameChange, PacketDropped, PixelRect, Polarity, RgbFrame, RgbReassembler,
+    RgbUpdate, Unassembled,
 };
 pub use task::{TaskError, TaskState};
 pub use token::{Action, Token};

@@ -3,9 +3,10 @@
 //! It mirrors the simulator's ground truth (`sim/state`) into its own [`World`], renders the
 //! observer's view at each of the sensor's render instants and publishes what the sensor
 //! delivers — one RGB frame or one event packet (empty ones included) per tick — on
-//! `sensor/Oi/rgb` or `sensor/Oi/events`. Injected faults arrive on `fault/Oi`: black input
-//! (before any conversion) and throttling (drop a fixed, hash-chosen fraction of packets and/or
-//! delay each by wall-clock time). Each fault is logged with the sim time it took effect.
+//! `sensor/Oi/rgb` or `sensor/Oi/events`. Injected faults come on the command line (and on
+//! `fault/Oi`): black input (before any conversion), dropout, and throttling (drop a fixed,
+//! hash-chosen fraction of packets, each announced on `sensor/Oi/dropped`, and/or delay each by
+//! wall-clock time). Each fault is logged with the sim time it took effect.
 //! The process ends when the simulator's liveliness token disappears.
 
 use std::time::Duration;
@@ -16,8 +17,8 @@ use node_args::CameraArgs;
 use proto::Modality;
 use proto::clock::EVENT_RENDER_PERIOD_NS;
 use proto::{
-    CameraReport, Fault, FaultKind, FrameChange, ObserverId, PixelRect, RejectReason, RgbFrame,
-    RgbUpdate, Role, SimState,
+    CameraReport, Fault, FaultKind, FrameChange, ObserverId, PacketDropped, PixelRect,
+    RejectReason, RgbFrame, RgbUpdate, Role, SimState,
 };
 use sim::lockstep::mirror;
 use sim::render::{CameraRenderer, RenderCounts, RenderPath};
@@ -116,6 +117,59 @@ pub fn throttle_drops(seq: u64, per_mille: u16) -> bool {
     h % 1000 < u64::from(per_mille)
 }
 
+/// Where a camera's outputs go, and its account of them.
+struct Outbox {
+    observer: ObserverId,
+    out_key: String,
+    dropped_key: String,
+    /// Packets published, dropped by a throttle, and the running digest of the published ones.
+    published: u64,
+    dropped: u64,
+    digest: u64,
+    /// The last RGB frame sent, the base of the next update.
+    last_rgb_seq: Option<u64>,
+}
+
+impl Outbox {
+    /// Publishes one sensor output, or drops it under `throttle` (drop ‰, delay ms) and says so.
+    fn send(
+        &mut self,
+        bus: &mut Bus,
+        output: &SensorOutput,
+        throttle: Option<(u16, u32)>,
+        change: FrameChange,
+    ) -> Result<()> {
+        // The digest covers the delivered frame or packet itself, whatever the transport sends
+        // (RGB goes as updates, see `rgb_wire`).
+        let (seq, tick, bytes) = match output {
+            SensorOutput::Rgb(f) => (f.seq, f.tick(), proto::encode(f)),
+            SensorOutput::Events(p) => (p.seq, p.tick(), proto::encode(p)),
+        };
+        if let Some((drop, delay_ms)) = throttle {
+            if throttle_drops(seq, drop) {
+                self.dropped += 1;
+                // Said, so the observer's verdict never waits on the wall clock.
+                let notice = PacketDropped {
+                    observer: self.observer.clone(),
+                    tick,
+                    seq,
+                };
+                bus.put(&self.dropped_key, &notice)?;
+                return Ok(());
+            }
+            std::thread::sleep(Duration::from_millis(u64::from(delay_ms)));
+        }
+        self.digest = digest(self.digest, &bytes);
+        self.published += 1;
+        let wire = match output {
+            SensorOutput::Rgb(f) => rgb_wire(f, change, &mut self.last_rgb_seq),
+            SensorOutput::Events(_) => bytes,
+        };
+        bus.put_bytes(&self.out_key, wire)?;
+        Ok(())
+    }
+}
+
 /// The 0-based index of `observer` among the session's `observers`.
 fn observer_index(observer: &ObserverId, observers: usize) -> Result<usize> {
     (0..observers)
@@ -185,8 +239,8 @@ fn take_fault(
     }
 }
 
-/// The faults given on the command line (`--black`, `--dropout-ns`): in force from the start,
-/// whatever order the fault messages arrive in.
+/// The faults given on the command line (`--black`, `--dropout-ns`, `--throttle`): in force
+/// from the start, whatever order the fault messages arrive in.
 fn command_line_faults(args: &CameraArgs) -> Vec<Fault> {
     let fault = |kind, from_ns| Fault {
         observer: args.observer.clone(),
@@ -200,6 +254,13 @@ fn command_line_faults(args: &CameraArgs) -> Vec<Fault> {
     }
     if let Some(at_ns) = args.dropout_ns {
         faults.push(fault(FaultKind::StreamDropout, at_ns));
+    }
+    for t in &args.throttle {
+        let kind = FaultKind::Throttle {
+            drop_per_mille: t.drop_per_mille,
+            delay_ms: t.delay_ms,
+        };
+        faults.push(fault(kind, t.from_ns));
     }
     faults
 }
@@ -234,12 +295,19 @@ pub fn run(cli: CameraCli) -> Result<()> {
         Modality::Rgb => keys.sensor_rgb(&args.observer),
         Modality::Events => keys.sensor_events(&args.observer),
     };
+    let mut outbox = Outbox {
+        observer: args.observer.clone(),
+        out_key,
+        dropped_key: keys.sensor_dropped(&args.observer),
+        published: 0,
+        dropped: 0,
+        digest: 0,
+        last_rgb_seq: None,
+    };
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
     let mut black = false;
     let mut throttle: Option<(u16, u32)> = None;
     let mut started = false;
-    let (mut published, mut dropped, mut sensor_digest) = (0u64, 0u64, 0u64);
-    let mut last_rgb_seq: Option<u64> = None;
     let mut last_state_ns: Option<u64> = None;
     let mut rejects = Rejects::new(format!("camera-{}", args.observer), &keys);
     loop {
@@ -278,26 +346,7 @@ pub fn run(cli: CameraCli) -> Result<()> {
                     throttle = want_throttle;
                 }
                 for output in sensor.capture(&mut world, &mut renderer)? {
-                    // The digest covers the delivered frame or packet itself, whatever the
-                    // transport sends (RGB goes as updates, see `rgb_wire`).
-                    let (seq, bytes) = match &output {
-                        SensorOutput::Rgb(f) => (f.seq, proto::encode(f)),
-                        SensorOutput::Events(p) => (p.seq, proto::encode(p)),
-                    };
-                    if let Some((drop, delay_ms)) = throttle {
-                        if throttle_drops(seq, drop) {
-                            dropped += 1;
-                            continue;
-                        }
-                        std::thread::sleep(Duration::from_millis(u64::from(delay_ms)));
-                    }
-                    sensor_digest = digest(sensor_digest, &bytes);
-                    published += 1;
-                    let wire = match &output {
-                        SensorOutput::Rgb(f) => rgb_wire(f, sensor.rgb_change(), &mut last_rgb_seq),
-                        SensorOutput::Events(_) => bytes,
-                    };
-                    bus.put_bytes(&out_key, wire)?;
+                    outbox.send(&mut bus, &output, throttle, sensor.rgb_change())?;
                 }
             }
             Inbound::Data { key, payload } if key == keys.fault(&args.observer) => {
@@ -313,7 +362,7 @@ pub fn run(cli: CameraCli) -> Result<()> {
     let report = camera_report(
         &args.observer,
         args.render,
-        (published, dropped, sensor_digest),
+        (outbox.published, outbox.dropped, outbox.digest),
         renderer.counts(),
     );
     bus.put(&keys.camera_report(&args.observer), &report)?;

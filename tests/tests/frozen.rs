@@ -62,10 +62,12 @@ fn assert_frozen(case: &str, modality: &str, render: RenderPath) {
         .expect("run waggle");
     let context = || {
         format!(
-            "{case} ({modality}, --render {render}), outputs in {}\nstatus {}\nstderr:\n{}",
+            "{case} ({modality}, --render {render}), outputs in {}\nstatus {}\nstderr:\n{}\n\
+             what the observers judged missing, and why:\n{}",
             dir.display(),
             out.status,
-            String::from_utf8_lossy(&out.stderr)
+            String::from_utf8_lossy(&out.stderr),
+            missing_packet_lines(&dir)
         )
     };
     let read =
@@ -115,6 +117,28 @@ fn assert_frozen(case: &str, modality: &str, render: RenderPath) {
         context()
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The observers' log lines about missing packets (at most 20 per observer): when a golden run
+/// differs on a machine where it cannot be rerun (CI), these say whether a verdict was taken by
+/// the wall clock ("grace period expired"), a lost camera, or a notice.
+fn missing_packet_lines(dir: &std::path::Path) -> String {
+    let mut out = String::new();
+    for o in ["O1", "O2", "O3"] {
+        let log =
+            std::fs::read_to_string(dir.join(format!("logs/observer-{o}.log"))).unwrap_or_default();
+        for line in log
+            .lines()
+            .filter(|l| l.contains("missing") || l.contains("WARN") || l.contains("ERROR"))
+            .take(20)
+        {
+            out.push_str(&format!("{o}: {line}\n"));
+        }
+    }
+    if out.is_empty() {
+        out.push_str("(none logged)\n");
+    }
+    out
 }
 
 /// Runs `waggle mission CASE --modality M --out DIR` and compares its `observers.json` with the

@@ -374,25 +374,109 @@ fn two_runs_of_nominal_3_are_identical_even_behind_an_observer_acl() {
     assert_ne!(a.summary.session, b.summary.session);
 }
 
-#[test]
-#[ignore = "≈ 1 min: cargo test --release -p waggle-tests --test run -- --ignored"]
-fn a_throttled_camera_loses_packets_to_the_grace_period_only() {
-    let r = run(
-        "no-broadcast",
-        "events",
-        "throttle",
-        &["--throttle", "O1@0:100:0", "--grace-ms", "300"],
-    );
-    r.assert_pass();
-    let digest = r.summary.sensor_digests["O1"].as_str();
-    let dropped: u64 = digest
+/// The `dropped=` count of a camera's digest line.
+fn dropped_of(digest: &str) -> u64 {
+    digest
         .split_whitespace()
         .find_map(|f| f.strip_prefix("dropped="))
         .unwrap()
         .parse()
-        .unwrap();
-    assert!((15..=60).contains(&dropped), "{digest}");
-    let missing = &r.summary.missing_packets;
-    assert_eq!(missing.keys().collect::<Vec<_>>(), ["O1"]);
-    assert_eq!(missing["O1"], dropped);
+        .unwrap()
+}
+
+/// How many times the observer's log says a packet was missing for `why`.
+fn missing_in_log(name: &str, observer: &str, why: &str) -> usize {
+    let log =
+        std::fs::read_to_string(out_dir_path(name).join(format!("logs/observer-{observer}.log")))
+            .unwrap_or_default();
+    log.lines()
+        .filter(|l| l.contains("packet missing") && l.contains(why))
+        .count()
+}
+
+/// A grace period no test waits out: if a verdict took it, the run would stall for minutes and
+/// the log would say "grace period expired".
+const NEVER_GRACE_MS: &str = "600000";
+
+/// A throttled camera announces each packet it drops, so its observer judges exactly those
+/// missing the moment the notice arrives, never by the wall clock: with a grace period no run
+/// could wait out, a one-observer case cut to 6 s of sim time with a quarter of its packets
+/// dropped ends in seconds, every missing packet is one the camera dropped, and the log names the
+/// notice as the reason for each.
+#[test]
+fn a_throttled_camera_says_what_it_dropped_and_no_verdict_waits_on_the_clock() {
+    let case = std::env::temp_dir().join(format!(
+        "waggle-run-test-{}-throttle-short.toml",
+        std::process::id()
+    ));
+    std::fs::write(
+        &case,
+        "name = \"throttle-short\"\nobservers = 1\nmodalities = [\"events\"]\n\
+         offer_sites = [\"A\"]\ntime_limit_s = 6\n\n\
+         [[faults]]\nobserver = \"O1\"\nkind = \"throttle\"\nat_s = 1\ndrop_per_mille = 250\n\n\
+         [expected]\nmessages = [0]\nwork_units = 0\nservices = { O1 = [] }\n",
+    )
+    .unwrap();
+    let started = Instant::now();
+    let r = run(
+        case.to_str().unwrap(),
+        "events",
+        "throttle-short",
+        &["--grace-ms", NEVER_GRACE_MS],
+    );
+    r.assert_pass();
+    assert!(
+        started.elapsed() < Duration::from_secs(120),
+        "{:?}",
+        started.elapsed()
+    );
+    let dropped = dropped_of(&r.summary.sensor_digests["O1"]);
+    // 5 s of 25 packets a second, a quarter of them dropped.
+    assert!((15..=50).contains(&dropped), "{dropped}");
+    assert_eq!(r.summary.missing_packets["O1"], dropped);
+    assert_eq!(
+        missing_in_log("throttle-short", "O1", "the camera dropped it") as u64,
+        dropped
+    );
+    let _ = std::fs::remove_file(&case);
+}
+
+/// Two throttled runs of a whole case (≈ 3 s each), one also delaying every packet it sends: the same packets
+/// go missing for the same reason (the camera's notice), and the observers' outputs are
+/// byte-identical — a delay on one key changes when messages arrive, never what a tick holds.
+#[test]
+fn throttled_runs_with_and_without_delay_are_identical() {
+    let a = run(
+        "no-broadcast",
+        "events",
+        "throttle",
+        &["--throttle", "O1@0:100:0", "--grace-ms", NEVER_GRACE_MS],
+    );
+    let b = run(
+        "no-broadcast",
+        "events",
+        "throttle-delay",
+        &["--throttle", "O1@0:100:4", "--grace-ms", NEVER_GRACE_MS],
+    );
+    for r in [&a, &b] {
+        r.assert_pass();
+        let dropped = dropped_of(&r.summary.sensor_digests["O1"]);
+        assert!((15..=60).contains(&dropped), "{dropped}");
+        let missing = &r.summary.missing_packets;
+        assert_eq!(missing.keys().collect::<Vec<_>>(), ["O1"]);
+        assert_eq!(missing["O1"], dropped);
+    }
+    for name in ["throttle", "throttle-delay"] {
+        assert_eq!(
+            missing_in_log(name, "O1", "the camera dropped it") as u64,
+            a.summary.missing_packets["O1"],
+            "{name}"
+        );
+    }
+    assert_eq!(a.summary.sensor_digests, b.summary.sensor_digests);
+    let bytes = |name: &str| std::fs::read(out_dir_path(name).join("observers.json")).unwrap();
+    assert!(
+        bytes("throttle") == bytes("throttle-delay"),
+        "observers.json differs"
+    );
 }

@@ -40,8 +40,10 @@ pub struct SessionArgs {
     /// Session id (default: `run-<pid>-<unix ms>`); every key lives under `waggle/<session>/`.
     #[arg(long)]
     pub session: Option<String>,
-    /// Wall-clock time after which an observer judges a late packet missing, ms.
-    #[arg(long, default_value_t = 10_000)]
+    /// Wall-clock time after which an observer judges missing a packet its camera neither sent
+    /// nor said it dropped, ms: a last resort for a silent camera (throttle drops and dead
+    /// cameras are told by the camera and its liveliness, never by this wait).
+    #[arg(long, default_value_t = node_args::DEFAULT_GRACE_MS)]
     pub grace_ms: u64,
     /// Extra fault: black input of this observer from start-up (e.g. `O2`); repeatable.
     #[arg(long)]

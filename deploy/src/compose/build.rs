@@ -127,6 +127,11 @@ impl NodeArgs<'_> {
                 modality,
                 black: self.injected.iter().any(|f| f.black_from_start(o)),
                 dropout_ns: self.injected.iter().find_map(|f| f.dropout_from(o)),
+                throttle: self
+                    .injected
+                    .iter()
+                    .filter_map(|f| f.throttle_of(o))
+                    .collect(),
                 render: self.opts.render,
                 sensor: self.opts.sensor.clone(),
             };

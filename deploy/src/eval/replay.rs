@@ -209,6 +209,16 @@ pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
                     .with_context(|| format!("no observer in topic {}", item.topic))?;
                 replayer(&mut replayers, &o, n, modality, &sessions_all)?.rgb_update(u);
             }
+            // The camera's word that it dropped a packet decides that tick as it did live,
+            // without waiting for the next packet or the end of the recording.
+            // A notice naming another observer than its topic was refused live; so here.
+            Decoded::PacketDropped(d)
+                if topic_observer(item.topic).as_ref() == Some(&d.observer) =>
+            {
+                replayer(&mut replayers, &d.observer, n, modality, &sessions_all)?
+                    .core
+                    .dropped(d.tick);
+            }
             Decoded::RgbFrame(_) => whole_rgb_frames += 1,
             Decoded::FrameEvent(f) => live.entry(f.observer.clone()).or_default().frames.push(f),
             Decoded::TokenEvent(t) => live.entry(t.observer.clone()).or_default().tokens.push(t),

@@ -139,7 +139,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                     out: Some(dir.clone()),
                     session: None,
                     bin_dir: opts.bin_dir.clone(),
-                    grace_ms: 10_000,
+                    grace_ms: node_args::DEFAULT_GRACE_MS,
                     extra_faults: ExtraFaults::default(),
                     observer_acl: false,
                     no_auth: false,

@@ -56,6 +56,7 @@ pub fn access_of(keys: &Keys, p: &Process) -> RoleAccess {
                 vec![
                     keys.sensor_events(&o),
                     keys.sensor_rgb(&o),
+                    keys.sensor_dropped(&o),
                     keys.camera_report(&o),
                 ],
                 vec![keys.sim_state(), keys.fault(&o)],

@@ -13,6 +13,7 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
 use zenoh::sample::{Sample, SampleKind};
 
+use crate::delay::Delayer;
 use crate::endpoints::{Endpoints, config};
 use crate::error::BusError;
 
@@ -40,6 +41,8 @@ pub struct Bus {
     keys: Keys,
     // Declared entities must be dropped before the session; field order is drop order.
     publishers: BTreeMap<String, Publisher<'static>>,
+    /// The test shim holding back chosen keys ([`crate::delay`]); `None` in real runs.
+    delayer: Option<Delayer>,
     subscribers: Vec<Subscriber<()>>,
     tokens: BTreeMap<String, LivelinessToken>,
     session: zenoh::Session,
@@ -72,9 +75,11 @@ impl Bus {
             .wait()
             .map_err(|e| zenoh_err("opening the session", e))?;
         let (tx, rx) = mpsc::channel();
+        let delayer = Delayer::from_env(keys.prefix(), &zenoh_session)?;
         Ok(Self {
             keys,
             publishers: BTreeMap::new(),
+            delayer,
             subscribers: Vec::new(),
             tokens: BTreeMap::new(),
             session: zenoh_session,
@@ -147,6 +152,13 @@ impl Bus {
 
     /// Publishes raw bytes on `key` (reliable, blocking congestion control).
     pub fn put_bytes(&mut self, key: &str, bytes: Vec<u8>) -> Result<(), BusError> {
+        let bytes = match &self.delayer {
+            Some(d) => match d.hold(key, bytes) {
+                Some(bytes) => bytes,
+                None => return Ok(()),
+            },
+            None => bytes,
+        };
         if !self.publishers.contains_key(key) {
             let publisher = self
                 .session
@@ -249,6 +261,10 @@ impl Bus {
 
     /// Closes the session now, so peers see this process's tokens disappear at once.
     pub fn close(mut self) -> Result<(), BusError> {
+        // What the test shim holds back leaves before this process's tokens disappear.
+        if let Some(d) = self.delayer.as_mut() {
+            d.flush();
+        }
         self.tokens.clear();
         self.subscribers.clear();
         self.publishers.clear();

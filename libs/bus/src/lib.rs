@@ -14,7 +14,9 @@
 //!   subscriber exists before the simulator publishes tick 0;
 //! - [`Rejects`]: what a process drops instead of aborting (undecodable, unexpected-key and
 //!   out-of-contract messages), counted and reported on `rejects/<role>/<id>`;
-//! - [`on_stop_signal`]: the SIGINT/SIGTERM flag with which processes end cleanly.
+//! - [`on_stop_signal`]: the SIGINT/SIGTERM flag with which processes end cleanly;
+//! - [`delay`]: a test shim (`WAGGLE_TEST_DELAY`) holding back chosen keys' publications, to show
+//!   that results do not depend on delivery timing.
 //!
 //! Zenoh's TCP links are built with a 1 s `SO_LINGER` (`TCP_LINGER_TIMEOUT` in
 //! `.cargo/config.toml`) instead of 10 s: closing the link of a dead host blocks a thread for
@@ -27,6 +29,7 @@ pub mod access;
 pub mod auth;
 mod bus;
 pub mod cli;
+pub mod delay;
 mod endpoints;
 mod error;
 pub mod handshake;

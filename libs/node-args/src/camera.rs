@@ -24,6 +24,11 @@ pub struct CameraArgs {
     /// whatever the arrival order of messages; also published on `fault/Oi`.
     #[arg(long, value_name = "NS")]
     pub dropout_ns: Option<u64>,
+    /// A throttle on the camera's publisher, `FROM_NS:DROP_PER_MILLE:DELAY_MS` (repeatable; the
+    /// throttle fault): in force from the first render at or after `FROM_NS`, whatever the
+    /// arrival order of messages; also published on `fault/Oi`.
+    #[arg(long, value_name = "FROM_NS:DROP_PER_MILLE:DELAY_MS")]
+    pub throttle: Vec<CameraThrottle>,
     /// How the camera renders: `damage` (default) redraws only what moved, `full` every pixel of
     /// every frame (the reference; both deliver identical bytes).
     #[arg(long, value_enum, default_value_t)]
@@ -42,8 +47,60 @@ impl CameraArgs {
             .flag("--black", self.black)
             .opt("--dropout-ns", self.dropout_ns)
             .done();
+        for t in &self.throttle {
+            a.extend(["--throttle".to_string(), t.to_string()]);
+        }
         a.extend(self.sensor.to_args());
         a
+    }
+}
+
+/// A throttle on a camera's publisher from a sim time on: it drops `drop_per_mille` ‰ of its
+/// packets (announcing each on `sensor/<o>/dropped`) and delays the rest by `delay_ms` of wall
+/// time. Written `FROM_NS:DROP_PER_MILLE:DELAY_MS`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CameraThrottle {
+    pub from_ns: u64,
+    pub drop_per_mille: u16,
+    pub delay_ms: u32,
+}
+
+impl std::str::FromStr for CameraThrottle {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let parts: Vec<&str> = s.split(':').collect();
+        let [from, drop, delay] = parts[..] else {
+            return Err(format!(
+                "{s:?} is not FROM_NS:DROP_PER_MILLE:DELAY_MS (e.g. 0:250:0)"
+            ));
+        };
+        let from_ns = from
+            .parse()
+            .map_err(|_| format!("{s:?}: start {from:?} is not a whole number of ns"))?;
+        let drop_per_mille = drop
+            .parse::<u16>()
+            .ok()
+            .filter(|d| *d <= 1000)
+            .ok_or_else(|| format!("{s:?}: drop {drop:?} is not a per mille in 0–1000"))?;
+        let delay_ms = delay
+            .parse()
+            .map_err(|_| format!("{s:?}: delay {delay:?} is not a whole number of ms"))?;
+        Ok(Self {
+            from_ns,
+            drop_per_mille,
+            delay_ms,
+        })
+    }
+}
+
+impl std::fmt::Display for CameraThrottle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}:{}:{}",
+            self.from_ns, self.drop_per_mille, self.delay_ms
+        )
     }
 }
 

@@ -19,9 +19,9 @@ mod observer;
 mod recorder;
 mod scheduler;
 
-pub use camera::{CameraArgs, SensorArgs};
+pub use camera::{CameraArgs, CameraThrottle, SensorArgs};
 pub use command::{NodeArgsError, NodeCommand, NodeLine};
-pub use observer::ObserverArgs;
+pub use observer::{DEFAULT_GRACE_MS, ObserverArgs};
 pub use recorder::{RecorderArgs, RecorderOutput};
 pub use scheduler::SchedulerArgs;
 

@@ -2,8 +2,8 @@
 //! arguments are refused naming the node.
 
 use node_args::{
-    CameraArgs, NodeArgsError, NodeCommand, NodeLine, ObserverArgs, RecorderArgs, RecorderOutput,
-    SchedulerArgs, SensorArgs,
+    CameraArgs, CameraThrottle, NodeArgsError, NodeCommand, NodeLine, ObserverArgs, RecorderArgs,
+    RecorderOutput, SchedulerArgs, SensorArgs,
 };
 use proptest::prelude::*;
 use proto::{FlightMode, Modality, ObserverId, RenderPath};
@@ -70,17 +70,28 @@ fn command() -> impl Strategy<Value = NodeCommand> {
             proptest::option::of(any::<u64>()),
             prop_oneof![Just(RenderPath::Damage), Just(RenderPath::Full)],
             sensor(),
+            proptest::collection::vec((any::<u64>(), 0u16..=1000, any::<u32>()), 0..3),
         )
-            .prop_map(|(observer, modality, black, dropout_ns, render, sensor)| {
-                NodeCommand::Camera(CameraArgs {
-                    observer,
-                    modality,
-                    black,
-                    dropout_ns,
-                    render,
-                    sensor,
-                })
-            }),
+            .prop_map(
+                |(observer, modality, black, dropout_ns, render, sensor, throttle)| {
+                    NodeCommand::Camera(CameraArgs {
+                        observer,
+                        modality,
+                        black,
+                        dropout_ns,
+                        throttle: throttle
+                            .into_iter()
+                            .map(|(from_ns, drop_per_mille, delay_ms)| CameraThrottle {
+                                from_ns,
+                                drop_per_mille,
+                                delay_ms,
+                            })
+                            .collect(),
+                        render,
+                        sensor,
+                    })
+                },
+            ),
         (observer_id(), modality(), any::<u64>()).prop_map(|(id, modality, grace_ms)| {
             NodeCommand::Observer(ObserverArgs {
                 id,
@@ -170,6 +181,23 @@ fn bad_arguments_are_refused_naming_the_node() {
         err.contains("observer-node") && err.contains("soon"),
         "{err}"
     );
+    for bad in ["0:1001:0", "0:250", "x:250:0", "0:250:-1"] {
+        let err = NodeLine::parse(
+            "sim-node",
+            &args(&[
+                "camera",
+                "--observer",
+                "O1",
+                "--modality",
+                "events",
+                "--throttle",
+                bad,
+            ]),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains(bad), "{bad}: {err}");
+    }
     let err = NodeLine::parse("sim-node", &args(&["camera", "--observer", "O1"]))
         .unwrap_err()
         .to_string();

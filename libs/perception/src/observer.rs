@@ -71,6 +71,11 @@ impl ObserverCore {
         self.assembler.session(tick, controls);
     }
 
+    /// The camera's notice that it dropped its packet of `tick`.
+    pub fn dropped(&mut self, tick: u64) {
+        self.assembler.dropped(tick);
+    }
+
     /// One packet of this observer's own sensor: its tick, and false when that tick was
     /// already processed (stale, dropped).
     pub fn packet(&mut self, packet: impl Into<SensorPacket>) -> (u64, bool) {

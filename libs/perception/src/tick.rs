@@ -12,8 +12,10 @@
 //! 3. packet k is in hand — or is judged missing.
 //!
 //! Tick 0 covers no sensor interval: it is processed with [`TickInput::Nothing`] (a packet of
-//! tick 0, if any, is dropped). A packet that has not arrived is missing when a *later* packet
-//! arrived (decided inside, [`MissingReason::LaterPacket`]), or when the caller's judge says so:
+//! tick 0, if any, is dropped). A packet that has not arrived is missing when the camera said it
+//! dropped it (decided inside, [`MissingReason::Dropped`]: a throttled camera's notice, so the
+//! verdict depends on what arrived, never on when), when a *later* packet arrived (decided
+//! inside, [`MissingReason::LaterPacket`]), or when the caller's judge says so:
 //! the camera's liveliness token is gone, the wall-clock grace period expired, the recording
 //! ended, the sensor dropped out. The assembler holds **no clock**: a shell that needs wall time
 //! (the observer process's grace period) keeps its own `Instant`s and consults them in the judge.
@@ -25,6 +27,7 @@
 //!   the in-process mission's lockstep);
 //! - [`TickAssembler::session`]: the session controls of tick k (one `sched/session` message;
 //!   a repeat of a tick not yet applied replaces it, one already applied is ignored);
+//! - [`TickAssembler::dropped`]: the camera's notice that it dropped packet k;
 //! - [`TickAssembler::packet`]: one sensor packet, placed on tick `stamp_ns / TICK_NS` (RGB) or
 //!   `end_ns / TICK_NS` (events); a packet of a tick already processed is stale and dropped (it
 //!   still counts as "a later packet arrived" for the ticks before it), a repeat of a buffered
@@ -69,7 +72,9 @@
 //! How each caller judges a packet that has not arrived (and no later packet has):
 //! - the observer process: [`MissingReason::CameraGone`] when the camera's liveliness token is
 //!   gone, else [`MissingReason::GraceExpired`] once `--grace-ms` passed since `clock{k}`
-//!   arrived, else `None` (wait);
+//!   arrived, else `None` (wait). The grace period is a last resort for a camera that is alive
+//!   but neither sends packet k nor says it dropped it (a stuck process, a message lost with a
+//!   live link); no fault Waggle injects relies on it;
 //! - replay: [`MissingReason::EndOfRecording`] once the whole recording is read, else `None`;
 //! - the in-process mission: every packet is present, or [`MissingReason::Dropout`] when the
 //!   case's fault removed the stream.
@@ -98,8 +103,8 @@ impl SensorPacket {
     /// ending at `end_ns`, is packet `t / TICK_NS`.
     pub fn tick(&self) -> u64 {
         match self {
-            SensorPacket::Rgb(f) => f.stamp_ns / TICK_NS,
-            SensorPacket::Events(p) => p.end_ns / TICK_NS,
+            SensorPacket::Rgb(f) => f.tick(),
+            SensorPacket::Events(p) => p.tick(),
             SensorPacket::Track(s) => s.stamp_ns / TICK_NS,
         }
     }
@@ -137,6 +142,9 @@ impl From<EventPacket> for SensorPacket {
 pub enum MissingReason {
     /// A packet of a later tick arrived (decided by the assembler).
     LaterPacket,
+    /// The camera said it dropped the packet (decided by the assembler, from the camera's
+    /// `sensor/<o>/dropped` notice).
+    Dropped,
     /// The camera's liveliness token is gone (observer process).
     CameraGone,
     /// The wall-clock grace period after `clock{k}` expired (observer process).
@@ -154,6 +162,7 @@ impl MissingReason {
     pub fn as_str(self) -> &'static str {
         match self {
             MissingReason::LaterPacket => "a later packet arrived",
+            MissingReason::Dropped => "the camera dropped it",
             MissingReason::CameraGone => "the camera is gone",
             MissingReason::GraceExpired => "grace period expired",
             MissingReason::EndOfRecording => "the recording ended",
@@ -236,6 +245,8 @@ pub struct TickAssembler {
     packets: BTreeMap<u64, SensorPacket>,
     /// The latest tick any packet arrived for (stale ones included).
     latest_packet: Option<u64>,
+    /// Ticks not yet processed whose packet the camera said it dropped.
+    dropped: BTreeSet<u64>,
     /// Clock ticks that arrived and are not yet processed.
     clocks: BTreeSet<u64>,
     /// Every clock up to this tick is known ([`TickAssembler::clocks_through`]).
@@ -299,6 +310,17 @@ impl TickAssembler {
         (tick, kept)
     }
 
+    /// The camera dropped its packet of `tick` (its `sensor/<o>/dropped` notice): that tick is
+    /// processed as missing once otherwise ready, whenever the notice arrives relative to the
+    /// other inputs. A notice for a processed tick is ignored. Should the packet itself arrive
+    /// too (a contradiction only a faulty camera makes), whichever is in hand when the tick is
+    /// ready wins.
+    pub fn dropped(&mut self, tick: u64) {
+        if tick >= self.next {
+            self.dropped.insert(tick);
+        }
+    }
+
     /// What the next tick k still lacks when [`TickAssembler::next_step`] returns `None`: the
     /// session controls of tick k−1, `clock{k}`, or packet k (or a verdict that it is missing).
     /// When a step is ready it names the last of the three, [`Waiting::Packet`].
@@ -335,6 +357,7 @@ impl TickAssembler {
         let input = match packet {
             _ if tick == 0 => TickInput::Nothing,
             Some(p) => TickInput::Packet(p),
+            None if self.dropped.contains(&tick) => TickInput::Missing(MissingReason::Dropped),
             None if self.latest_packet.is_some_and(|l| l > tick) => {
                 TickInput::Missing(MissingReason::LaterPacket)
             }
@@ -344,6 +367,7 @@ impl TickAssembler {
         self.next = tick + 1;
         let next = self.next;
         self.packets.retain(|t, _| *t >= next);
+        self.dropped.retain(|t| *t >= next);
         Some(Step::Tick { tick, input })
     }
 }
@@ -512,6 +536,71 @@ mod tests {
             drain(&mut a),
             [session(1), tick(2, TickInput::Packet(events(2).into()))]
         );
+    }
+
+    /// The inputs of ticks 0–3 where the camera dropped packet 2, in every order the lockstep
+    /// allows: tick k's inputs (the session controls of k−1, `clock{k}`, packet k or the drop
+    /// notice) exist only once tick k−1 is processed, but arrive among themselves in any order.
+    /// The steps never change, and the judge (the wall clock's stand-in) never decides one.
+    #[test]
+    fn a_drop_notice_decides_alone_in_every_arrival_order() {
+        #[derive(Clone, Copy)]
+        enum In {
+            Clock(u64),
+            Session(u64),
+            Packet(u64),
+            Dropped(u64),
+        }
+        fn orders(group: [In; 3]) -> Vec<[In; 3]> {
+            let [a, b, c] = group;
+            vec![
+                [a, b, c],
+                [a, c, b],
+                [b, a, c],
+                [b, c, a],
+                [c, a, b],
+                [c, b, a],
+            ]
+        }
+        let want = [
+            tick(0, TickInput::Nothing),
+            session(0),
+            tick(1, TickInput::Packet(events(1).into())),
+            session(1),
+            tick(2, TickInput::Missing(MissingReason::Dropped)),
+            session(2),
+            tick(3, TickInput::Packet(events(3).into())),
+        ];
+        let groups = [
+            [In::Session(0), In::Clock(1), In::Packet(1)],
+            [In::Session(1), In::Clock(2), In::Dropped(2)],
+            [In::Session(2), In::Clock(3), In::Packet(3)],
+        ];
+        let mut runs = 0;
+        for g1 in orders(groups[0]) {
+            for g2 in orders(groups[1]) {
+                for g3 in orders(groups[2]) {
+                    let mut a = TickAssembler::new();
+                    a.clock(0);
+                    let mut got = drain(&mut a);
+                    for input in g1.into_iter().chain(g2).chain(g3) {
+                        match input {
+                            In::Clock(k) => a.clock(k),
+                            In::Session(k) => a.session(k, Vec::new()),
+                            In::Packet(k) => {
+                                a.packet(events(k));
+                            }
+                            In::Dropped(k) => a.dropped(k),
+                        }
+                        // The judge only ever says "wait": what is decided, the inputs decided.
+                        got.extend(drain(&mut a));
+                    }
+                    assert_eq!(got, want);
+                    runs += 1;
+                }
+            }
+        }
+        assert_eq!(runs, 216);
     }
 
     #[test]

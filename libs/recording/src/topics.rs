@@ -6,9 +6,9 @@
 
 use proto::{
     BroadcastTick, CameraReport, ClockTick, Decision, DecodeError, EventPacket, Fault, FrameEvent,
-    Key, MissionReport, ObserverId, ObserverStatus, ObserverTrack, PerformerSetpoint,
-    PerformerTruth, RejectReport, RgbFrame, RgbUpdate, SchedCommand, SessionTick, SimContacts,
-    SimState, TICK_NS, TokenEvent,
+    Key, MissionReport, ObserverId, ObserverStatus, ObserverTrack, PacketDropped,
+    PerformerSetpoint, PerformerTruth, RejectReport, RgbFrame, RgbUpdate, SchedCommand,
+    SessionTick, SimContacts, SimState, TICK_NS, TokenEvent,
 };
 
 /// Message (and schema) encoding of raw channels: the exact bytes of [`proto::encode`].
@@ -37,10 +37,11 @@ pub enum MessageKind {
     RejectReport,
     RgbUpdate,
     CameraReport,
+    PacketDropped,
 }
 
 impl MessageKind {
-    pub const ALL: [MessageKind; 20] = [
+    pub const ALL: [MessageKind; 21] = [
         MessageKind::Clock,
         MessageKind::SimState,
         MessageKind::SimContacts,
@@ -61,6 +62,7 @@ impl MessageKind {
         MessageKind::RejectReport,
         MessageKind::RgbUpdate,
         MessageKind::CameraReport,
+        MessageKind::PacketDropped,
     ];
 
     /// Schema name of the raw channel (`waggle.<Rust type>`).
@@ -86,6 +88,7 @@ impl MessageKind {
             MessageKind::RejectReport => "waggle.RejectReport",
             MessageKind::RgbUpdate => "waggle.RgbUpdate",
             MessageKind::CameraReport => "waggle.CameraReport",
+            MessageKind::PacketDropped => "waggle.PacketDropped",
         }
     }
 
@@ -117,6 +120,7 @@ impl MessageKind {
             // What RGB cameras publish: key frames and changed rectangles (recordings made
             // before every update was recorded hold whole frames, `MessageKind::RgbFrame`).
             Key::SensorRgb(_) => MessageKind::RgbUpdate,
+            Key::SensorDropped(_) => MessageKind::PacketDropped,
             Key::ObserverTokens(_) => MessageKind::TokenEvent,
             Key::ObserverFrames(_) => MessageKind::FrameEvent,
             Key::ObserverDecision(_) => MessageKind::Decision,
@@ -181,6 +185,7 @@ pub enum Decoded {
     RejectReport(RejectReport),
     RgbUpdate(RgbUpdate),
     CameraReport(CameraReport),
+    PacketDropped(PacketDropped),
 }
 
 /// Decodes `bytes` as a message of `kind` with the one [`proto::decode`].
@@ -207,6 +212,7 @@ pub fn decode(kind: MessageKind, bytes: &[u8]) -> Result<Decoded, DecodeError> {
         MessageKind::RejectReport => Decoded::RejectReport(d(bytes)?),
         MessageKind::RgbUpdate => Decoded::RgbUpdate(d(bytes)?),
         MessageKind::CameraReport => Decoded::CameraReport(d(bytes)?),
+        MessageKind::PacketDropped => Decoded::PacketDropped(d(bytes)?),
     })
 }
 
@@ -233,6 +239,7 @@ impl Decoded {
             Decoded::BroadcastTick(b) => tick(b.tick),
             Decoded::SessionTick(s) => tick(s.tick),
             Decoded::MissionReport(r) => Some(r.end_ns),
+            Decoded::PacketDropped(d) => tick(d.tick),
             Decoded::Fault(_) | Decoded::RejectReport(_) | Decoded::CameraReport(_) => None,
         }
     }

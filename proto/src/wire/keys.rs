@@ -145,6 +145,8 @@ pub enum Key {
     SimContacts,
     SensorEvents(ObserverId),
     SensorRgb(ObserverId),
+    /// A camera's notices of packets it dropped (`sensor/<o>/dropped`).
+    SensorDropped(ObserverId),
     ObserverTokens(ObserverId),
     ObserverFrames(ObserverId),
     ObserverDecision(ObserverId),
@@ -184,6 +186,7 @@ impl Key {
             ["sim", "contacts"] => Key::SimContacts,
             ["sensor", o, "events"] => Key::SensorEvents(obs(o)?),
             ["sensor", o, "rgb"] => Key::SensorRgb(obs(o)?),
+            ["sensor", o, "dropped"] => Key::SensorDropped(obs(o)?),
             ["observer", o, "tokens"] => Key::ObserverTokens(obs(o)?),
             ["observer", o, "frames"] => Key::ObserverFrames(obs(o)?),
             ["observer", o, "decision"] => Key::ObserverDecision(obs(o)?),
@@ -221,6 +224,7 @@ impl Key {
             Key::SimContacts => "sim/contacts".into(),
             Key::SensorEvents(o) => format!("sensor/{o}/events"),
             Key::SensorRgb(o) => format!("sensor/{o}/rgb"),
+            Key::SensorDropped(o) => format!("sensor/{o}/dropped"),
             Key::ObserverTokens(o) => format!("observer/{o}/tokens"),
             Key::ObserverFrames(o) => format!("observer/{o}/frames"),
             Key::ObserverDecision(o) => format!("observer/{o}/decision"),
@@ -245,6 +249,7 @@ impl Key {
         match self {
             Key::SensorEvents(o)
             | Key::SensorRgb(o)
+            | Key::SensorDropped(o)
             | Key::ObserverTokens(o)
             | Key::ObserverFrames(o)
             | Key::ObserverDecision(o)
@@ -316,7 +321,11 @@ impl Keys {
         self.of(&Key::SensorRgb(o.clone()))
     }
 
-    /// Both sensor streams of one observer (`sensor/<o>/*`).
+    pub fn sensor_dropped(&self, o: &ObserverId) -> String {
+        self.of(&Key::SensorDropped(o.clone()))
+    }
+
+    /// Both sensor streams of one observer and its camera's drop notices (`sensor/<o>/*`).
     pub fn sensor_any(&self, o: &ObserverId) -> String {
         self.key(&format!("sensor/{o}/*"))
     }
@@ -516,6 +525,7 @@ mod tests {
             Key::SimContacts,
             Key::SensorEvents(o2.clone()),
             Key::SensorRgb(o2.clone()),
+            Key::SensorDropped(o2.clone()),
             Key::ObserverTokens(o2.clone()),
             Key::ObserverFrames(o2.clone()),
             Key::ObserverDecision(o2.clone()),

@@ -58,6 +58,11 @@ impl EventPacket {
         self.xs.is_empty()
     }
 
+    /// The tick the packet belongs to: the one its interval ends in, `end_ns / TICK_NS`.
+    pub fn tick(&self) -> u64 {
+        self.end_ns / crate::TICK_NS
+    }
+
     /// Polarity of event `i`.
     pub fn polarity(&self, i: usize) -> Polarity {
         if self.on_bits[i / 8] >> (i % 8) & 1 == 1 {
@@ -160,6 +165,13 @@ pub struct RgbFrame {
     pub continuous: bool,
     #[serde(with = "crate::codec::bulk_bytes")]
     pub rgb: Vec<u8>,
+}
+
+impl RgbFrame {
+    /// The tick the frame belongs to: the one it was rendered at, `stamp_ns / TICK_NS`.
+    pub fn tick(&self) -> u64 {
+        self.stamp_ns / crate::TICK_NS
+    }
 }
 
 impl Validate for RgbFrame {
@@ -363,6 +375,34 @@ pub enum FrameChange {
     Within(PixelRect),
     /// Any pixel may differ.
     All,
+}
+
+/// A camera's notice that it dropped its packet of `tick` (`sensor/<o>/dropped`): a throttled
+/// publisher knows which packets it did not send, and says so.
+///
+/// It lets the observer judge the packet missing from what arrived, in whatever order and after
+/// whatever delay the transport delivers, instead of from a wall-clock wait (docs/DESIGN.md §3):
+/// with it, no fault of the launcher leaves a packet's fate to a grace period.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PacketDropped {
+    pub observer: crate::keys::ObserverId,
+    /// The tick whose packet was dropped (an RGB frame's `stamp_ns / TICK_NS`, an event
+    /// packet's `end_ns / TICK_NS`).
+    pub tick: u64,
+    /// The dropped packet's sequence number.
+    pub seq: u64,
+}
+
+impl Validate for PacketDropped {
+    fn validate(&self) -> Result<(), String> {
+        if self.tick == 0 {
+            return Err(format!(
+                "{}: tick 0 has no sensor packet to drop",
+                self.observer
+            ));
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,132 @@
+//! The lockstep's results do not depend on when the transport delivers a message (issue 30).
+//!
+//! Every process of a run inherits `WAGGLE_TEST_DELAY` (the bus's test shim, `bus::delay`): the
+//! publications on the chosen keys leave tens to hundreds of milliseconds — several ticks of
+//! wall time — after they were put, each key in its own order, while everything else goes at
+//! once. So the scheduler's session controls reach the observers after the clock and the sensor
+//! packets of the next tick, one camera's packets after everyone else's, the clock after the
+//! state, and the observers' tokens, frames and decisions reach the launcher and the recorder
+//! long after the statuses that closed their ticks. The observers' outputs must not change.
+//!
+//! - default suite: `only-a` cut to 16 s of sim time, with and without the delays, byte-identical
+//!   `observers.json` and sensor digests (≈ 25 s);
+//! - `--full`: the golden `only-a` runs of both modalities under the delays equal
+//!   `tests/golden/frozen.toml` (≈ 3 min each: the delayed session controls pace every tick).
+
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+use std::sync::Mutex;
+
+use deploy::run_dir::RunSummary;
+use waggle_tests::{succeed, waggle_with_nodes};
+
+mod golden_runs;
+use golden_runs::{golden_entry, sha256_hex};
+
+/// Keys on every consumer's path: the observers' session controls, one camera's packets and the
+/// clock (ticks wait for them), and what the launcher and recorder gather (nothing waits).
+const DELAYS: &str = "sched/session=30;sensor/O2/*=20;clock=10;\
+                      observer/*/tokens=300;observer/*/frames=300;observer/*/decision=300";
+
+/// One run at a time: each keeps both cores busy.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("waggle-order-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// `waggle run CASE --modality M` into `dir/run`, with `delays` in the environment (none when
+/// empty); the run's summary and `observers.json`.
+fn run(case: &str, modality: &str, dir: &Path, delays: &str) -> (RunSummary, Vec<u8>) {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let out = dir.join("run");
+    let mut cmd = waggle_with_nodes();
+    cmd.args(["run", case, "--modality", modality, "--quiet", "--out"])
+        .arg(&out)
+        .stdin(Stdio::null());
+    if delays.is_empty() {
+        cmd.env_remove(bus::delay::DELAY_ENV);
+    } else {
+        cmd.env(bus::delay::DELAY_ENV, delays);
+    }
+    succeed(
+        &mut cmd,
+        &format!("waggle run {case} --modality {modality} ({delays:?})"),
+    );
+    let summary = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap())
+        .expect("summary.json is a RunSummary");
+    if !delays.is_empty() {
+        let log = std::fs::read_to_string(out.join("logs/observer-O1.log")).unwrap();
+        assert!(log.contains("test shim"), "the shim did not engage:\n{log}");
+    }
+    (summary, std::fs::read(out.join("observers.json")).unwrap())
+}
+
+#[test]
+fn delayed_keys_change_nothing_in_a_short_run() {
+    let dir = scratch("short");
+    let case = dir.join("only-a-16s.toml");
+    std::fs::write(
+        &case,
+        "name = \"only-a-16s\"\nobservers = 3\nmodalities = [\"rgb\", \"events\"]\n\
+         offer_sites = [\"A\"]\ntime_limit_s = 16\n\n[expected]\n\
+         messages = [0, 0, 0]\nwork_units = 0\nservices = { O1 = [], O2 = [], O3 = [] }\n",
+    )
+    .unwrap();
+    let case = case.to_str().unwrap();
+    let (plain, plain_obs) = run(case, "events", &dir.join("plain"), "");
+    let (delayed, delayed_obs) = run(case, "events", &dir.join("delayed"), DELAYS);
+    assert_eq!(plain.sensor_digests, delayed.sensor_digests);
+    assert!(
+        plain.missing_packets.is_empty(),
+        "{:?}",
+        plain.missing_packets
+    );
+    assert!(
+        delayed.missing_packets.is_empty(),
+        "{:?}",
+        delayed.missing_packets
+    );
+    // Tokens were confirmed within the 16 s, so the comparison has content.
+    assert!(
+        String::from_utf8_lossy(&plain_obs).contains("confirmed_ns"),
+        "no token in 16 s"
+    );
+    assert!(plain_obs == delayed_obs, "observers.json differs");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn golden_under_delays(modality: &str) {
+    let want = golden_entry("only-a", modality);
+    let dir = scratch(&format!("golden-{modality}"));
+    let (summary, observers) = run("only-a", modality, &dir, DELAYS);
+    let digests: std::collections::BTreeMap<String, String> = want["sensor_digests"]
+        .as_table()
+        .unwrap()
+        .iter()
+        .map(|(o, d)| (o.clone(), d.as_str().unwrap().to_string()))
+        .collect();
+    assert_eq!(summary.sensor_digests, digests);
+    assert_eq!(
+        sha256_hex(&observers),
+        want["observers_sha256"].as_str().unwrap(),
+        "observers.json changed under delays (outputs in {})",
+        dir.display()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+#[ignore = "≈ 3 min: deploy/test.sh --full"]
+fn golden_only_a_events_under_delays() {
+    golden_under_delays("events");
+}
+
+#[test]
+#[ignore = "≈ 3 min: deploy/test.sh --full"]
+fn golden_only_a_rgb_under_delays() {
+    golden_under_delays("rgb");
+}
