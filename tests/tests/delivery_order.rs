@@ -8,10 +8,13 @@
 //! state, and the observers' tokens, frames and decisions reach the launcher and the recorder
 //! long after the statuses that closed their ticks. The observers' outputs must not change.
 //!
-//! - default suite: `only-a` cut to 16 s of sim time, with and without the delays, byte-identical
-//!   `observers.json` and sensor digests (≈ 25 s);
-//! - `--full`: the golden `only-a` runs of both modalities under the delays equal
-//!   `tests/golden/frozen.toml` (≈ 3 min each: the delayed session controls pace every tick).
+//! The same holds over the other transport: `quic/` with the session's certificates.
+//!
+//! - default suite: `only-a` cut to 16 s of sim time, plain, with the delays and over `quic/`:
+//!   byte-identical `observers.json` and sensor digests (≈ 30 s);
+//! - `--full`: the golden `only-a` runs of both modalities under the delays and over `quic/`
+//!   equal `tests/golden/frozen.toml` (≈ 3 min each under the delays, whose session controls pace
+//!   every tick; ≈ 40 s over `quic/`).
 
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
@@ -41,11 +44,23 @@ fn scratch(name: &str) -> PathBuf {
 /// `waggle run CASE --modality M` into `dir/run`, with `delays` in the environment (none when
 /// empty); the run's summary and `observers.json`.
 fn run(case: &str, modality: &str, dir: &Path, delays: &str) -> (RunSummary, Vec<u8>) {
+    run_with(case, modality, dir, delays, &[])
+}
+
+/// [`run`] with extra `waggle run` arguments.
+fn run_with(
+    case: &str,
+    modality: &str,
+    dir: &Path,
+    delays: &str,
+    extra: &[&str],
+) -> (RunSummary, Vec<u8>) {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let out = dir.join("run");
     let mut cmd = waggle_with_nodes();
     cmd.args(["run", case, "--modality", modality, "--quiet", "--out"])
         .arg(&out)
+        .args(extra)
         .stdin(Stdio::null());
     if delays.is_empty() {
         cmd.env_remove(bus::delay::DELAY_ENV);
@@ -96,13 +111,20 @@ fn delayed_keys_change_nothing_in_a_short_run() {
         "no token in 16 s"
     );
     assert!(plain_obs == delayed_obs, "observers.json differs");
+    // The encrypted transport: QUIC with the session's certificates (mutual TLS).
+    let (quic, quic_obs) = run_with(case, "events", &dir.join("quic"), "", QUIC);
+    assert_eq!(plain.sensor_digests, quic.sensor_digests);
+    assert!(plain_obs == quic_obs, "observers.json differs over quic/");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-fn golden_under_delays(modality: &str) {
+/// The session router on QUIC (loopback, a free port): every node dials it with mutual TLS.
+const QUIC: &[&str] = &["--listen", "quic/127.0.0.1:0"];
+
+fn golden_under(modality: &str, delays: &str, extra: &[&str]) {
     let want = golden_entry("only-a", modality);
-    let dir = scratch(&format!("golden-{modality}"));
-    let (summary, observers) = run("only-a", modality, &dir, DELAYS);
+    let dir = scratch(&format!("golden-{modality}-{}", extra.len()));
+    let (summary, observers) = run_with("only-a", modality, &dir, delays, extra);
     let digests: std::collections::BTreeMap<String, String> = want["sensor_digests"]
         .as_table()
         .unwrap()
@@ -113,7 +135,7 @@ fn golden_under_delays(modality: &str) {
     assert_eq!(
         sha256_hex(&observers),
         want["observers_sha256"].as_str().unwrap(),
-        "observers.json changed under delays (outputs in {})",
+        "observers.json changed (delays {delays:?}, {extra:?}; outputs in {})",
         dir.display()
     );
     let _ = std::fs::remove_dir_all(&dir);
@@ -122,11 +144,23 @@ fn golden_under_delays(modality: &str) {
 #[test]
 #[ignore = "≈ 3 min: deploy/test.sh --full"]
 fn golden_only_a_events_under_delays() {
-    golden_under_delays("events");
+    golden_under("events", DELAYS, &[]);
 }
 
 #[test]
 #[ignore = "≈ 3 min: deploy/test.sh --full"]
 fn golden_only_a_rgb_under_delays() {
-    golden_under_delays("rgb");
+    golden_under("rgb", DELAYS, &[]);
+}
+
+#[test]
+#[ignore = "≈ 40 s: deploy/test.sh --full"]
+fn golden_only_a_events_over_quic() {
+    golden_under("events", "", QUIC);
+}
+
+#[test]
+#[ignore = "≈ 40 s: deploy/test.sh --full"]
+fn golden_only_a_rgb_over_quic() {
+    golden_under("rgb", "", QUIC);
 }

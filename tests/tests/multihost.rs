@@ -236,13 +236,20 @@ fn bundle(file: &Path, host: &str, router: bool) -> PathBuf {
         _ => vec![],
     }
     .into_iter()
-    .map(|u| format!("{u}.credentials"))
+    .map(String::from)
     .collect();
     if host == "r" {
-        want.push("launcher-r.credentials".into());
+        want.push("launcher-r".into());
     }
+    // Each process's password and certificate with its key, the session CA; the router's host
+    // also the dictionary and the router's certificate.
+    let mut want: Vec<String> = want
+        .iter()
+        .flat_map(|u| [".credentials", ".cert.pem", ".key.pem"].map(|x| format!("{u}{x}")))
+        .collect();
+    want.push("ca.pem".into());
     if router {
-        want.push("dictionary".into());
+        want.extend(["dictionary", "router.cert.pem", "router.key.pem"].map(String::from));
     }
     want.sort();
     assert_eq!(held, want, "host {host}'s bundle");

@@ -386,9 +386,18 @@ impl Compose {
             if port != 0 {
                 continue;
             }
-            let bound = std::net::TcpListener::bind((address.as_str(), 0))
-                .with_context(|| format!("finding a free port for {l}"))?;
-            let free = bound.local_addr()?.port();
+            // QUIC listens on UDP, everything else here on TCP.
+            let free = if l.starts_with("quic/") {
+                std::net::UdpSocket::bind((address.as_str(), 0))
+                    .and_then(|s| s.local_addr())
+                    .with_context(|| format!("finding a free port for {l}"))?
+                    .port()
+            } else {
+                std::net::TcpListener::bind((address.as_str(), 0))
+                    .and_then(|s| s.local_addr())
+                    .with_context(|| format!("finding a free port for {l}"))?
+                    .port()
+            };
             let cut = l.rfind(":0").context("endpoint without port")?;
             *l = format!("{}:{free}{}", &l[..cut], &l[cut + 2..]);
         }

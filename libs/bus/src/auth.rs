@@ -13,12 +13,19 @@ use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 
 use crate::error::BusError;
+use crate::tls::{self, TlsFiles};
+
+/// How long a session's certificates are valid: a run or a study shard ends well within it.
+pub const CERTIFICATE_VALIDITY: std::time::Duration = std::time::Duration::from_secs(7 * 24 * 3600);
 
 /// One process's user name and password.
 #[derive(Clone, PartialEq, Eq)]
 pub struct Credentials {
     pub user: String,
     password: String,
+    /// The certificate files beside the credentials file (`quic/` links), when the session
+    /// has them.
+    pub tls: Option<TlsFiles>,
 }
 
 impl std::fmt::Debug for Credentials {
@@ -41,9 +48,14 @@ impl Credentials {
         if user.is_empty() || password.is_empty() || password.contains(char::is_whitespace) {
             return Err(bad("empty user or password"));
         }
+        let tls = path
+            .parent()
+            .map(|dir| tls::cert_files(dir, user))
+            .filter(TlsFiles::exist);
         Ok(Self {
             user: user.to_string(),
             password: password.to_string(),
+            tls,
         })
     }
 
@@ -168,6 +180,19 @@ impl SessionSecrets {
             out.files.insert(user.clone(), file);
         }
         write_private(&out.dictionary, &dictionary)?;
+        let label = out
+            .dir
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let mut names = users.to_vec();
+        names.push(tls::ROUTER_CERT_NAME.to_string());
+        tls::issue(
+            &label,
+            &names,
+            CERTIFICATE_VALIDITY,
+            write_private,
+            &out.dir,
+        )?;
         Ok(out)
     }
 
@@ -233,12 +258,28 @@ impl SessionSecrets {
             Ok(to)
         };
         let mut files = BTreeMap::new();
+        // Certificates go with what they authenticate: each user's own, the router's with the
+        // dictionary, the CA's to everyone (sessions made before certificates have none).
+        let copy_tls = |name: &str| -> Result<(), BusError> {
+            let t = tls::cert_files(&self.dir, name);
+            if t.exist() {
+                for f in [&t.cert, &t.key] {
+                    copy(f)?;
+                }
+                if !dir.join(tls::CA_FILE).exists() {
+                    copy(&t.ca)?;
+                }
+            }
+            Ok(())
+        };
         for (user, file) in &self.files {
             files.insert(user.clone(), copy(file)?);
+            copy_tls(user)?;
         }
         if with_dictionary {
             self.check_dictionary()?;
             copy(&self.dictionary)?;
+            copy_tls(tls::ROUTER_CERT_NAME)?;
         }
         Ok(Self {
             dictionary: dir.join("dictionary"),
@@ -363,7 +404,19 @@ mod tests {
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
         names.sort();
-        assert_eq!(names, ["camera-O1.credentials", "launcher-b.credentials"]);
+        // Each user's password and certificate, the session CA; nobody else's.
+        assert_eq!(
+            names,
+            [
+                "ca.pem",
+                "camera-O1.cert.pem",
+                "camera-O1.credentials",
+                "camera-O1.key.pem",
+                "launcher-b.cert.pem",
+                "launcher-b.credentials",
+                "launcher-b.key.pem"
+            ]
+        );
         assert_eq!(
             std::fs::metadata(&out).unwrap().permissions().mode() & 0o777,
             0o700
@@ -373,10 +426,16 @@ mod tests {
             std::fs::metadata(file).unwrap().permissions().mode() & 0o777,
             0o600
         );
-        assert_eq!(
+        let (copied, original) = (
             Credentials::read(file).unwrap(),
-            Credentials::read(b.file_of("camera-O1").unwrap()).unwrap()
+            Credentials::read(b.file_of("camera-O1").unwrap()).unwrap(),
         );
+        assert_eq!(
+            (&copied.user, copied.password()),
+            (&original.user, original.password())
+        );
+        // Its certificate files are the copies beside it.
+        assert_eq!(copied.tls.unwrap().key, out.join("camera-O1.key.pem"));
         // The host can open what it holds, and nothing else.
         SessionSecrets::open(&out, &all[1..]).unwrap();
         assert!(SessionSecrets::open(&out, &all[..1]).is_err());
@@ -384,6 +443,8 @@ mod tests {
         // The router's host also gets the dictionary; an existing directory is never overwritten.
         let with = b.export(&base.join("router"), true).unwrap();
         with.check_dictionary().unwrap();
+        assert!(tls::cert_files(&base.join("router"), tls::ROUTER_CERT_NAME).exist());
+        assert!(!tls::cert_files(&out, tls::ROUTER_CERT_NAME).exist());
         assert!(
             matches!(b.export(&out, false), Err(BusError::Credentials(m)) if m.contains("exists"))
         );

@@ -33,6 +33,19 @@ pub enum Inbound {
     Liveliness { key: String, alive: bool },
 }
 
+/// What [`Bus::close`] waits on a `quic/` session before closing it. Zenoh 1.10.2 closes a QUIC
+/// connection at once, discarding what is still queued to leave (a camera's final report went
+/// missing from a run's summary); a TCP link lingers by itself. Nothing is decided by it: the
+/// last messages of a process are its reports, which the lockstep never waits on.
+const QUIC_CLOSE_LINGER: Duration = Duration::from_millis(500);
+
+/// True when the configuration dials or listens on a `quic/` endpoint.
+fn uses_quic(config: &zenoh::Config) -> bool {
+    ["connect/endpoints", "listen/endpoints"]
+        .iter()
+        .any(|k| config.get_json(k).is_ok_and(|v| v.contains("quic/")))
+}
+
 /// A Zenoh session of one Waggle process.
 ///
 /// Publications use reliable, blocking congestion control: a lockstep message is never
@@ -43,6 +56,8 @@ pub struct Bus {
     publishers: BTreeMap<String, Publisher<'static>>,
     /// The test shim holding back chosen keys ([`crate::delay`]); `None` in real runs.
     delayer: Option<Delayer>,
+    /// How long [`Bus::close`] waits before closing, for what is still queued to leave.
+    close_linger: Duration,
     subscribers: Vec<Subscriber<()>>,
     tokens: BTreeMap<String, LivelinessToken>,
     session: zenoh::Session,
@@ -71,6 +86,11 @@ impl Bus {
     /// launcher's router, see [`crate::router_config`]).
     pub fn open_config(session: &str, config: zenoh::Config) -> Result<Self, BusError> {
         let keys = Keys::new(session)?;
+        let close_linger = if uses_quic(&config) {
+            QUIC_CLOSE_LINGER
+        } else {
+            Duration::ZERO
+        };
         let zenoh_session = zenoh::open(config)
             .wait()
             .map_err(|e| zenoh_err("opening the session", e))?;
@@ -80,6 +100,7 @@ impl Bus {
             keys,
             publishers: BTreeMap::new(),
             delayer,
+            close_linger,
             subscribers: Vec::new(),
             tokens: BTreeMap::new(),
             session: zenoh_session,
@@ -265,6 +286,7 @@ impl Bus {
         if let Some(d) = self.delayer.as_mut() {
             d.flush();
         }
+        std::thread::sleep(self.close_linger);
         self.tokens.clear();
         self.subscribers.clear();
         self.publishers.clear();

@@ -86,13 +86,38 @@ fn base(mode: &str, endpoints: &Endpoints, listen: &[String]) -> Result<zenoh::C
         )?;
     }
     set(&mut config, "scouting/multicast/enabled", "false".into())?;
-    set(&mut config, "listen/endpoints", json_list(listen))?;
+    let single_stream =
+        |list: &[String]| -> Vec<String> { list.iter().map(|e| single_stream_quic(e)).collect() };
+    set(
+        &mut config,
+        "listen/endpoints",
+        json_list(&single_stream(listen)),
+    )?;
     set(
         &mut config,
         "connect/endpoints",
-        json_list(&endpoints.connect),
+        json_list(&single_stream(&endpoints.connect)),
     )?;
     Ok(config)
+}
+
+/// A `quic/` endpoint with `multistream=0` added unless it sets it: in Zenoh 1.10.2 the default
+/// (`auto`: one QUIC stream per priority) delivered the declarations but never the data of a
+/// Waggle session (every node waited for its first message; `tests/quic.rs` in `libs/bus`
+/// and the golden runs over `quic/` pass with one stream). Other endpoints are unchanged.
+pub fn single_stream_quic(endpoint: &str) -> String {
+    if !endpoint.starts_with("quic/") || endpoint.contains("multistream=") {
+        return endpoint.to_string();
+    }
+    // Metadata (`?a=b;c=d`) comes before the link configuration (`#…`).
+    let (address, config) = endpoint
+        .split_once('#')
+        .map_or((endpoint, None), |(a, c)| (a, Some(c)));
+    let sep = if address.contains('?') { ';' } else { '?' };
+    match config {
+        Some(c) => format!("{address}{sep}multistream=0#{c}"),
+        None => format!("{address}{sep}multistream=0"),
+    }
 }
 
 fn set(config: &mut zenoh::Config, key: &str, value: String) -> Result<(), BusError> {
@@ -140,7 +165,7 @@ pub fn deny_on_every_link(config: &mut zenoh::Config, deny: &[String]) -> Result
                 flows: ["egress", "ingress"],
                 permission: "deny",
             }}],
-            subjects: [{{ id: "every-link", link_protocols: ["tcp"] }}],
+            subjects: [{{ id: "every-link", link_protocols: ["tcp", "quic"] }}],
             policies: [{{ rules: ["deny"], subjects: ["every-link"] }}],
         }}"#,
         keys = json_list(deny)
@@ -160,6 +185,13 @@ pub fn client_config(
         ));
     }
     let mut config = base("client", endpoints, &[])?;
+    with_tls(
+        &mut config,
+        endpoints,
+        &[],
+        credentials.tls.as_ref(),
+        &credentials.user,
+    )?;
     set(
         &mut config,
         "transport/auth/usrpwd/user",
@@ -180,7 +212,19 @@ pub fn router_config(
     dictionary: &std::path::Path,
     acl: &str,
 ) -> Result<zenoh::Config, BusError> {
-    let mut config = base("router", endpoints, &listen_or_loopback(endpoints))?;
+    let listen = listen_or_loopback(endpoints);
+    let mut config = base("router", endpoints, &listen)?;
+    let tls = dictionary
+        .parent()
+        .map(|dir| crate::tls::cert_files(dir, crate::tls::ROUTER_CERT_NAME))
+        .filter(crate::tls::TlsFiles::exist);
+    with_tls(
+        &mut config,
+        endpoints,
+        &listen,
+        tls.as_ref(),
+        crate::tls::ROUTER_CERT_NAME,
+    )?;
     set(
         &mut config,
         "transport/auth/usrpwd/dictionary_file",
@@ -188,6 +232,78 @@ pub fn router_config(
     )?;
     set(&mut config, "access_control", acl.to_string())?;
     Ok(config)
+}
+
+/// True for an endpoint of Zenoh's QUIC link (always TLS).
+fn is_quic(endpoint: &str) -> bool {
+    endpoint.starts_with("quic/")
+}
+
+/// Mutual TLS with the session's certificates (`crate::tls`) when any endpoint this process
+/// listens on or dials is `quic/`: it presents `files`' certificate, trusts only the session's
+/// CA, and requires the peer's certificate too. Names are not checked against addresses (the
+/// session CA, not DNS, is what identifies a peer), and a link closes when a certificate
+/// expires. A `quic/` endpoint without certificates is refused naming `who`.
+fn with_tls(
+    config: &mut zenoh::Config,
+    endpoints: &Endpoints,
+    listen: &[String],
+    files: Option<&crate::tls::TlsFiles>,
+    who: &str,
+) -> Result<(), BusError> {
+    let dials = endpoints.connect.iter().any(|e| is_quic(e));
+    let listens = listen.iter().any(|e| is_quic(e));
+    if !dials && !listens {
+        return Ok(());
+    }
+    let files = files.ok_or_else(|| {
+        BusError::Config(format!(
+            "{who}: a quic/ endpoint needs the session's certificates (ca.pem, \
+             {who}.cert.pem, {who}.key.pem beside the credentials)"
+        ))
+    })?;
+    let path = |p: &std::path::Path| serde_json_string(&p.display().to_string());
+    set(
+        config,
+        "transport/link/tls/root_ca_certificate",
+        path(&files.ca),
+    )?;
+    set(config, "transport/link/tls/enable_mtls", "true".into())?;
+    set(
+        config,
+        "transport/link/tls/verify_name_on_connect",
+        "false".into(),
+    )?;
+    set(
+        config,
+        "transport/link/tls/close_link_on_expiration",
+        "true".into(),
+    )?;
+    if listens {
+        set(
+            config,
+            "transport/link/tls/listen_certificate",
+            path(&files.cert),
+        )?;
+        set(
+            config,
+            "transport/link/tls/listen_private_key",
+            path(&files.key),
+        )?;
+    }
+    if dials {
+        set(
+            config,
+            "transport/link/tls/connect_certificate",
+            path(&files.cert),
+        )?;
+        set(
+            config,
+            "transport/link/tls/connect_private_key",
+            path(&files.key),
+        )?;
+    }
+    Ok(())
 }
 
 /// A client of an open router (`--no-auth`).
@@ -243,6 +359,23 @@ mod tests {
         assert!(listen.contains("tcp/127.0.0.1:0"), "{listen}");
         assert_eq!(c.get_json("scouting/multicast/enabled").unwrap(), "false");
         assert_eq!(c.get_json("mode").unwrap(), "\"peer\"");
+    }
+
+    #[test]
+    fn quic_endpoints_get_one_stream_and_others_are_left_alone() {
+        assert_eq!(
+            single_stream_quic("quic/127.0.0.1:7447"),
+            "quic/127.0.0.1:7447?multistream=0"
+        );
+        assert_eq!(
+            single_stream_quic("quic/h:1?rel=1#x=y"),
+            "quic/h:1?rel=1;multistream=0#x=y"
+        );
+        assert_eq!(
+            single_stream_quic("quic/h:1?multistream=1"),
+            "quic/h:1?multistream=1"
+        );
+        assert_eq!(single_stream_quic("tcp/h:1"), "tcp/h:1");
     }
 
     #[test]

@@ -36,6 +36,7 @@ pub mod handshake;
 mod process_name;
 mod rejects;
 mod stop;
+pub mod tls;
 
 pub use auth::{Credentials, SessionSecrets};
 pub use bus::{Bus, Inbound, decode};
