@@ -126,9 +126,15 @@ pub fn router_acl(keys: &Keys, access: &[RoleAccess]) -> String {
     let mut policies = Vec::new();
     for (i, a) in access.iter().enumerate() {
         let subject = format!("s{i}");
+        let user = list(std::slice::from_ref(&a.user));
+        // On TCP a process is its user name; on QUIC (mutual TLS) its user name *and* its
+        // certificate's common name, so a stolen password needs the matching certificate too.
         subjects.push(format!(
-            r#"{{ id: "{subject}", usernames: {} }}"#,
-            list(std::slice::from_ref(&a.user))
+            r#"{{ id: "{subject}-tcp", usernames: {user}, link_protocols: ["tcp"] }}"#
+        ));
+        subjects.push(format!(
+            r#"{{ id: "{subject}-quic", usernames: {user}, cert_common_names: {user},
+                 link_protocols: ["quic"] }}"#
         ));
         let mut mine = vec!["declarations".to_string(), "handshake".to_string()];
         if !a.publish.is_empty() {
@@ -154,7 +160,7 @@ pub fn router_acl(keys: &Keys, access: &[RoleAccess]) -> String {
             mine.push(format!("{subject}-receive"));
         }
         policies.push(format!(
-            r#"{{ rules: {}, subjects: ["{subject}"] }}"#,
+            r#"{{ rules: {}, subjects: ["{subject}-tcp", "{subject}-quic"] }}"#,
             list(&mine)
         ));
     }

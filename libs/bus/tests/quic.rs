@@ -24,8 +24,8 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// A session's router on a free `quic/` port, with the access lists of the simulator and
-/// observer O1, and the session's secrets.
+/// A session's router on a free `quic/` port, with the access lists of the simulator, observer
+/// O1 and the scheduler, and the session's secrets.
 struct Session {
     name: String,
     keys: Keys,
@@ -39,14 +39,15 @@ fn session(label: &str) -> Session {
     let keys = Keys::new(&name).unwrap();
     let sim = Process::singleton(Role::Sim);
     let obs = Process::new(Role::Observer, "O1");
-    let secrets = SessionSecrets::create_kept(&scratch(label), &[sim.name(), obs.name()]).unwrap();
-    let acl = bus::access::router_acl(
-        &keys,
-        &[
-            bus::access::access_of(&keys, &sim),
-            bus::access::access_of(&keys, &obs),
-        ],
-    );
+    let sched = Process::singleton(Role::Scheduler);
+    let everyone = [sim, obs, sched];
+    let names: Vec<String> = everyone.iter().map(Process::name).collect();
+    let secrets = SessionSecrets::create_kept(&scratch(label), &names).unwrap();
+    let access: Vec<_> = everyone
+        .iter()
+        .map(|p| bus::access::access_of(&keys, p))
+        .collect();
+    let acl = bus::access::router_acl(&keys, &access);
     let endpoint = free_quic_endpoint();
     let listen = Endpoints {
         connect: vec![],
@@ -142,4 +143,45 @@ fn a_client_with_another_sessions_certificate_is_refused() {
     assert!(e.contains("certificates") && e.contains("sim"), "{e}");
     // Our own certificate still works.
     assert!(client(&ours, &creds(&ours, "sim"), 20_000).is_ok());
+}
+
+/// The router's access list names a process by user *and* certificate on `quic/`: the observer's
+/// password presented with the simulator's (valid, same-session) certificate passes the TLS and
+/// password checks but matches no access rule, so nothing it publishes is delivered, while the
+/// genuine observer's messages are.
+#[test]
+fn a_password_with_another_processs_certificate_gets_no_access() {
+    let s = session("swap");
+    let keys = &s.keys;
+    // The scheduler reads every observer's status.
+    let mut sched = client(&s, &creds(&s, "scheduler"), 20_000).unwrap();
+    sched.subscribe(&keys.observer_status_any()).unwrap();
+    let status_key = keys.observer_status(&proto::ObserverId::new("O1").unwrap());
+    let mut attempt = |creds: &Credentials, marker: u8| -> bool {
+        let mut obs = client(&s, creds, 20_000).unwrap();
+        // The declarations rule lets it know the simulator's subscriptions; give them a moment.
+        std::thread::sleep(Duration::from_millis(500));
+        for _ in 0..5 {
+            obs.put_bytes(&status_key, vec![marker; 8]).unwrap();
+        }
+        let deadline = Instant::now() + Duration::from_secs(3);
+        while Instant::now() < deadline {
+            if let Some(Inbound::Data { payload, .. }) = sched.recv(Duration::from_millis(50))
+                && payload.first() == Some(&marker)
+            {
+                return true;
+            }
+        }
+        false
+    };
+    let mut swapped = creds(&s, "observer-O1");
+    swapped.tls = creds(&s, "sim").tls;
+    assert!(
+        !attempt(&swapped, 7),
+        "a swapped certificate was given the observer's access"
+    );
+    assert!(
+        attempt(&creds(&s, "observer-O1"), 9),
+        "the genuine observer was refused"
+    );
 }
