@@ -152,6 +152,15 @@ impl SessionSecrets {
     /// Creates a password for each of `users` in directory `dir` (replaced if it exists), kept
     /// when dropped.
     pub fn create_kept(dir: &Path, users: &[String]) -> Result<Self, BusError> {
+        Self::create_kept_valid_for(dir, users, CERTIFICATE_VALIDITY)
+    }
+
+    /// [`SessionSecrets::create_kept`] with certificates valid for `validity` from now.
+    pub fn create_kept_valid_for(
+        dir: &Path,
+        users: &[String],
+        validity: std::time::Duration,
+    ) -> Result<Self, BusError> {
         let dir = dir.to_path_buf();
         let io = |what: &str, e: std::io::Error| {
             BusError::Credentials(format!("{what} {}: {e}", dir.display()))
@@ -186,13 +195,7 @@ impl SessionSecrets {
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
         let mut names = users.to_vec();
         names.push(tls::ROUTER_CERT_NAME.to_string());
-        tls::issue(
-            &label,
-            &names,
-            CERTIFICATE_VALIDITY,
-            write_private,
-            &out.dir,
-        )?;
+        tls::issue(&label, &names, validity, write_private, &out.dir)?;
         Ok(out)
     }
 

@@ -35,6 +35,11 @@ struct Session {
 }
 
 fn session(label: &str) -> Session {
+    session_valid_for(label, bus::auth::CERTIFICATE_VALIDITY)
+}
+
+/// [`session`] with certificates valid for `validity` from now.
+fn session_valid_for(label: &str, validity: Duration) -> Session {
     let name = format!("quic-{label}-{}", std::process::id());
     let keys = Keys::new(&name).unwrap();
     let sim = Process::singleton(Role::Sim);
@@ -42,7 +47,7 @@ fn session(label: &str) -> Session {
     let sched = Process::singleton(Role::Scheduler);
     let everyone = [sim, obs, sched];
     let names: Vec<String> = everyone.iter().map(Process::name).collect();
-    let secrets = SessionSecrets::create_kept(&scratch(label), &names).unwrap();
+    let secrets = SessionSecrets::create_kept_valid_for(&scratch(label), &names, validity).unwrap();
     let access: Vec<_> = everyone
         .iter()
         .map(|p| bus::access::access_of(&keys, p))
@@ -184,4 +189,48 @@ fn a_password_with_another_processs_certificate_gets_no_access() {
         attempt(&creds(&s, "observer-O1"), 9),
         "the genuine observer was refused"
     );
+}
+
+/// Certificates that must never open a link: the session's own once they have expired (the
+/// same files that opened a link a moment before), and a self-signed one bearing a session
+/// process's name.
+#[test]
+fn expired_and_self_signed_certificates_are_refused() {
+    let short = session_valid_for("expiry", Duration::from_secs(3));
+    let sim = creds(&short, "sim");
+    let started = Instant::now();
+    assert!(
+        client(&short, &sim, 2_000).is_ok(),
+        "fresh certificates were refused"
+    );
+    std::thread::sleep(Duration::from_secs(4).saturating_sub(started.elapsed()));
+    assert!(
+        client(&short, &sim, 3_000).is_err(),
+        "an expired certificate was accepted"
+    );
+
+    let s = session("self-signed");
+
+    // Self-signed, named `sim`, with our own password.
+    let key = rcgen::KeyPair::generate().unwrap();
+    let mut params = rcgen::CertificateParams::new(vec!["localhost".to_string()]).unwrap();
+    params
+        .distinguished_name
+        .push(rcgen::DnType::CommonName, "sim");
+    let cert = params.self_signed(&key).unwrap();
+    let dir = scratch("forged-cert");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (cert_file, key_file) = (dir.join("sim.cert.pem"), dir.join("sim.key.pem"));
+    std::fs::write(&cert_file, cert.pem()).unwrap();
+    std::fs::write(&key_file, key.serialize_pem()).unwrap();
+    let mut forged = creds(&s, "sim");
+    let mut tls = forged.tls.clone().unwrap();
+    tls.cert = cert_file;
+    tls.key = key_file;
+    forged.tls = Some(tls);
+    assert!(
+        client(&s, &forged, 3_000).is_err(),
+        "a self-signed certificate was accepted"
+    );
+    assert!(client(&s, &creds(&s, "sim"), 20_000).is_ok());
 }
