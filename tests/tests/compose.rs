@@ -132,6 +132,18 @@ fn bad_sessions_hosts_and_routers_are_refused_naming_the_input() {
     ]);
     assert!(e.contains("auth = false"), "{e}");
 
+    // Plain TCP beyond loopback is refused unless asked for.
+    let e = refused(&[
+        "compose",
+        "one-observer",
+        "--router",
+        "tcp/192.0.2.1:7447",
+        "--place",
+        "camera-*=b",
+        "--out",
+        file,
+    ]);
+    assert!(e.contains("--plain-tcp") && e.contains("quic/"), "{e}");
     let good = compose(
         &dir,
         &[
@@ -140,6 +152,7 @@ fn bad_sessions_hosts_and_routers_are_refused_naming_the_input() {
             "camera-*=b",
             "--router",
             "tcp/192.0.2.1:7447",
+            "--plain-tcp",
         ],
     );
     let good_s = good.to_str().unwrap();

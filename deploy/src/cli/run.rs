@@ -65,6 +65,11 @@ pub struct SessionArgs {
     /// publish only its own keys and read only what it needs.
     #[arg(long)]
     pub no_auth: bool,
+    /// Accept a router listening on plain `tcp/` beyond loopback: authenticated, but not
+    /// encrypted. Without it such a router is refused; listen on `quic/` instead (mutual TLS with
+    /// the session's certificates).
+    #[arg(long)]
+    pub plain_tcp: bool,
     /// Do not record the session (by default `recorder-node` writes DIR/session.mcap, with the
     /// case in its metadata; see `waggle audit` and `waggle replay`).
     #[arg(long)]
@@ -99,6 +104,7 @@ impl SessionArgs {
             },
             observer_acl: self.observer_acl,
             no_auth: self.no_auth,
+            plain_tcp: self.plain_tcp,
             quiet: false,
             no_record: self.no_record,
             record_all_rgb: self.record_all_rgb,

@@ -34,6 +34,8 @@ pub struct ComposeOptions {
     pub observer_acl: bool,
     /// Authenticated bus (per-process credentials and per-role access lists).
     pub auth: bool,
+    /// Accept a plain `tcp/` router listener beyond loopback (unencrypted).
+    pub plain_tcp: bool,
     /// A recorder takes part.
     pub record: bool,
     /// Record a view image of every RGB frame.
@@ -68,6 +70,7 @@ pub fn compose(case: &Case, opts: &ComposeOptions) -> Result<Compose> {
         modality: opts.modality,
         case_name: opts.case_name.clone(),
         auth: opts.auth,
+        plain_tcp: opts.plain_tcp,
         secrets: None,
         case: opts.case_text.clone(),
         router: Router {

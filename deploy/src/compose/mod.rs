@@ -42,6 +42,10 @@ pub struct Compose {
     /// Every node authenticates with its own credentials and the router enforces each role's
     /// access list; `false` is an open bus, allowed only on loopback.
     pub auth: bool,
+    /// A router listener on plain `tcp/` beyond loopback is accepted (authenticated, not
+    /// encrypted); without it only `quic/` (mutual TLS) may listen beyond loopback.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub plain_tcp: bool,
     /// The session's credentials directory, relative to this file (authenticated sessions).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub secrets: Option<PathBuf>,
@@ -292,6 +296,25 @@ impl Compose {
         if self.auth {
             if self.secrets.is_none() {
                 bail!("auth = true needs secrets = DIR (written by `waggle compose`)");
+            }
+            let plain: Vec<&String> = self
+                .router
+                .listen
+                .iter()
+                .filter(|l| l.starts_with("tcp/") && !bus::is_loopback_endpoint(l))
+                .collect();
+            if !plain.is_empty() && !self.plain_tcp {
+                bail!(
+                    "the router would listen on plain TCP beyond loopback ({}): the bus would \
+                     cross the network unencrypted. Listen on quic/ instead (mutual TLS with the \
+                     session's certificates, e.g. --router quic/192.168.1.10:7447), or accept \
+                     it explicitly with --plain-tcp (plain_tcp = true)",
+                    plain
+                        .iter()
+                        .map(|s| s.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
             }
         } else if !self
             .router

@@ -21,6 +21,8 @@ fn options(case: &str, placements: &[&str], router: &[&str]) -> (Case, ComposeOp
         },
         observer_acl: false,
         auth: true,
+        // These tests place routers on private addresses over TCP; the refusal is tested below.
+        plain_tcp: true,
         record: true,
         record_all_rgb: false,
         render: proto::RenderPath::Damage,
@@ -339,4 +341,29 @@ fn a_node_role_that_is_no_process_is_refused_when_the_file_is_read() {
     let bad = text.replace("role = \"camera-O1\"", "role = \"robot-O1\"");
     let err = toml::from_str::<Compose>(&bad).unwrap_err().to_string();
     assert!(err.contains("robot-O1"), "{err}");
+}
+
+#[test]
+fn a_plain_tcp_router_beyond_loopback_needs_the_explicit_flag() {
+    let mut c = composed("two-observers", &["camera-O2=b", "observer-O2=b"], &[]);
+    c.router.listen = vec!["tcp/10.1.0.1:7447".into()];
+    c.plain_tcp = false;
+    let e = check_err(&c);
+    assert!(
+        e.contains("tcp/10.1.0.1:7447") && e.contains("quic/") && e.contains("--plain-tcp"),
+        "{e}"
+    );
+    c.plain_tcp = true;
+    c.check().unwrap();
+    // QUIC carries the session's certificates: no flag needed. Loopback TCP never needs it.
+    c.plain_tcp = false;
+    c.router.listen = vec!["quic/10.1.0.1:7447".into()];
+    c.check().unwrap();
+    let mut one_host = composed("one-observer", &[], &[]);
+    one_host.plain_tcp = false;
+    one_host.check().unwrap();
+    // The flag survives the file.
+    c.plain_tcp = true;
+    let back: Compose = toml::from_str(&toml::to_string(&c).unwrap()).unwrap();
+    assert!(back.plain_tcp);
 }

@@ -143,6 +143,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                     extra_faults: ExtraFaults::default(),
                     observer_acl: false,
                     no_auth: false,
+                    plain_tcp: false,
                     quiet: opts.quiet,
                     no_record: true,
                     record_all_rgb: false,

@@ -61,6 +61,8 @@ pub struct RunOptions {
     pub observer_acl: bool,
     /// Open bus: no authentication and no per-role access control on the router.
     pub no_auth: bool,
+    /// Accept a plain `tcp/` router listener beyond loopback.
+    pub plain_tcp: bool,
     /// No progress bar.
     pub quiet: bool,
     /// Do not record the session.
@@ -143,6 +145,7 @@ impl RunOptions {
             extra_faults: self.extra_faults.clone(),
             observer_acl: self.observer_acl,
             auth: !self.no_auth,
+            plain_tcp: self.plain_tcp,
             record: !self.no_record,
             record_all_rgb: self.record_all_rgb,
             render: self.render,
