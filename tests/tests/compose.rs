@@ -87,6 +87,34 @@ fn refused(args: &[&str]) -> String {
 }
 
 #[test]
+fn plain_tcp_beyond_loopback_is_refused_unless_asked_for() {
+    let dir = fresh_dir("plain-tcp");
+    let file_s = dir.join("s.toml");
+    let file = file_s.to_str().unwrap();
+    let e = refused(&[
+        "compose",
+        "one-observer",
+        "--router",
+        "tcp/192.0.2.1:7447",
+        "--place",
+        "camera-*=b",
+        "--out",
+        file,
+    ]);
+    assert!(e.contains("--plain-tcp") && e.contains("quic/"), "{e}");
+    compose(
+        &dir,
+        &[
+            "one-observer",
+            "--place",
+            "camera-*=b",
+            "--router",
+            "quic/192.0.2.1:7447",
+        ],
+    );
+}
+
+#[test]
 fn bad_sessions_hosts_and_routers_are_refused_naming_the_input() {
     let dir = fresh_dir("refused");
     let file_s = dir.join("s.toml");
@@ -132,18 +160,6 @@ fn bad_sessions_hosts_and_routers_are_refused_naming_the_input() {
     ]);
     assert!(e.contains("auth = false"), "{e}");
 
-    // Plain TCP beyond loopback is refused unless asked for.
-    let e = refused(&[
-        "compose",
-        "one-observer",
-        "--router",
-        "tcp/192.0.2.1:7447",
-        "--place",
-        "camera-*=b",
-        "--out",
-        file,
-    ]);
-    assert!(e.contains("--plain-tcp") && e.contains("quic/"), "{e}");
     let good = compose(
         &dir,
         &[
