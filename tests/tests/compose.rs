@@ -86,21 +86,30 @@ fn refused(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// Runs `waggle compose ARGS… --out FILE` in a fresh directory named `name` and returns its
+/// stderr, asserting it failed.
+fn compose_refused(name: &str, args: &[&str]) -> String {
+    // Its own directory: the caller's may hold a good session.
+    let file = fresh_dir(&format!("{name}-refusal")).join("s.toml");
+    let mut all = vec!["compose"];
+    all.extend_from_slice(args);
+    all.extend(["--out", file.to_str().unwrap()]);
+    refused(&all)
+}
+
 #[test]
 fn plain_tcp_beyond_loopback_is_refused_unless_asked_for() {
     let dir = fresh_dir("plain-tcp");
-    let file_s = dir.join("s.toml");
-    let file = file_s.to_str().unwrap();
-    let e = refused(&[
-        "compose",
-        "one-observer",
-        "--router",
-        "tcp/192.0.2.1:7447",
-        "--place",
-        "camera-*=b",
-        "--out",
-        file,
-    ]);
+    let e = compose_refused(
+        "plain-tcp",
+        &[
+            "one-observer",
+            "--router",
+            "tcp/192.0.2.1:7447",
+            "--place",
+            "camera-*=b",
+        ],
+    );
     assert!(e.contains("--plain-tcp") && e.contains("quic/"), "{e}");
     compose(
         &dir,
@@ -117,47 +126,24 @@ fn plain_tcp_beyond_loopback_is_refused_unless_asked_for() {
 #[test]
 fn bad_sessions_hosts_and_routers_are_refused_naming_the_input() {
     let dir = fresh_dir("refused");
-    let file_s = dir.join("s.toml");
-    let file = file_s.to_str().unwrap();
-    let e = refused(&[
-        "compose",
-        "one-observer",
-        "--place",
-        "camera-O7=b",
-        "--out",
-        file,
-    ]);
+    let e = compose_refused("refused", &["one-observer", "--place", "camera-O7=b"]);
     assert!(e.contains("camera-O7"), "{e}");
-    let e = refused(&[
-        "compose",
-        "one-observer",
-        "--place",
-        "camera-*",
-        "--out",
-        file,
-    ]);
+    let e = compose_refused("refused", &["one-observer", "--place", "camera-*"]);
     assert!(e.contains("ROLE=HOST"), "{e}");
     // Two hosts need a router address the other host can dial.
-    let e = refused(&[
-        "compose",
-        "one-observer",
-        "--place",
-        "camera-*=b",
-        "--out",
-        file,
-    ]);
+    let e = compose_refused("refused", &["one-observer", "--place", "camera-*=b"]);
     assert!(e.contains("reach"), "{e}");
-    let e = refused(&[
-        "compose",
-        "one-observer",
-        "--no-auth",
-        "--router",
-        "tcp/192.0.2.1:7447",
-        "--place",
-        "camera-*=b",
-        "--out",
-        file,
-    ]);
+    let e = compose_refused(
+        "refused",
+        &[
+            "one-observer",
+            "--no-auth",
+            "--router",
+            "tcp/192.0.2.1:7447",
+            "--place",
+            "camera-*=b",
+        ],
+    );
     assert!(e.contains("auth = false"), "{e}");
 
     let good = compose(

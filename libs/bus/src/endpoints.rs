@@ -263,45 +263,21 @@ fn with_tls(
         ))
     })?;
     let path = |p: &std::path::Path| serde_json_string(&p.display().to_string());
-    set(
-        config,
-        "transport/link/tls/root_ca_certificate",
-        path(&files.ca),
-    )?;
-    set(config, "transport/link/tls/enable_mtls", "true".into())?;
-    set(
-        config,
-        "transport/link/tls/verify_name_on_connect",
-        "false".into(),
-    )?;
-    set(
-        config,
-        "transport/link/tls/close_link_on_expiration",
-        "true".into(),
-    )?;
-    if listens {
-        set(
-            config,
-            "transport/link/tls/listen_certificate",
-            path(&files.cert),
-        )?;
-        set(
-            config,
-            "transport/link/tls/listen_private_key",
-            path(&files.key),
-        )?;
+    let mut settings = vec![
+        ("root_ca_certificate".to_string(), path(&files.ca)),
+        ("enable_mtls".to_string(), "true".to_string()),
+        ("verify_name_on_connect".to_string(), "false".to_string()),
+        ("close_link_on_expiration".to_string(), "true".to_string()),
+    ];
+    // The same certificate for the links it accepts and those it opens.
+    for (side, used) in [("listen", listens), ("connect", dials)] {
+        if used {
+            settings.push((format!("{side}_certificate"), path(&files.cert)));
+            settings.push((format!("{side}_private_key"), path(&files.key)));
+        }
     }
-    if dials {
-        set(
-            config,
-            "transport/link/tls/connect_certificate",
-            path(&files.cert),
-        )?;
-        set(
-            config,
-            "transport/link/tls/connect_private_key",
-            path(&files.key),
-        )?;
+    for (key, value) in settings {
+        set(config, &format!("transport/link/tls/{key}"), value)?;
     }
     Ok(())
 }

@@ -6,14 +6,7 @@ use std::time::{Duration, Instant};
 use bus::{Bus, Endpoints, Inbound, handshake};
 use proto::{ClockTick, Keys, Role};
 
-fn free_endpoint() -> String {
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    format!("tcp/127.0.0.1:{port}")
-}
+mod common;
 
 fn listening(session: &str, endpoint: &str) -> Bus {
     Bus::open(
@@ -49,21 +42,14 @@ fn next_data(bus: &mut Bus, deadline: Instant) -> Option<(String, Vec<u8>)> {
 #[test]
 fn typed_messages_arrive_in_order_and_a_closed_peer_disappears() {
     let session = format!("loop-{}", std::process::id());
-    let endpoint = free_endpoint();
+    let endpoint = common::free_endpoint("tcp");
     let mut a = listening(&session, &endpoint);
     let mut b = connecting(&session, &endpoint);
     let keys = Keys::new(&session).unwrap();
     b.subscribe(&keys.clock()).unwrap();
     b.subscribe(&keys.sched_session()).unwrap();
-    b.watch_liveliness(&keys.alive_any()).unwrap();
-    a.watch_liveliness(&keys.alive_any()).unwrap();
-    let b_alive = keys.alive(Role::Observer, "O1").unwrap();
-    b.declare_token(&b_alive).unwrap();
     // Seeing B's token, A knows B's subscriptions (declared before it on the same link).
-    a.wait_for("B's token", Duration::from_secs(20), |k| {
-        k.contains(&b_alive)
-    })
-    .unwrap();
+    let b_alive = common::await_subscriber(&mut a, &mut b, &keys);
     for tick in 0..200 {
         a.put(&keys.clock(), &ClockTick::at(tick).unwrap()).unwrap();
         if tick % 50 == 0 {
@@ -113,7 +99,7 @@ fn after_the_handshake_nothing_published_by_the_starter_is_lost() {
     // Five processes of a one-observer session (no launcher), each its own session in a thread;
     // the simulator publishes the moment everyone is ready, and everyone must get it.
     let session = format!("hs-{}", std::process::id());
-    let endpoint = free_endpoint();
+    let endpoint = common::free_endpoint("tcp");
     let everyone = handshake::mission_processes(1, false);
     let keys = Keys::new(&session).unwrap();
     let mut hub = listening(&session, &endpoint);
@@ -151,7 +137,7 @@ fn after_the_handshake_nothing_published_by_the_starter_is_lost() {
 #[test]
 fn the_handshake_times_out_naming_who_is_missing() {
     let session = format!("hs-missing-{}", std::process::id());
-    let mut bus = listening(&session, &free_endpoint());
+    let mut bus = listening(&session, &common::free_endpoint("tcp"));
     let everyone = handshake::mission_processes(1, false);
     let err = handshake::join(
         &mut bus,

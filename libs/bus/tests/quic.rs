@@ -9,14 +9,7 @@ use bus::handshake::Process;
 use bus::{Bus, Credentials, Endpoints, Inbound, SessionSecrets, client_config, router_config};
 use proto::{ClockTick, Keys, Role};
 
-fn free_quic_endpoint() -> String {
-    let port = std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    format!("quic/127.0.0.1:{port}")
-}
+mod common;
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("waggle-quic-{}-{name}", std::process::id()));
@@ -53,7 +46,7 @@ fn session_valid_for(label: &str, validity: Duration) -> Session {
         .map(|p| bus::access::access_of(&keys, p))
         .collect();
     let acl = bus::access::router_acl(&keys, &access);
-    let endpoint = free_quic_endpoint();
+    let endpoint = common::free_endpoint("quic");
     let listen = Endpoints {
         connect: vec![],
         listen: vec![endpoint.clone()],
@@ -98,14 +91,7 @@ fn messages_cross_a_quic_router_between_clients_with_session_certificates() {
     let mut obs = client(&s, &creds(&s, "observer-O1"), 20_000).unwrap();
     let keys = &s.keys;
     obs.subscribe(&keys.clock()).unwrap();
-    obs.watch_liveliness(&keys.alive_any()).unwrap();
-    sim.watch_liveliness(&keys.alive_any()).unwrap();
-    let obs_alive = keys.alive(Role::Observer, "O1").unwrap();
-    obs.declare_token(&obs_alive).unwrap();
-    sim.wait_for("O1's token", Duration::from_secs(20), |k| {
-        k.contains(&obs_alive)
-    })
-    .unwrap();
+    common::await_subscriber(&mut sim, &mut obs, keys);
     for tick in 0..100 {
         sim.put(&keys.clock(), &ClockTick::at(tick).unwrap())
             .unwrap();
