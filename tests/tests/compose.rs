@@ -219,3 +219,75 @@ fn bad_sessions_hosts_and_routers_are_refused_naming_the_input() {
     ]);
     assert!(e.contains("open the session to the network"), "{e}");
 }
+
+/// An institution's CA, made with `openssl` as its administrator would: `waggle compose
+/// --ca-cert --ca-key` issues the session's certificates with it (the session's `ca.pem` is
+/// its certificate, its key is not copied), and a CA key others may read is refused.
+#[test]
+fn an_institutions_ca_signs_the_sessions_certificates() {
+    let dir = fresh_dir("institution-ca");
+    let (cert, key) = (dir.join("inst-ca.crt"), dir.join("inst-ca.key"));
+    succeed(
+        std::process::Command::new("openssl")
+            .args(["req", "-x509", "-newkey", "ec", "-pkeyopt"])
+            .args(["ec_paramgen_curve:P-256", "-nodes", "-days", "30"])
+            .args(["-subj", "/CN=Example robotics lab CA", "-keyout"])
+            .arg(&key)
+            .arg("-out")
+            .arg(&cert),
+        "openssl req (an institution's CA)",
+    );
+    std::fs::set_permissions(&key, std::os::unix::fs::PermissionsExt::from_mode(0o600)).unwrap();
+    let (c, k) = (cert.to_str().unwrap(), key.to_str().unwrap());
+    let file = compose(
+        &dir,
+        &[
+            "one-observer",
+            "--place",
+            "*-O1=b",
+            "--router",
+            "quic/192.0.2.1:7447",
+            "--site",
+            "b=quic/192.0.2.2:7447",
+            "--ca-cert",
+            c,
+            "--ca-key",
+            k,
+        ],
+    );
+    let secrets = file.with_extension("secrets");
+    assert_eq!(
+        std::fs::read_to_string(secrets.join("ca.pem")).unwrap(),
+        std::fs::read_to_string(&cert).unwrap()
+    );
+    let key_text = std::fs::read_to_string(&key).unwrap();
+    for entry in std::fs::read_dir(&secrets).unwrap() {
+        let held = std::fs::read_to_string(entry.unwrap().path()).unwrap();
+        assert_ne!(held, key_text, "the CA's key was copied");
+    }
+    // openssl verifies a process's certificate against the institution's CA.
+    succeed(
+        std::process::Command::new("openssl")
+            .args(["verify", "-CAfile"])
+            .arg(&cert)
+            .arg(secrets.join("camera-O1.cert.pem")),
+        "openssl verify",
+    );
+    let text = std::fs::read_to_string(&file).unwrap();
+    assert!(
+        text.contains("[[site]]") && text.contains("quic/192.0.2.2:7447"),
+        "{text}"
+    );
+
+    let e = compose_refused("ca-alone", &["one-observer", "--ca-cert", c]);
+    assert!(e.contains("--ca-key"), "{e}");
+    std::fs::set_permissions(&key, std::os::unix::fs::PermissionsExt::from_mode(0o644)).unwrap();
+    let e = compose_refused(
+        "ca-open-key",
+        &["one-observer", "--ca-cert", c, "--ca-key", k],
+    );
+    assert!(
+        e.contains("readable by other users") && e.contains("inst-ca.key"),
+        "{e}"
+    );
+}

@@ -12,9 +12,10 @@
 //!
 //! - default suite: `only-a` cut to 16 s of sim time, plain, with the delays and over `quic/`:
 //!   byte-identical `observers.json` and sensor digests (≈ 30 s);
-//! - `--full`: the golden `only-a` runs of both modalities under the delays and over `quic/`
-//!   equal `tests/golden/frozen.toml` (≈ 3 min each under the delays, whose session controls pace
-//!   every tick; ≈ 40 s over `quic/`).
+//! - `--full`: the golden `only-a` and `nominal-3` runs of both modalities under the delays and
+//!   over `quic/` equal `tests/golden/frozen.toml` (`only-a` ≈ 3 min each under the delays, whose
+//!   session controls pace every tick, ≈ 40 s over `quic/`; `nominal-3` longer). The chain of two
+//!   routers is `multihost.rs`'s.
 
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
@@ -121,10 +122,10 @@ fn delayed_keys_change_nothing_in_a_short_run() {
 /// The session router on QUIC (loopback, a free port): every node dials it with mutual TLS.
 const QUIC: &[&str] = &["--listen", "quic/127.0.0.1:0"];
 
-fn golden_under(modality: &str, delays: &str, extra: &[&str]) {
-    let want = golden_entry("only-a", modality);
-    let dir = scratch(&format!("golden-{modality}-{}", extra.len()));
-    let (summary, observers) = run_with("only-a", modality, &dir, delays, extra);
+fn golden_under(case: &str, modality: &str, delays: &str, extra: &[&str]) {
+    let want = golden_entry(case, modality);
+    let dir = scratch(&format!("golden-{case}-{modality}-{}", extra.len()));
+    let (summary, observers) = run_with(case, modality, &dir, delays, extra);
     let digests: std::collections::BTreeMap<String, String> = want["sensor_digests"]
         .as_table()
         .unwrap()
@@ -135,7 +136,7 @@ fn golden_under(modality: &str, delays: &str, extra: &[&str]) {
     assert_eq!(
         sha256_hex(&observers),
         want["observers_sha256"].as_str().unwrap(),
-        "observers.json changed (delays {delays:?}, {extra:?}; outputs in {})",
+        "{case} {modality}: observers.json changed (delays {delays:?}, {extra:?}; outputs in {})",
         dir.display()
     );
     let _ = std::fs::remove_dir_all(&dir);
@@ -144,23 +145,47 @@ fn golden_under(modality: &str, delays: &str, extra: &[&str]) {
 #[test]
 #[ignore = "≈ 3 min: deploy/test.sh --full"]
 fn golden_only_a_events_under_delays() {
-    golden_under("events", DELAYS, &[]);
+    golden_under("only-a", "events", DELAYS, &[]);
 }
 
 #[test]
 #[ignore = "≈ 3 min: deploy/test.sh --full"]
 fn golden_only_a_rgb_under_delays() {
-    golden_under("rgb", DELAYS, &[]);
+    golden_under("only-a", "rgb", DELAYS, &[]);
 }
 
 #[test]
 #[ignore = "≈ 40 s: deploy/test.sh --full"]
 fn golden_only_a_events_over_quic() {
-    golden_under("events", "", QUIC);
+    golden_under("only-a", "events", "", QUIC);
 }
 
 #[test]
 #[ignore = "≈ 40 s: deploy/test.sh --full"]
 fn golden_only_a_rgb_over_quic() {
-    golden_under("rgb", "", QUIC);
+    golden_under("only-a", "rgb", "", QUIC);
+}
+
+#[test]
+#[ignore = "≈ 6 min: deploy/test.sh --full"]
+fn golden_nominal_3_events_under_delays() {
+    golden_under("nominal-3", "events", DELAYS, &[]);
+}
+
+#[test]
+#[ignore = "≈ 6 min: deploy/test.sh --full"]
+fn golden_nominal_3_rgb_under_delays() {
+    golden_under("nominal-3", "rgb", DELAYS, &[]);
+}
+
+#[test]
+#[ignore = "≈ 2 min: deploy/test.sh --full"]
+fn golden_nominal_3_events_over_quic() {
+    golden_under("nominal-3", "events", "", QUIC);
+}
+
+#[test]
+#[ignore = "≈ 2 min: deploy/test.sh --full"]
+fn golden_nominal_3_rgb_over_quic() {
+    golden_under("nominal-3", "rgb", "", QUIC);
 }

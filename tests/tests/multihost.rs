@@ -6,7 +6,9 @@
 //! before the router's host a), so the clients' dialling retry is exercised every time.
 //!
 //! The first session runs its router alone (`waggle router --compose FILE`, the supervisor a
-//! client of it); the second inside the supervising host's `waggle up`.
+//! client of it); the second inside the supervising host's `waggle up`; the third is a chain of
+//! two routers over `quic/` (mutual TLS on every link, no plain TCP): the session's router on a
+//! and a site router on b serving b and c, c routed to b's address only.
 //!
 //! Faults come from outside the program, as an operator would make them:
 //! - c's uplink throttled with a `tc … tbf` token bucket and b's link taken down for 3 s, both
@@ -86,6 +88,29 @@ impl Hosts {
         ip(&["-n", &b, "route", "add", "default", "via", "10.231.1.1"]);
         ip(&["-n", &c, "route", "add", "default", "via", "10.231.2.1"]);
         hosts
+    }
+
+    /// `host` (c) reaches b's address only: a forwards between its links, and `host`'s one
+    /// route leads to b, so nothing of `host`'s reaches a's own addresses.
+    fn only_through_b(&self, host: &str) {
+        ip(&[
+            "netns",
+            "exec",
+            &self.ns("a"),
+            "sysctl",
+            "-qw",
+            "net.ipv4.ip_forward=1",
+        ]);
+        ip(&["-n", &self.ns(host), "route", "del", "default"]);
+        ip(&[
+            "-n",
+            &self.ns(host),
+            "route",
+            "add",
+            "10.231.1.2/32",
+            "via",
+            "10.231.2.1",
+        ]);
     }
 
     fn ns(&self, host: &str) -> String {
@@ -185,32 +210,61 @@ enum RouterOn {
     /// As `waggle router` on its own (placed on host `r`, run in a's namespace): the
     /// supervisor and every host's launcher are its clients.
     Alone,
+    /// Inside `waggle up --host a`, over QUIC, with a site router on b that serves b and c: a
+    /// chain of two routers. c has a route to b only, so its nodes cannot reach a but through
+    /// b's router.
+    Chain,
 }
 
 /// `waggle compose only-a --modality events` placed on a, b, c, the router on a (or alone).
-fn compose(dir: &Path, router: RouterOn) -> PathBuf {
+fn compose(dir: &Path, router: RouterOn, case: &str) -> PathBuf {
     let file = dir.join("session.toml");
-    let alone: &[&str] = match router {
+    let routers: &[&str] = match router {
         RouterOn::Alone => &["--place", "router=r"],
-        RouterOn::SupervisorHost => &[],
+        RouterOn::SupervisorHost | RouterOn::Chain => &[],
+    };
+    let link: &[&str] = match router {
+        // Mutual TLS end to end: no --plain-tcp.
+        RouterOn::Chain => &[
+            "--router",
+            "quic/10.231.1.1:7447",
+            "--site",
+            "b=quic/10.231.1.2:7447",
+            "--site-serves",
+            "c=b",
+        ],
+        // TCP, as the link-cut and throttling figures in the README were measured on it.
+        RouterOn::Alone | RouterOn::SupervisorHost => {
+            &["--router", "tcp/10.231.1.1:7447", "--plain-tcp"]
+        }
     };
     succeed(
         waggle_with_nodes()
-            .args(["compose", "only-a", "--modality", "events"])
+            .args(["compose", case, "--modality", "events"])
             .args(["--place", "*=a", "--place", "*-O1=b", "--place", "*-O3=b"])
             .args(["--place", "*-O2=c"])
-            .args(alone)
-            // TCP, as the link-cut and throttling figures in the README were measured on it.
-            .args(["--router", "tcp/10.231.1.1:7447", "--plain-tcp", "--out"])
+            .args(routers)
+            .args(link)
+            .arg("--out")
             .arg(&file),
         "waggle compose",
     );
     file
 }
 
+/// What part of the router's dictionary a host's bundle holds.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Dictionary {
+    None,
+    /// The session router's host: all of it, and the router's certificate.
+    Whole,
+    /// A site router's host: the entries of its hosts' processes.
+    Site,
+}
+
 /// `waggle bundle FILE --host HOST`: the compose file and only that host's credentials (the
-/// router's dictionary for the router's host). Returns the bundle's compose file.
-fn bundle(file: &Path, host: &str, router: bool) -> PathBuf {
+/// router's dictionary for a router's host). Returns the bundle's compose file.
+fn bundle(file: &Path, host: &str, dictionary: Dictionary) -> PathBuf {
     let dir = file.with_file_name(format!("bundle-{host}"));
     succeed(
         waggle()
@@ -249,11 +303,34 @@ fn bundle(file: &Path, host: &str, router: bool) -> PathBuf {
         .flat_map(|u| [".credentials", ".cert.pem", ".key.pem"].map(|x| format!("{u}{x}")))
         .collect();
     want.push("ca.pem".into());
-    if router {
-        want.extend(["dictionary", "router.cert.pem", "router.key.pem"].map(String::from));
+    match dictionary {
+        Dictionary::Whole => {
+            want.extend(["dictionary", "router.cert.pem", "router.key.pem"].map(String::from));
+        }
+        Dictionary::Site => want.push("dictionary".into()),
+        Dictionary::None => {}
     }
     want.sort();
     assert_eq!(held, want, "host {host}'s bundle");
+    if dictionary == Dictionary::Site {
+        // b's router checks the passwords of b's and c's processes, and no others.
+        let text = std::fs::read_to_string(dir.join("session.secrets/dictionary")).unwrap();
+        let mut users: Vec<&str> = text.lines().filter_map(|l| l.split(':').next()).collect();
+        users.sort_unstable();
+        assert_eq!(
+            users,
+            [
+                "camera-O1",
+                "camera-O2",
+                "camera-O3",
+                "launcher-b",
+                "launcher-c",
+                "observer-O1",
+                "observer-O2",
+                "observer-O3"
+            ]
+        );
+    }
     dir.join("session.toml")
 }
 
@@ -290,21 +367,39 @@ fn run_session(
     router: RouterOn,
     faults: impl FnOnce(&Hosts, Instant),
 ) -> (Hosts, Vec<(String, Ended, PathBuf)>) {
+    run_case_session("only-a", name, router, faults)
+}
+
+/// [`run_session`] of `case` (events).
+fn run_case_session(
+    case: &str,
+    name: &str,
+    router: RouterOn,
+    faults: impl FnOnce(&Hosts, Instant),
+) -> (Hosts, Vec<(String, Ended, PathBuf)>) {
     let dir = fresh_dir(name);
-    let file = compose(&dir, router);
+    let file = compose(&dir, router, case);
     let router_host = match router {
         RouterOn::Alone => "r",
-        RouterOn::SupervisorHost => "a",
+        RouterOn::SupervisorHost | RouterOn::Chain => "a",
+    };
+    let dictionary = |h: &str| match (h, router) {
+        (h, _) if h == router_host => Dictionary::Whole,
+        ("b", RouterOn::Chain) => Dictionary::Site,
+        _ => Dictionary::None,
     };
     // Each host gets its own bundle; the session's whole secrets directory is gone before any
     // host starts, so every host runs on its own credentials alone.
     let bundles: BTreeMap<&str, PathBuf> = ["a", "b", "c", "r"]
         .into_iter()
         .filter(|h| *h != "r" || router == RouterOn::Alone)
-        .map(|h| (h, bundle(&file, h, h == router_host)))
+        .map(|h| (h, bundle(&file, h, dictionary(h))))
         .collect();
     std::fs::remove_dir_all(file.with_extension("secrets")).expect("remove the whole secrets");
     let hosts = Hosts::new(&name[..1]);
+    if router == RouterOn::Chain {
+        hosts.only_through_b("c");
+    }
     let started = Instant::now();
     let mut running = Vec::new();
     // The router last: the other hosts' clients keep dialling until it is up.
@@ -400,7 +495,12 @@ fn a_throttled_uplink_and_a_short_cut_stall_and_resume_byte_identically() {
 /// The session's `observers.json` and every camera's sensor digest equal the one-host golden
 /// run of `only-a` with event cameras; b's and c's launchers saw the mission report.
 fn assert_golden(ended: &[(String, Ended, PathBuf)], a: &Path) {
-    let want = golden_entry("only-a", "events");
+    assert_golden_of("only-a", ended, a);
+}
+
+/// [`assert_golden`] for `case`.
+fn assert_golden_of(case: &str, ended: &[(String, Ended, PathBuf)], a: &Path) {
+    let want = golden_entry(case, "events");
     let observers = std::fs::read(a.join("observers.json")).expect("observers.json");
     assert_eq!(
         sha256_hex(&observers),
@@ -437,6 +537,32 @@ fn assert_golden(ended: &[(String, Ended, PathBuf)], a: &Path) {
                 .expect("host.json parses");
         assert_eq!(record["report_seen"], true, "host {h}: {record}");
     }
+}
+
+/// The golden run through a chain of two routers, over mutual-TLS QUIC on every link: b's site
+/// router carries b's and c's processes to a's session router (c cannot reach a otherwise).
+#[test]
+fn a_chain_of_two_routers_over_quic_gives_the_golden_run() {
+    chain_golden("only-a");
+}
+
+/// `nominal-3` (three flights, every observer working) through the chain.
+#[test]
+#[ignore = "≈ 3 min: deploy/test.sh --full"]
+fn nominal_3_through_a_chain_of_two_routers_gives_the_golden_run() {
+    chain_golden("nominal-3");
+}
+
+fn chain_golden(case: &str) {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let (_hosts, ended) = run_case_session(case, case, RouterOn::Chain, |_, _| {});
+    for (h, e, _) in &ended {
+        assert!(e.success, "host {h} failed:\n{}\n{}", e.stdout, e.stderr);
+    }
+    let a = &ended.iter().find(|(h, ..)| h == "a").expect("host a").2;
+    let s = summary(a);
+    assert!(s.mission.pass, "{:?}", s.mission.reasons);
+    assert_golden_of(case, &ended, a);
 }
 
 #[test]

@@ -51,8 +51,17 @@ pub fn run(args: BundleArgs) -> Result<()> {
     std::fs::copy(&args.file, &target)
         .with_context(|| format!("copying {} to {}", args.file.display(), target.display()))?;
     let router = args.host == compose.router.host;
+    // A site's router checks the passwords of its hosts' processes: their dictionary entries.
+    let site_users: Option<Vec<String>> = compose
+        .site_on(&args.host)
+        .map(|site| site.hosts().flat_map(|h| compose.users_on(h)).collect());
+    let share = match (&site_users, router) {
+        (_, true) => bus::DictionaryShare::Whole,
+        (Some(users), false) => bus::DictionaryShare::Of(users),
+        (None, false) => bus::DictionaryShare::None,
+    };
     if let (Some(s), Some(dir)) = (&secrets, &secrets_target) {
-        s.export(dir, router)
+        s.export(dir, share)
             .with_context(|| format!("writing {}'s credentials", args.host))?;
     }
 
@@ -67,10 +76,10 @@ pub fn run(args: BundleArgs) -> Result<()> {
                 "{} and the credentials of {}{} in {}",
                 target.display(),
                 users.join(", "),
-                if router {
-                    " with the router's dictionary"
-                } else {
-                    ""
+                match share {
+                    bus::DictionaryShare::Whole => " with the router's dictionary",
+                    bus::DictionaryShare::Of(_) => " with its site's share of the dictionary",
+                    bus::DictionaryShare::None => "",
                 },
                 dir.display()
             ),

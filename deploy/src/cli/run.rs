@@ -234,6 +234,12 @@ fn print_run_figures(s: &RunSummary) {
         println!("  fault seen on the bus: {f}");
     }
     println!("{}", crate::eval::summary::rejects_line(&s.rejects));
+    if !s.router_refusals.is_empty() {
+        println!(
+            "router refused: {}",
+            crate::launch::router::describe_refusals(&s.router_refusals)
+        );
+    }
 }
 
 #[cfg(test)]

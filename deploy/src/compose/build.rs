@@ -82,6 +82,7 @@ pub fn compose(case: &Case, opts: &ComposeOptions) -> Result<Compose> {
             },
             connect: opts.router_connect.clone(),
         },
+        sites: Vec::new(),
         faults: opts.extra_faults.clone(),
         nodes,
     };

@@ -12,6 +12,7 @@
 pub mod build;
 pub mod place;
 pub mod sensor;
+pub mod site;
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -52,6 +53,10 @@ pub struct Compose {
     /// The case file's text (the case as flown).
     pub case: String,
     pub router: Router,
+    /// Sites' own routers (a chain of two): the nodes of a site's hosts dial their site's
+    /// router, which dials the session's router.
+    #[serde(default, rename = "site", skip_serializing_if = "Vec::is_empty")]
+    pub sites: Vec<SiteRouter>,
     #[serde(default, skip_serializing_if = "ExtraFaults::is_empty")]
     pub faults: ExtraFaults,
     #[serde(rename = "node")]
@@ -71,6 +76,28 @@ pub struct Router {
     /// Endpoints it connects to (another router, say); nodes on its host dial them too.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub connect: Vec<String>,
+}
+
+/// A site's router: hosted by the launcher of its host (`waggle up --host HOST`), it dials the
+/// session's router as that launcher (its user and certificate) and serves the processes of its
+/// host and of the hosts it `serves`, checking their passwords and access lists itself.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SiteRouter {
+    /// The host it runs on.
+    pub host: String,
+    /// Endpoints it listens on; the nodes of the hosts it serves dial these.
+    pub listen: Vec<String>,
+    /// The other hosts whose nodes dial it (its own host's always do).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub serves: Vec<String>,
+}
+
+impl SiteRouter {
+    /// Its host and the hosts it serves.
+    pub fn hosts(&self) -> impl Iterator<Item = &String> {
+        std::iter::once(&self.host).chain(&self.serves)
+    }
 }
 
 /// One node process.
@@ -129,6 +156,18 @@ fn endpoint_parts(endpoint: &str) -> Result<(String, u16)> {
     Ok((address.trim_matches(['[', ']']).to_string(), port))
 }
 
+/// `endpoint` as dialled on its own host: the unspecified address as loopback.
+fn as_loopback(endpoint: &str) -> String {
+    endpoint
+        .replace("0.0.0.0", "127.0.0.1")
+        .replace("[::]", "[::1]")
+}
+
+/// The listeners of `listen` other hosts can dial.
+fn reachable(listen: &[String]) -> Vec<String> {
+    listen.iter().filter(|l| !local_only(l)).cloned().collect()
+}
+
 /// True for an endpoint other hosts cannot dial: loopback or the unspecified address.
 fn local_only(endpoint: &str) -> bool {
     bus::is_loopback_endpoint(endpoint)
@@ -178,11 +217,22 @@ impl Compose {
         self.nodes.iter().any(|n| n.role.role == Role::Recorder)
     }
 
-    /// Every host of the session (sorted): those of its nodes and the router's.
+    /// Every host of the session (sorted): those of its nodes, the router's and the sites'.
     pub fn hosts(&self) -> Vec<String> {
         let mut hosts: BTreeSet<String> = self.nodes.iter().map(|n| n.host.clone()).collect();
         hosts.insert(self.router.host.clone());
+        hosts.extend(self.sites.iter().map(|s| s.host.clone()));
         hosts.into_iter().collect()
+    }
+
+    /// The site whose router `host`'s nodes dial (none: they dial the session's router).
+    pub fn site_of(&self, host: &str) -> Option<&SiteRouter> {
+        self.sites.iter().find(|s| s.hosts().any(|h| h == host))
+    }
+
+    /// The site whose router runs on `host`.
+    pub fn site_on(&self, host: &str) -> Option<&SiteRouter> {
+        self.sites.iter().find(|s| s.host == host)
     }
 
     /// The host that runs the simulator: its launcher supervises the session and writes the
@@ -199,25 +249,32 @@ impl Compose {
         self.nodes.iter().filter(move |n| n.host == host)
     }
 
-    /// What a node on `host` dials: on the router's host, the router's listeners (the
-    /// unspecified address as loopback) and its connect endpoints; elsewhere, the listeners
-    /// other hosts can reach.
+    /// What a node on `host` dials: its site's router when a site serves it, else the
+    /// session's router ([`Compose::router_dial_from`]). On a site router's own host, its
+    /// listeners with the unspecified address as loopback; on the hosts it serves, those they
+    /// can reach.
     pub fn dial_from(&self, host: &str) -> Vec<String> {
+        match self.site_of(host) {
+            Some(site) if site.host == host => site.listen.iter().map(|l| as_loopback(l)).collect(),
+            Some(site) => reachable(&site.listen),
+            None => self.router_dial_from(host),
+        }
+    }
+
+    /// What `host` dials to reach the session's router itself (a site's router dials this): on
+    /// the router's host, its listeners (the unspecified address as loopback) and its connect
+    /// endpoints; elsewhere, the listeners other hosts can reach.
+    pub fn router_dial_from(&self, host: &str) -> Vec<String> {
         if host == self.router.host {
             return self
                 .router
                 .listen
                 .iter()
-                .map(|l| l.replace("0.0.0.0", "127.0.0.1").replace("[::]", "[::1]"))
+                .map(|l| as_loopback(l))
                 .chain(self.router.connect.iter().cloned())
                 .collect();
         }
-        self.router
-            .listen
-            .iter()
-            .filter(|l| !local_only(l))
-            .cloned()
-            .collect()
+        reachable(&self.router.listen)
     }
 
     /// The event cameras' sensor model, from the cameras' own arguments (every camera must
@@ -270,12 +327,18 @@ impl Compose {
     /// The credentials `host` needs: its nodes' and its launcher's.
     pub fn users_on(&self, host: &str) -> Vec<String> {
         let mut out: Vec<String> = self.nodes_on(host).map(|n| n.role.name()).collect();
-        if host == self.supervisor_host() {
-            out.push(Role::Launcher.as_str().to_string());
-        } else {
-            out.push(bus::Process::host_launcher(host).name());
-        }
+        out.push(self.launcher_of(host));
         out
+    }
+
+    /// The bus name of `host`'s launcher: the supervising launcher on the simulator's host,
+    /// `launcher-HOST` elsewhere. A site's router is its host's launcher on the bus.
+    pub fn launcher_of(&self, host: &str) -> String {
+        if host == self.supervisor_host() {
+            Role::Launcher.as_str().to_string()
+        } else {
+            bus::Process::host_launcher(host).name()
+        }
     }
 
     /// Checks every field, naming the bad one.
@@ -293,6 +356,7 @@ impl Compose {
         self.check_nodes(&case)?;
         self.sensor()?.check(self.modality)?;
         self.check_router()?;
+        self.check_sites()?;
         if self.auth {
             if self.secrets.is_none() {
                 bail!("auth = true needs secrets = DIR (written by `waggle compose`)");
@@ -301,11 +365,12 @@ impl Compose {
                 .router
                 .listen
                 .iter()
+                .chain(self.sites.iter().flat_map(|s| &s.listen))
                 .filter(|l| l.starts_with("tcp/") && !bus::is_loopback_endpoint(l))
                 .collect();
             if !plain.is_empty() && !self.plain_tcp {
                 bail!(
-                    "the router would listen on plain TCP beyond loopback ({}): the bus would \
+                    "a router would listen on plain TCP beyond loopback ({}): the bus would \
                      cross the network unencrypted. Listen on quic/ instead (mutual TLS with the \
                      session's certificates, e.g. --router quic/192.168.1.10:7447), or accept \
                      it explicitly with --plain-tcp (plain_tcp = true)",
@@ -326,6 +391,10 @@ impl Compose {
                 "auth = false with a router listening beyond loopback ({}) would open the \
                  session to the network",
                 self.router.listen.join(", ")
+            );
+        } else if !self.sites.is_empty() {
+            bail!(
+                "auth = false with sites' routers: a chain of routers crosses hosts, so it authenticates"
             );
         }
         Ok(())
@@ -381,7 +450,7 @@ impl Compose {
         if remote.is_empty() {
             return Ok(());
         }
-        if self.dial_from(&remote[0]).is_empty() {
+        if self.router_dial_from(&remote[0]).is_empty() {
             bail!(
                 "hosts {} run nodes but the router (on {}) listens only on {}: give it an \
                  address they reach, e.g. --router tcp/192.168.1.10:7447",
@@ -401,10 +470,69 @@ impl Compose {
         Ok(())
     }
 
-    /// Replaces port 0 in the router's listeners with a free port of this machine (one-host
+    /// Each site's router: on a host of its own (not the session router's, not another
+    /// site's), listening where its hosts reach it, serving hosts that run nodes and belong to
+    /// no other site, and able to reach the session's router.
+    fn check_sites(&self) -> Result<()> {
+        let node_hosts: BTreeSet<&str> = self.nodes.iter().map(|n| n.host.as_str()).collect();
+        let mut served = BTreeSet::new();
+        for site in &self.sites {
+            check_name("site router host", &site.host)?;
+            let what = format!("the site router on {}", site.host);
+            if site.host == self.router.host {
+                bail!("{what}: the session's router runs on {} already", site.host);
+            }
+            if site.listen.is_empty() {
+                bail!("{what} listens nowhere: give it an endpoint its hosts reach");
+            }
+            for e in &site.listen {
+                let (_, port) = endpoint_parts(e).with_context(|| what.clone())?;
+                if port == 0 {
+                    bail!(
+                        "{what}: endpoint {e}: port 0 works only when every node runs on one host"
+                    );
+                }
+            }
+            for h in site.hosts() {
+                check_name("host", h)?;
+                if !served.insert(h.clone()) {
+                    bail!("host {h} is in two sites (or serves its own site twice)");
+                }
+            }
+            for h in &site.serves {
+                if *h == self.router.host {
+                    bail!("{what} cannot serve {h}: the session's router runs there");
+                }
+                if !node_hosts.contains(h.as_str()) {
+                    bail!("{what} serves {h}, which runs no node");
+                }
+            }
+            if !site.serves.is_empty() && reachable(&site.listen).is_empty() {
+                bail!(
+                    "{what} serves {} but listens only on {}: give it an address they reach",
+                    site.serves.join(", "),
+                    site.listen.join(", ")
+                );
+            }
+            if self.router_dial_from(&site.host).is_empty() {
+                bail!(
+                    "{what} cannot reach the session's router (it listens only on {})",
+                    self.router.listen.join(", ")
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Replaces port 0 in the routers' listeners with a free port of this machine (one-host
     /// sessions), so its nodes know where to dial.
     pub fn resolve_free_ports(&mut self) -> Result<()> {
-        for l in &mut self.router.listen {
+        let listeners = self
+            .router
+            .listen
+            .iter_mut()
+            .chain(self.sites.iter_mut().flat_map(|s| s.listen.iter_mut()));
+        for l in listeners {
             let (address, port) = endpoint_parts(l)?;
             if port != 0 {
                 continue;

@@ -367,3 +367,90 @@ fn a_plain_tcp_router_beyond_loopback_needs_the_explicit_flag() {
     let back: Compose = toml::from_str(&toml::to_string(&c).unwrap()).unwrap();
     assert!(back.plain_tcp);
 }
+
+fn site(host: &str, listen: &[&str], serves: &[&str]) -> SiteRouter {
+    SiteRouter {
+        host: host.into(),
+        listen: listen.iter().map(|s| s.to_string()).collect(),
+        serves: serves.iter().map(|s| s.to_string()).collect(),
+    }
+}
+
+#[test]
+fn a_sites_hosts_dial_its_router_which_dials_the_sessions() {
+    let mut c = composed(
+        "nominal-3",
+        &["*=a", "*-O1=b", "*-O2=c", "*-O3=d"],
+        &["quic/10.1.0.1:7447"],
+    );
+    c.sites = vec![
+        site("b", &["quic/0.0.0.0:7448"], &[]),
+        site("e", &["quic/10.2.0.5:7447"], &["c"]),
+    ];
+    // b's router listens on every address but dials from b as loopback: only b uses it.
+    c.sites[0].listen = vec!["quic/10.3.0.2:7448".into()];
+    c.check().unwrap();
+    let back: Compose = toml::from_str(&c.to_toml().unwrap()).unwrap();
+    assert_eq!(back, c);
+    assert_eq!(c.hosts(), ["a", "b", "c", "d", "e"]);
+    assert_eq!(c.dial_from("a"), ["quic/10.1.0.1:7447"]);
+    assert_eq!(c.dial_from("b"), ["quic/10.3.0.2:7448"]);
+    assert_eq!(c.dial_from("c"), ["quic/10.2.0.5:7447"]);
+    assert_eq!(c.dial_from("d"), ["quic/10.1.0.1:7447"]);
+    assert_eq!(c.router_dial_from("e"), ["quic/10.1.0.1:7447"]);
+    assert_eq!(c.site_of("c").map(|s| s.host.as_str()), Some("e"));
+    assert!(c.site_of("d").is_none() && c.site_on("c").is_none());
+    // The site router's host holds its launcher's credentials, its own user upstream.
+    assert_eq!(c.users_on("e"), ["launcher-e"]);
+    assert_eq!(c.launcher_of("a"), "launcher");
+}
+
+#[test]
+fn bad_sites_are_refused_naming_what_is_wrong() {
+    let base = composed(
+        "nominal-3",
+        &["*=a", "*-O1=b", "*-O2=c"],
+        &["quic/10.1.0.1:7447"],
+    );
+    let cases: [(Vec<SiteRouter>, &str); 7] = [
+        (
+            vec![site("a", &["quic/10.1.0.1:7448"], &[])],
+            "session's router runs on a",
+        ),
+        (vec![site("b", &[], &[])], "listens nowhere"),
+        (vec![site("b", &["quic/10.1.0.2:0"], &[])], "port 0"),
+        (
+            vec![site("b", &["quic/10.1.0.2:1"], &["z"])],
+            "serves z, which runs no node",
+        ),
+        (
+            vec![site("b", &["quic/127.0.0.1:1"], &["c"])],
+            "give it an address they reach",
+        ),
+        (
+            vec![
+                site("b", &["quic/10.1.0.2:1"], &["c"]),
+                site("x", &["quic/10.1.0.3:1"], &["c"]),
+            ],
+            "host c is in two sites",
+        ),
+        (
+            vec![site("b", &["quic/10.1.0.2:1"], &["a"])],
+            "cannot serve a",
+        ),
+    ];
+    for (sites, want) in cases {
+        let mut c = base.clone();
+        c.sites = sites;
+        let err = check_err(&c);
+        assert!(err.contains(want), "{want:?} not in {err}");
+    }
+    let mut tcp = base.clone();
+    tcp.plain_tcp = false;
+    tcp.sites = vec![site("b", &["tcp/10.1.0.2:7447"], &[])];
+    assert!(check_err(&tcp).contains("plain TCP"), "{}", check_err(&tcp));
+    let mut only_loopback = base.clone();
+    only_loopback.router.listen = vec!["quic/127.0.0.1:7447".into()];
+    only_loopback.sites = vec![site("b", &["quic/10.1.0.2:1"], &[])];
+    assert!(check_err(&only_loopback).contains("reach"));
+}

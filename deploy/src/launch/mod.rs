@@ -21,6 +21,7 @@ pub mod bench;
 pub mod gather;
 pub mod own_log;
 pub mod process;
+pub mod refusals;
 pub mod router;
 pub mod summarise;
 pub mod supervise;

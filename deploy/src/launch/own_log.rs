@@ -11,6 +11,9 @@ use std::sync::{Mutex, Once};
 
 use anyhow::{Context, Result};
 use tracing_subscriber::EnvFilter;
+use tracing_subscriber::Layer;
+use tracing_subscriber::layer::SubscriberExt;
+use tracing_subscriber::util::SubscriberInitExt;
 
 /// Where the launcher's log goes: nowhere until a run directory is known.
 static TARGET: Mutex<Option<Target>> = Mutex::new(None);
@@ -47,11 +50,15 @@ impl Write for OwnLog {
 fn install() {
     INSTALL.call_once(|| {
         let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn"));
-        // Another global subscriber (a test harness's) wins; the log then goes there.
-        let _ = tracing_subscriber::fmt()
-            .with_env_filter(filter)
+        let log = tracing_subscriber::fmt::layer()
             .with_ansi(false)
             .with_writer(|| OwnLog)
+            .with_filter(filter);
+        let refusals = super::refusals::Counter.with_filter(super::refusals::targets());
+        // Another global subscriber (a test harness's) wins; the log then goes there.
+        let _ = tracing_subscriber::registry()
+            .with(log)
+            .with(refusals)
             .try_init();
     });
 }

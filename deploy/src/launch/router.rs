@@ -7,10 +7,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
-use bus::{Bus, Endpoints, Inbound, SessionSecrets};
+use std::collections::BTreeSet;
+
+use bus::access::RoleAccess;
+use bus::{Bus, Credentials, Endpoints, Inbound, SessionSecrets};
 use proto::Role;
 
-use crate::compose::Compose;
+use crate::compose::{Compose, SiteRouter};
 
 /// Opens the router of `compose`'s session on this machine.
 pub fn open(compose: &Compose, secrets: Option<&SessionSecrets>) -> Result<Bus> {
@@ -34,18 +37,69 @@ pub fn config(compose: &Compose, secrets: Option<&SessionSecrets>) -> Result<zen
     let secrets = secrets.context("an authenticated router needs the session's secrets")?;
     secrets.check_dictionary()?;
     let keys = proto::Keys::new(&compose.session)?;
+    Ok(bus::router_config(
+        &endpoints,
+        secrets.dictionary(),
+        &bus::access::router_acl(&keys, &session_access(compose, &keys)?, None),
+        &bus::access::session_router_zid(&compose.session),
+    )?)
+}
+
+/// The Zenoh configuration of `site`'s router: it dials the session's router as its host's
+/// launcher and serves its hosts' processes with the session's access list.
+pub fn site_config(
+    compose: &Compose,
+    site: &SiteRouter,
+    secrets: Option<&SessionSecrets>,
+) -> Result<zenoh::Config> {
+    let secrets = secrets.context("a site's router needs the session's secrets")?;
+    secrets.check_dictionary()?;
+    let user = compose.launcher_of(&site.host);
+    let file = secrets
+        .file_of(&user)
+        .with_context(|| format!("no credentials for {user}, the site router's own"))?;
+    let credentials = Credentials::read(file)?;
+    let keys = proto::Keys::new(&compose.session)?;
+    let zid = bus::access::session_router_zid(&compose.session);
+    let endpoints = Endpoints {
+        connect: compose.router_dial_from(&site.host),
+        listen: site.listen.clone(),
+    };
+    Ok(bus::site_router_config(
+        &endpoints,
+        &credentials,
+        secrets.dictionary(),
+        &bus::access::router_acl(&keys, &session_access(compose, &keys)?, Some(&zid)),
+    )?)
+}
+
+/// What every process of `compose`'s session may do on the bus: the mission's processes, the
+/// recorder, each host's launcher — a site's launcher, which is its site's router, with the
+/// union of what the processes of its hosts may do (the session's router sees them only
+/// through it).
+fn session_access(compose: &Compose, keys: &proto::Keys) -> Result<Vec<RoleAccess>> {
     let case = compose.case()?;
     let hosts: Vec<String> = compose
         .hosts()
         .into_iter()
         .filter(|h| h != compose.supervisor_host())
         .collect();
-    let access = bus::access::role_access(&keys, case.observers, compose.records(), &hosts);
-    Ok(bus::router_config(
-        &endpoints,
-        secrets.dictionary(),
-        &bus::access::router_acl(&keys, &access),
-    )?)
+    let mut access = bus::access::role_access(keys, case.observers, compose.records(), &hosts);
+    for site in &compose.sites {
+        let users: BTreeSet<String> = site.hosts().flat_map(|h| compose.users_on(h)).collect();
+        let parts: Vec<RoleAccess> = access
+            .iter()
+            .filter(|a| users.contains(&a.user))
+            .cloned()
+            .collect();
+        let launcher = compose.launcher_of(&site.host);
+        let union = bus::access::union_of(&launcher, &parts);
+        match access.iter_mut().find(|a| a.user == launcher) {
+            Some(a) => *a = union,
+            None => access.push(union),
+        }
+    }
+    Ok(access)
 }
 
 /// An open router (`--no-auth`): refused beyond loopback, with a warning.
@@ -103,5 +157,21 @@ pub fn serve(
         }
     }
     bus.close()?;
+    let refused = super::refusals::counted();
+    if !refused.is_empty() {
+        eprintln!(
+            "router of session {session} refused: {}",
+            describe_refusals(&refused)
+        );
+    }
     Ok(())
+}
+
+/// `2 certificates, 1 handshake, 0 links with no access rule`.
+pub fn describe_refusals(r: &crate::run_dir::RouterRefusals) -> String {
+    format!(
+        "{} TLS handshakes (certificates), {} Zenoh handshakes (passwords), {} links with no \
+         access rule",
+        r.certificate, r.handshake, r.no_access_rule
+    )
 }

@@ -119,6 +119,7 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
             faults: fault_log,
             faults_seen,
             rejects,
+            router_refusals: super::refusals::counted(),
             interrupted,
         },
         observers: records,

@@ -9,7 +9,8 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use bus::{Bus, Credentials, Endpoints, NodeArgs, SessionSecrets, handshake};
@@ -20,8 +21,8 @@ use super::process::{Proc, Spawner};
 use super::summarise::{RunInfo, summarise};
 use super::supervise::{Duty, Supervisor};
 use super::{RunDone, RunPlace, own_log, stop_all, with_logs};
-use crate::compose::Compose;
-use crate::run_dir::{CASE_FILE, ProcessFigures, RECORDING_FILE, RunFiles};
+use crate::compose::{Compose, SiteRouter};
+use crate::run_dir::{CASE_FILE, ProcessFigures, RECORDING_FILE, RouterRefusals, RunFiles};
 
 /// A host's record of its own nodes (`DIR/host.json` on a host that does not supervise).
 pub const HOST_FILE: &str = "host.json";
@@ -51,6 +52,9 @@ pub struct HostRecord {
     pub faults: Vec<String>,
     pub report_seen: bool,
     pub interrupted: bool,
+    /// What a site router hosted here refused (absent when nothing).
+    #[serde(default, skip_serializing_if = "RouterRefusals::is_empty")]
+    pub router_refusals: RouterRefusals,
 }
 
 /// What `up` did: the summary when this host supervised the session.
@@ -68,6 +72,8 @@ struct Share {
     /// The hosts whose nodes it starts.
     hosts: Vec<String>,
     routing: bool,
+    /// The site router this invocation hosts (its host's launcher is that router).
+    site: Option<SiteRouter>,
     supervising: bool,
     /// The process name it has on the bus.
     me: handshake::Process,
@@ -85,6 +91,11 @@ impl Share {
             ),
         };
         let routing = hosts.contains(&compose.router.host);
+        // One machine playing every host needs no chain: everything dials the one router.
+        let site = match hosts.as_slice() {
+            [h] if !routing => compose.site_on(h).cloned(),
+            _ => None,
+        };
         let supervising = hosts.iter().any(|h| h == compose.supervisor_host());
         let me = if supervising {
             handshake::Process::singleton(Role::Launcher)
@@ -94,6 +105,7 @@ impl Share {
         Ok(Self {
             hosts,
             routing,
+            site,
             supervising,
             me,
         })
@@ -191,6 +203,9 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
         .run()
     });
     stop_all(&mut procs);
+    if let Some(site) = &share.site {
+        linger_for_site(&mut bus, &compose, site, &stop);
+    }
     let supervised = result.map_err(|e| with_logs(e, &place.log_dir, &procs))?;
     let _ = bus.close();
 
@@ -266,6 +281,7 @@ fn host_record(
         faults: supervised.fault_log,
         report_seen: supervised.gathered.report.is_some(),
         interrupted: supervised.interrupted,
+        router_refusals: super::refusals::counted(),
     };
     let file = out_dir.join(HOST_FILE);
     std::fs::write(&file, serde_json::to_string_pretty(&record)?)
@@ -286,7 +302,45 @@ fn render_path(compose: &Compose) -> Result<RenderPath> {
     Ok(RenderPath::default())
 }
 
-/// The launcher's own session: the router on the router's host, else a client of it.
+/// How long a site's router waits, at most, for the processes of the hosts it serves to leave
+/// once its own host is done (their last messages and the mission report cross it).
+const SITE_LINGER: Duration = Duration::from_secs(30);
+
+/// Keeps a site's router up until no process of the other hosts it serves is alive on the bus
+/// (or [`SITE_LINGER`] has passed, or Ctrl-C).
+fn linger_for_site(bus: &mut Bus, compose: &Compose, site: &SiteRouter, stop: &AtomicBool) {
+    let keys = bus.keys().clone();
+    let served: Vec<String> = site
+        .serves
+        .iter()
+        .flat_map(|h| {
+            compose
+                .nodes_on(h)
+                .map(|n| n.role.clone())
+                .chain(std::iter::once(launcher_process(compose, h)))
+        })
+        .filter_map(|p| p.alive_key(&keys).ok())
+        .collect();
+    let until = Instant::now() + SITE_LINGER;
+    while Instant::now() < until && !stop.load(Ordering::SeqCst) {
+        if !served.iter().any(|k| bus.is_alive(k)) {
+            return;
+        }
+        let _ = bus.recv(Duration::from_millis(200));
+    }
+}
+
+/// The launcher process of `host` (see [`Compose::launcher_of`]).
+fn launcher_process(compose: &Compose, host: &str) -> handshake::Process {
+    if host == compose.supervisor_host() {
+        handshake::Process::singleton(Role::Launcher)
+    } else {
+        handshake::Process::host_launcher(host)
+    }
+}
+
+/// The launcher's own session: the router on the router's host, a site's router on a site
+/// router's host, else a client of the router its host dials.
 fn open_bus(
     compose: &Compose,
     share: &Share,
@@ -296,6 +350,16 @@ fn open_bus(
     let session = &compose.session;
     if share.routing {
         return super::router::open(compose, secrets);
+    }
+    if let Some(site) = &share.site {
+        let config = super::router::site_config(compose, site, secrets)?;
+        return Bus::open_config(session, config).with_context(|| {
+            format!(
+                "opening the site router on {} (dialling the session's router at {})",
+                site.listen.join(", "),
+                compose.router_dial_from(&site.host).join(", ")
+            )
+        });
     }
     let endpoints = Endpoints {
         connect: dial.to_vec(),

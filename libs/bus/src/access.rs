@@ -99,12 +99,48 @@ pub fn access_of(keys: &Keys, p: &Process) -> RoleAccess {
     }
 }
 
+/// One user allowed what every one of `parts` is allowed: a site's router, which carries the
+/// processes of the hosts it serves to the session's router under its own name (its host's
+/// launcher's), so the session's router holds it to exactly their union.
+pub fn union_of(user: &str, parts: &[RoleAccess]) -> RoleAccess {
+    let merged = |f: fn(&RoleAccess) -> &Vec<String>| -> Vec<String> {
+        let set: std::collections::BTreeSet<String> =
+            parts.iter().flat_map(|p| f(p).iter().cloned()).collect();
+        set.into_iter().collect()
+    };
+    RoleAccess {
+        user: user.to_string(),
+        publish: merged(|p| &p.publish),
+        subscribe: merged(|p| &p.subscribe),
+    }
+}
+
+/// The Zenoh id of session `session`'s router: fixed, so that a site's router can tell the
+/// session's router from its own clients (`zids` in its access list). Derived from the session
+/// id (two 64-bit FNV-1a hashes): not a secret, only a name.
+pub fn session_router_zid(session: &str) -> String {
+    let fnv = |seed: u64| {
+        session.bytes().fold(seed, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+        })
+    };
+    // Zenoh refuses an id written with a leading 0: the top nibble is set.
+    format!(
+        "{:016x}{:016x}",
+        fnv(0xcbf2_9ce4_8422_2325) | 0x1000_0000_0000_0000,
+        fnv(0x6c62_272e_07bb_0142)
+    )
+}
+
 fn observer(id: &str) -> ObserverId {
     ObserverId::new(id).expect("camera and observer ids are observer ids")
 }
 
-/// The `access_control` section of the router's Zenoh configuration (JSON5) for `access`.
-pub fn router_acl(keys: &Keys, access: &[RoleAccess]) -> String {
+/// The `access_control` section of the router's Zenoh configuration (JSON5) for `access`. A
+/// site's router also names the session's router (`upstream`: its Zenoh id, see
+/// [`session_router_zid`]): everything of the session flows both ways on that link, since the
+/// session's router enforces the access list of every process behind it.
+pub fn router_acl(keys: &Keys, access: &[RoleAccess], upstream: Option<&str>) -> String {
     let list = |items: &[String]| crate::endpoints::json_list(items);
     let session = vec![keys.all()];
     let handshake = vec![keys.alive_any(), keys.ready_any()];
@@ -163,6 +199,30 @@ pub fn router_acl(keys: &Keys, access: &[RoleAccess]) -> String {
             r#"{{ rules: {}, subjects: ["{subject}-tcp", "{subject}-quic"] }}"#,
             list(&mine)
         ));
+    }
+    if let Some(zid) = upstream {
+        rules.push(format!(
+            r#"{{ id: "upstream", permission: "allow", flows: ["ingress", "egress"],
+                 messages: ["put", "delete", "declare_subscriber", "query", "declare_queryable",
+                            "reply", "liveliness_token", "declare_liveliness_subscriber",
+                            "liveliness_query"],
+                 key_exprs: {} }}"#,
+            list(&session)
+        ));
+        let zid = list(&[zid.to_string()]);
+        let router = list(&[crate::tls::ROUTER_CERT_NAME.to_string()]);
+        // The session's router opens no password to a site's router (the one that dials
+        // authenticates); on QUIC its certificate names it too.
+        subjects.push(format!(
+            r#"{{ id: "upstream-tcp", zids: {zid}, link_protocols: ["tcp"] }}"#
+        ));
+        subjects.push(format!(
+            r#"{{ id: "upstream-quic", zids: {zid}, cert_common_names: {router},
+                 link_protocols: ["quic"] }}"#
+        ));
+        policies.push(
+            r#"{ rules: ["upstream"], subjects: ["upstream-tcp", "upstream-quic"] }"#.to_string(),
+        );
     }
     format!(
         r#"{{ enabled: true, default_permission: "deny", rules: [{}], subjects: [{}], policies: [{}] }}"#,
@@ -233,13 +293,55 @@ mod tests {
     #[test]
     fn the_acl_is_a_valid_zenoh_configuration() {
         let keys = Keys::new("s").unwrap();
-        let acl = router_acl(&keys, &role_access(&keys, 2, true, &[]));
-        let mut c = zenoh::Config::default();
-        c.insert_json5("access_control", &acl).unwrap();
-        assert_eq!(
-            c.get_json("access_control/default_permission").unwrap(),
-            "\"deny\""
-        );
-        assert!(acl.contains("camera-O2"));
+        let access = role_access(&keys, 2, true, &[]);
+        for upstream in [None, Some(session_router_zid("s").as_str())] {
+            let acl = router_acl(&keys, &access, upstream);
+            let mut c = zenoh::Config::default();
+            c.insert_json5("access_control", &acl).unwrap();
+            assert_eq!(
+                c.get_json("access_control/default_permission").unwrap(),
+                "\"deny\""
+            );
+            assert!(acl.contains("camera-O2"));
+            assert_eq!(acl.contains("upstream"), upstream.is_some());
+        }
+    }
+
+    #[test]
+    fn a_session_routers_id_is_fixed_per_session_and_a_valid_zenoh_id() {
+        let (a, b) = (session_router_zid("s1"), session_router_zid("s2"));
+        assert_ne!(a, b);
+        assert_eq!(a, session_router_zid("s1"));
+        // Sessions whose plain hash starts with a 0 digit among them.
+        let many: Vec<String> = (0..64)
+            .map(|i| session_router_zid(&format!("s{i}")))
+            .collect();
+        for zid in [a, b, session_router_zid("")].into_iter().chain(many) {
+            let mut c = zenoh::Config::default();
+            c.insert_json5("id", &format!("\"{zid}\"")).unwrap();
+        }
+    }
+
+    #[test]
+    fn a_site_router_may_do_what_its_processes_may_and_no_more() {
+        let keys = Keys::new("s").unwrap();
+        let all = role_access(&keys, 3, false, &["b".to_string()]);
+        let parts: Vec<RoleAccess> = all
+            .iter()
+            .filter(|a| a.user.ends_with("-O1") || a.user == "launcher-b")
+            .cloned()
+            .collect();
+        let site = union_of("launcher-b", &parts);
+        assert_eq!(site.user, "launcher-b");
+        assert!(may(&site.publish, &keys.sensor_events(&observer("O1"))));
+        assert!(may(&site.publish, &keys.observer_status(&observer("O1"))));
+        assert!(!may(&site.publish, &keys.sensor_events(&observer("O2"))));
+        assert!(!may(&site.publish, &keys.clock()));
+        assert!(may(&site.subscribe, &keys.sim_state()));
+        assert!(!may(&site.subscribe, &keys.sensor_events(&observer("O2"))));
+        let mut sorted = site.publish.clone();
+        sorted.sort();
+        sorted.dedup();
+        assert_eq!(site.publish, sorted);
     }
 }

@@ -105,6 +105,21 @@ fn write_private(path: &Path, text: &str) -> Result<(), BusError> {
         .map_err(|e| BusError::Credentials(format!("writing {}: {e}", path.display())))
 }
 
+/// The share of the session router's dictionary a host's copy of the secrets holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DictionaryShare<'a> {
+    /// None: the host runs no router.
+    None,
+    /// All of it, with the router's certificate: the session router's host.
+    Whole,
+    /// Only these users' entries: a site router's host, which checks the processes of the
+    /// hosts it serves (it presents its own launcher's certificate).
+    Of(&'a [String]),
+}
+
+/// The dictionary's file name in a secrets directory.
+const DICTIONARY_FILE: &str = "dictionary";
+
 impl SessionSecrets {
     /// Creates a password for each of `users` under `parent/waggle-secrets-<session>`, removed
     /// when dropped. The directory names its owner (`owner.pid`), so that one left by a
@@ -161,6 +176,17 @@ impl SessionSecrets {
         users: &[String],
         validity: std::time::Duration,
     ) -> Result<Self, BusError> {
+        Self::create_kept_signed_by(dir, users, validity, None)
+    }
+
+    /// [`SessionSecrets::create_kept_valid_for`] with certificates issued by `ca` (an
+    /// institution's) instead of a new session CA, and valid no longer than it.
+    pub fn create_kept_signed_by(
+        dir: &Path,
+        users: &[String],
+        validity: std::time::Duration,
+        ca: Option<&tls::ExistingCa>,
+    ) -> Result<Self, BusError> {
         let dir = dir.to_path_buf();
         let io = |what: &str, e: std::io::Error| {
             BusError::Credentials(format!("{what} {}: {e}", dir.display()))
@@ -172,7 +198,7 @@ impl SessionSecrets {
         std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700))
             .map_err(|e| io("protecting", e))?;
         let mut out = Self {
-            dictionary: dir.join("dictionary"),
+            dictionary: dir.join(DICTIONARY_FILE),
             dir,
             files: BTreeMap::new(),
             remove_on_drop: false,
@@ -195,7 +221,7 @@ impl SessionSecrets {
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
         let mut names = users.to_vec();
         names.push(tls::ROUTER_CERT_NAME.to_string());
-        tls::issue(&label, &names, validity, write_private, &out.dir)?;
+        tls::issue(&label, &names, validity, ca, write_private, &out.dir)?;
         Ok(out)
     }
 
@@ -228,17 +254,18 @@ impl SessionSecrets {
             files.insert(user.clone(), file);
         }
         Ok(Self {
-            dictionary: dir.join("dictionary"),
+            dictionary: dir.join(DICTIONARY_FILE),
             dir: dir.to_path_buf(),
             files,
             remove_on_drop: false,
         })
     }
 
-    /// Copies the credentials this holds (and the router's dictionary if `with_dictionary`)
-    /// into a new private directory `dir`, which must not exist: what one host needs and no
-    /// more, so a host never holds another host's passwords.
-    pub fn export(&self, dir: &Path, with_dictionary: bool) -> Result<Self, BusError> {
+    /// Copies the credentials this holds (and the share of the router's dictionary `dictionary`
+    /// names) into a new private directory `dir`, which must not exist: what one host needs and
+    /// no more, so a host never holds another host's passwords (a site's router holds those of
+    /// the hosts it serves: it checks them).
+    pub fn export(&self, dir: &Path, dictionary: DictionaryShare<'_>) -> Result<Self, BusError> {
         let io = |what: &str, path: &Path, e: std::io::Error| {
             BusError::Credentials(format!("{what} {}: {e}", path.display()))
         };
@@ -279,13 +306,30 @@ impl SessionSecrets {
             files.insert(user.clone(), copy(file)?);
             copy_tls(user)?;
         }
-        if with_dictionary {
-            self.check_dictionary()?;
-            copy(&self.dictionary)?;
-            copy_tls(tls::ROUTER_CERT_NAME)?;
+        match dictionary {
+            DictionaryShare::None => {}
+            DictionaryShare::Whole => {
+                self.check_dictionary()?;
+                copy(&self.dictionary)?;
+                copy_tls(tls::ROUTER_CERT_NAME)?;
+            }
+            DictionaryShare::Of(users) => {
+                self.check_dictionary()?;
+                let text = std::fs::read_to_string(&self.dictionary)
+                    .map_err(|e| io("reading", &self.dictionary, e))?;
+                let kept: String = text
+                    .lines()
+                    .filter(|l| {
+                        l.split_once(':')
+                            .is_some_and(|(u, _)| users.iter().any(|x| x == u))
+                    })
+                    .map(|l| format!("{l}\n"))
+                    .collect();
+                write_private(&dir.join(DICTIONARY_FILE), &kept)?;
+            }
         }
         Ok(Self {
-            dictionary: dir.join("dictionary"),
+            dictionary: dir.join(DICTIONARY_FILE),
             dir: dir.to_path_buf(),
             files,
             remove_on_drop: false,
@@ -401,7 +445,7 @@ mod tests {
         SessionSecrets::create_kept(&base.join("all"), &all).unwrap();
         let b = SessionSecrets::open(&base.join("all"), &all[1..]).unwrap();
         let out = base.join("b");
-        let exported = b.export(&out, false).unwrap();
+        let exported = b.export(&out, DictionaryShare::None).unwrap();
         let mut names: Vec<String> = std::fs::read_dir(&out)
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -444,13 +488,25 @@ mod tests {
         assert!(SessionSecrets::open(&out, &all[..1]).is_err());
         assert!(exported.check_dictionary().is_err());
         // The router's host also gets the dictionary; an existing directory is never overwritten.
-        let with = b.export(&base.join("router"), true).unwrap();
+        let with = b
+            .export(&base.join("router"), DictionaryShare::Whole)
+            .unwrap();
         with.check_dictionary().unwrap();
         assert!(tls::cert_files(&base.join("router"), tls::ROUTER_CERT_NAME).exist());
         assert!(!tls::cert_files(&out, tls::ROUTER_CERT_NAME).exist());
         assert!(
-            matches!(b.export(&out, false), Err(BusError::Credentials(m)) if m.contains("exists"))
+            matches!(b.export(&out, DictionaryShare::None), Err(BusError::Credentials(m)) if m.contains("exists"))
         );
+        // A site router's host: only the entries of the users it serves, no router certificate.
+        let served = ["camera-O1".to_string()];
+        let site = b
+            .export(&base.join("site"), DictionaryShare::Of(&served))
+            .unwrap();
+        site.check_dictionary().unwrap();
+        let dict = std::fs::read_to_string(site.dictionary()).unwrap();
+        assert_eq!(dict.lines().count(), 1, "{dict}");
+        assert!(dict.starts_with("camera-O1:"));
+        assert!(!tls::cert_files(&base.join("site"), tls::ROUTER_CERT_NAME).exist());
         std::fs::remove_dir_all(&base).unwrap();
     }
 

@@ -206,11 +206,13 @@ pub fn client_config(
 }
 
 /// The session's router (hosted by the launcher): accepts only the users of `dictionary` and
-/// enforces `acl` (an `access_control` section, see [`crate::access::router_acl`]).
+/// enforces `acl` (an `access_control` section, see [`crate::access::router_acl`]). Its Zenoh
+/// id is `zid` ([`crate::access::session_router_zid`]), by which sites' routers know it.
 pub fn router_config(
     endpoints: &Endpoints,
     dictionary: &std::path::Path,
     acl: &str,
+    zid: &str,
 ) -> Result<zenoh::Config, BusError> {
     let listen = listen_or_loopback(endpoints);
     let mut config = base("router", endpoints, &listen)?;
@@ -230,6 +232,46 @@ pub fn router_config(
         "transport/auth/usrpwd/dictionary_file",
         serde_json_string(&dictionary.display().to_string()),
     )?;
+    set(&mut config, "access_control", acl.to_string())?;
+    set(&mut config, "id", serde_json_string(zid))?;
+    Ok(config)
+}
+
+/// A site's router (hosted by the launcher of its host): a router that dials the session's
+/// router (`endpoints.connect`) authenticating as `credentials` (its host's launcher, user and
+/// certificate), and serves the processes of its hosts (`endpoints.listen`), accepting only the
+/// users of `dictionary` and enforcing `acl` (built with the session router's id as upstream).
+pub fn site_router_config(
+    endpoints: &Endpoints,
+    credentials: &Credentials,
+    dictionary: &std::path::Path,
+    acl: &str,
+) -> Result<zenoh::Config, BusError> {
+    if endpoints.connect.is_empty() {
+        return Err(BusError::Config(
+            "a site's router needs the session's router to dial".into(),
+        ));
+    }
+    let listen = listen_or_loopback(endpoints);
+    let mut config = base("router", endpoints, &listen)?;
+    with_tls(
+        &mut config,
+        endpoints,
+        &listen,
+        credentials.tls.as_ref(),
+        &credentials.user,
+    )?;
+    for (key, value) in [
+        ("user", &credentials.user),
+        ("password", &credentials.password().to_string()),
+        ("dictionary_file", &dictionary.display().to_string()),
+    ] {
+        set(
+            &mut config,
+            &format!("transport/auth/usrpwd/{key}"),
+            serde_json_string(value),
+        )?;
+    }
     set(&mut config, "access_control", acl.to_string())?;
     Ok(config)
 }

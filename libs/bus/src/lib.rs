@@ -38,12 +38,12 @@ mod rejects;
 mod stop;
 pub mod tls;
 
-pub use auth::{Credentials, SessionSecrets};
+pub use auth::{Credentials, DictionaryShare, SessionSecrets};
 pub use bus::{Bus, Inbound, decode};
 pub use cli::NodeArgs;
 pub use endpoints::{
     Endpoints, client_config, config, is_loopback_endpoint, open_client_config, open_router_config,
-    router_config,
+    router_config, single_stream_quic, site_router_config,
 };
 pub use error::BusError;
 pub use handshake::{Process, mission_processes};

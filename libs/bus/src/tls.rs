@@ -16,7 +16,7 @@ use std::time::Duration;
 
 use rcgen::{
     BasicConstraints, CertificateParams, DnType, ExtendedKeyUsagePurpose, IsCa, Issuer, KeyPair,
-    KeyUsagePurpose, SanType,
+    KeyUsagePurpose, PublicKeyData, SanType,
 };
 
 use crate::error::BusError;
@@ -57,20 +57,114 @@ fn tls_err(what: &str, e: impl std::fmt::Display) -> BusError {
     BusError::Credentials(format!("certificates: {what}: {e}"))
 }
 
-/// Issues a session CA and a certificate for each of `names` into `dir` through `write`
-/// (which writes one private file), valid from a minute ago for `valid_for`.
+/// An existing certificate authority (an institution's) that issues a session's certificates
+/// instead of a CA of the session's own. Its certificate becomes the session's `ca.pem`; its key
+/// signs and is never copied.
+#[derive(Clone)]
+pub struct ExistingCa {
+    cert_pem: String,
+    key_pem: String,
+    not_after_unix_s: i64,
+}
+
+impl std::fmt::Debug for ExistingCa {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "ExistingCa {{ key: *** }}")
+    }
+}
+
+impl ExistingCa {
+    /// Reads a CA certificate and its private key (PEM), refusing a key file other users may
+    /// read, a certificate that is no CA or has expired, and a key that is not the
+    /// certificate's.
+    pub fn read(cert: &Path, key: &Path) -> Result<Self, BusError> {
+        use std::os::unix::fs::PermissionsExt;
+        let bad = |path: &Path, why: String| {
+            BusError::Credentials(format!("the CA {}: {why}", path.display()))
+        };
+        let cert_pem = std::fs::read_to_string(cert).map_err(|e| bad(cert, e.to_string()))?;
+        let mode = std::fs::metadata(key)
+            .map_err(|e| bad(key, e.to_string()))?
+            .permissions()
+            .mode();
+        if mode & 0o077 != 0 {
+            return Err(bad(
+                key,
+                format!(
+                    "readable by other users (mode {:o}): chmod go-rwx it",
+                    mode & 0o777
+                ),
+            ));
+        }
+        let key_pem = std::fs::read_to_string(key).map_err(|e| bad(key, e.to_string()))?;
+        let key_pair = KeyPair::from_pem(&key_pem)
+            .map_err(|e| bad(key, format!("not a private key in PEM: {e}")))?;
+        let (_, pem) = x509_parser::pem::parse_x509_pem(cert_pem.as_bytes())
+            .map_err(|e| bad(cert, format!("not a PEM certificate: {e}")))?;
+        let parsed = pem
+            .parse_x509()
+            .map_err(|e| bad(cert, format!("not an X.509 certificate: {e}")))?;
+        if !parsed.is_ca() {
+            return Err(bad(
+                cert,
+                "not a CA certificate (no basicConstraints CA:TRUE)".into(),
+            ));
+        }
+        if parsed.public_key().raw != key_pair.subject_public_key_info().as_slice() {
+            return Err(bad(
+                key,
+                format!("not the key of the CA certificate {}", cert.display()),
+            ));
+        }
+        let not_after_unix_s = parsed.validity().not_after.timestamp();
+        if not_after_unix_s <= time::OffsetDateTime::now_utc().unix_timestamp() {
+            return Err(bad(cert, "expired".into()));
+        }
+        Ok(Self {
+            cert_pem,
+            key_pem,
+            not_after_unix_s,
+        })
+    }
+}
+
+/// Issues a certificate for each of `names` into `dir` through `write` (which writes one
+/// private file), valid from a minute ago for `valid_for` (and never beyond the CA), signed by
+/// `existing` or else by a new session CA whose key is never written.
 pub(crate) fn issue(
     session_label: &str,
     names: &[String],
     valid_for: Duration,
+    existing: Option<&ExistingCa>,
     mut write: impl FnMut(&Path, &str) -> Result<(), BusError>,
     dir: &Path,
 ) -> Result<(), BusError> {
     let now = time::OffsetDateTime::now_utc();
     let not_before = now - time::Duration::minutes(1);
-    let not_after =
+    let mut not_after =
         now + time::Duration::try_from(valid_for).map_err(|e| tls_err("validity", e))?;
+    let issuer = match existing {
+        Some(ca) => {
+            let ca_end = time::OffsetDateTime::from_unix_timestamp(ca.not_after_unix_s)
+                .map_err(|e| tls_err("CA validity", e))?;
+            not_after = not_after.min(ca_end);
+            write(&dir.join(CA_FILE), &ca.cert_pem)?;
+            let key = KeyPair::from_pem(&ca.key_pem).map_err(|e| tls_err("CA key", e))?;
+            Issuer::from_ca_cert_pem(&ca.cert_pem, key).map_err(|e| tls_err("CA", e))?
+        }
+        None => new_session_ca(session_label, not_before, not_after, &mut write, dir)?,
+    };
+    issue_each(names, &issuer, not_before, not_after, write, dir)
+}
 
+/// A new CA for one session: its certificate written as `ca.pem`, its key kept in memory only.
+fn new_session_ca(
+    session_label: &str,
+    not_before: time::OffsetDateTime,
+    not_after: time::OffsetDateTime,
+    write: &mut impl FnMut(&Path, &str) -> Result<(), BusError>,
+    dir: &Path,
+) -> Result<Issuer<'static, KeyPair>, BusError> {
     let ca_key = KeyPair::generate().map_err(|e| tls_err("CA key", e))?;
     let mut ca = CertificateParams::new(Vec::<String>::new()).map_err(|e| tls_err("CA", e))?;
     ca.is_ca = IsCa::Ca(BasicConstraints::Constrained(0));
@@ -87,8 +181,18 @@ pub(crate) fn issue(
     ca.not_after = not_after;
     let ca_cert = ca.self_signed(&ca_key).map_err(|e| tls_err("CA", e))?;
     write(&dir.join(CA_FILE), &ca_cert.pem())?;
-    let issuer = Issuer::new(ca, ca_key);
+    Ok(Issuer::new(ca, ca_key))
+}
 
+/// One certificate and key per name, signed by `issuer`.
+fn issue_each(
+    names: &[String],
+    issuer: &Issuer<'static, KeyPair>,
+    not_before: time::OffsetDateTime,
+    not_after: time::OffsetDateTime,
+    mut write: impl FnMut(&Path, &str) -> Result<(), BusError>,
+    dir: &Path,
+) -> Result<(), BusError> {
     for name in names {
         let key = KeyPair::generate().map_err(|e| tls_err(name, e))?;
         let mut p = CertificateParams::new(vec!["localhost".to_string(), name.clone()])
@@ -106,7 +210,7 @@ pub(crate) fn issue(
         ];
         p.not_before = not_before;
         p.not_after = not_after;
-        let cert = p.signed_by(&key, &issuer).map_err(|e| tls_err(name, e))?;
+        let cert = p.signed_by(&key, issuer).map_err(|e| tls_err(name, e))?;
         let files = cert_files(dir, name);
         write(&files.cert, &cert.pem())?;
         write(&files.key, &key.serialize_pem())?;
@@ -127,6 +231,7 @@ mod tests {
             "s1",
             &["camera-O1".to_string(), ROUTER_CERT_NAME.to_string()],
             Duration::from_secs(3600),
+            None,
             |p, text| {
                 files.insert(p.to_path_buf(), text.to_string());
                 Ok(())
@@ -156,6 +261,7 @@ mod tests {
             "s2",
             &[],
             Duration::from_secs(60),
+            None,
             |p, t| {
                 if p.ends_with(CA_FILE) {
                     other = t.to_string();

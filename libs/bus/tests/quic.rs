@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use bus::handshake::Process;
+use bus::tls::ExistingCa;
 use bus::{Bus, Credentials, Endpoints, Inbound, SessionSecrets, client_config, router_config};
 use proto::{ClockTick, Keys, Role};
 
@@ -33,6 +34,11 @@ fn session(label: &str) -> Session {
 
 /// [`session`] with certificates valid for `validity` from now.
 fn session_valid_for(label: &str, validity: Duration) -> Session {
+    session_signed_by(label, validity, None)
+}
+
+/// [`session_valid_for`] with certificates issued by `ca` instead of a session CA.
+fn session_signed_by(label: &str, validity: Duration, ca: Option<&ExistingCa>) -> Session {
     let name = format!("quic-{label}-{}", std::process::id());
     let keys = Keys::new(&name).unwrap();
     let sim = Process::singleton(Role::Sim);
@@ -40,12 +46,13 @@ fn session_valid_for(label: &str, validity: Duration) -> Session {
     let sched = Process::singleton(Role::Scheduler);
     let everyone = [sim, obs, sched];
     let names: Vec<String> = everyone.iter().map(Process::name).collect();
-    let secrets = SessionSecrets::create_kept_valid_for(&scratch(label), &names, validity).unwrap();
+    let secrets =
+        SessionSecrets::create_kept_signed_by(&scratch(label), &names, validity, ca).unwrap();
     let access: Vec<_> = everyone
         .iter()
         .map(|p| bus::access::access_of(&keys, p))
         .collect();
-    let acl = bus::access::router_acl(&keys, &access);
+    let acl = bus::access::router_acl(&keys, &access, None);
     let endpoint = common::free_endpoint("quic");
     let listen = Endpoints {
         connect: vec![],
@@ -53,7 +60,13 @@ fn session_valid_for(label: &str, validity: Duration) -> Session {
     };
     let router = Bus::open_config(
         &name,
-        router_config(&listen, secrets.dictionary(), &acl).unwrap(),
+        router_config(
+            &listen,
+            secrets.dictionary(),
+            &acl,
+            &bus::access::session_router_zid(&name),
+        )
+        .unwrap(),
     )
     .unwrap();
     Session {
@@ -220,4 +233,71 @@ fn expired_and_self_signed_certificates_are_refused() {
         "a self-signed certificate was accepted"
     );
     assert!(client(&s, &creds(&s, "sim"), 20_000).is_ok());
+}
+
+/// An institution's CA (made here as an institution would: a self-signed CA certificate and
+/// its key in two PEM files) issues the session's certificates: the session's `ca.pem` is the
+/// institution's certificate, messages cross, and a certificate of a session CA is refused.
+#[test]
+fn an_institutions_ca_issues_a_sessions_certificates() {
+    let dir = scratch("institution");
+    std::fs::create_dir_all(&dir).unwrap();
+    let key = rcgen::KeyPair::generate().unwrap();
+    let mut params = rcgen::CertificateParams::new(Vec::<String>::new()).unwrap();
+    params.is_ca = rcgen::IsCa::Ca(rcgen::BasicConstraints::Unconstrained);
+    params
+        .distinguished_name
+        .push(rcgen::DnType::CommonName, "Example University robotics CA");
+    let cert = params.self_signed(&key).unwrap();
+    let (cert_file, key_file) = (dir.join("ca.crt"), dir.join("ca.key"));
+    std::fs::write(&cert_file, cert.pem()).unwrap();
+    std::fs::write(&key_file, key.serialize_pem()).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&key_file, std::fs::Permissions::from_mode(0o600)).unwrap();
+    let ca = ExistingCa::read(&cert_file, &key_file).unwrap();
+
+    let s = session_signed_by("inst", bus::auth::CERTIFICATE_VALIDITY, Some(&ca));
+    let ca_pem = std::fs::read_to_string(s.secrets.dir().join(bus::tls::CA_FILE)).unwrap();
+    assert_eq!(ca_pem, cert.pem());
+    let mut sim = client(&s, &creds(&s, "sim"), 20_000).unwrap();
+    let mut obs = client(&s, &creds(&s, "observer-O1"), 20_000).unwrap();
+    obs.subscribe(&s.keys.clock()).unwrap();
+    common::await_subscriber(&mut sim, &mut obs, &s.keys);
+    sim.put(&s.keys.clock(), &ClockTick::at(7).unwrap())
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let mut got = None;
+    while got.is_none() && Instant::now() < deadline {
+        if let Some(Inbound::Data { payload, .. }) = obs.recv(Duration::from_millis(50)) {
+            got = proto::decode::<ClockTick>(&payload).ok().map(|c| c.tick);
+        }
+    }
+    assert_eq!(got, Some(7));
+    // A certificate from a session's own CA is not the institution's.
+    let other = session("not-inst");
+    let mut forged = creds(&s, "sim");
+    forged.tls = creds(&other, "sim").tls;
+    assert!(client(&s, &forged, 3_000).is_err());
+
+    // Refused, naming the file: a key others may read, a key of another certificate, a leaf
+    // certificate that is no CA.
+    std::fs::set_permissions(&key_file, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let e = ExistingCa::read(&cert_file, &key_file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("readable by other users") && e.contains("ca.key"),
+        "{e}"
+    );
+    std::fs::set_permissions(&key_file, std::fs::Permissions::from_mode(0o600)).unwrap();
+    let sim_files = creds(&s, "sim").tls.unwrap();
+    let e = ExistingCa::read(&cert_file, &sim_files.key)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not the key of the CA certificate"), "{e}");
+    let e = ExistingCa::read(&sim_files.cert, &sim_files.key)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not a CA certificate"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -237,7 +237,35 @@ pub struct RunSummary {
     /// or older) is absent, one that dropped nothing has an empty list.
     #[serde(default)]
     pub rejects: BTreeMap<String, Vec<proto::RejectCount>>,
+    /// What the session's router refused before any process saw it, when this run's launcher
+    /// hosted it.
+    #[serde(default, skip_serializing_if = "RouterRefusals::is_empty")]
+    pub router_refusals: RouterRefusals,
     pub interrupted: bool,
+}
+
+/// Connections and messages a router refused, by why (counted from its Zenoh session's own
+/// reports: Zenoh offers no other hook).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RouterRefusals {
+    /// `quic/` connections whose TLS handshake failed (a certificate of another CA, expired,
+    /// self-signed, or none).
+    pub certificate: u64,
+    /// Links whose Zenoh handshake failed (no or a wrong password, a malformed opening).
+    pub handshake: u64,
+    /// Authenticated links that matched no access rule (a password with another process's
+    /// certificate): everything they send or ask for is denied.
+    pub no_access_rule: u64,
+}
+
+impl RouterRefusals {
+    pub fn is_empty(&self) -> bool {
+        *self == Self::default()
+    }
+
+    pub fn total(&self) -> u64 {
+        self.certificate + self.handshake + self.no_access_rule
+    }
 }
 
 /// The event cameras' sensor model of a run, as `summary.json` records it.

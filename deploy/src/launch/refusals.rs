@@ -1,0 +1,91 @@
+//! What the router hosted in this process refused, counted from its Zenoh session's own
+//! reports (Zenoh 1.10.2 offers no callback for a refused link; its log events are the one
+//! place it says so). Three events, each at the level Zenoh gives it:
+//! - a `quic/` connection whose TLS handshake failed: `QUIC acceptor failed` (warn,
+//!   `zenoh_link_commons::quic`; or `Cannot accept QUIC connection`, error, when it fails just
+//!   after the handshake);
+//! - a link whose Zenoh handshake failed, a missing or wrong password among others: the accept
+//!   step's error (debug, `zenoh_transport::unicast::establishment::accept`);
+//! - an authenticated link that matched no access rule: `did not match any configured ACL
+//!   subject` (info, `zenoh::net::routing::interceptor::access_control`).
+//!
+//! `tests/tests/hostile.rs` provokes each, so a Zenoh upgrade that rewords them fails a test
+//! instead of silently counting nothing.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use run_format::run_dir::RouterRefusals;
+use tracing::field::{Field, Visit};
+use tracing_subscriber::filter::Targets;
+use tracing_subscriber::layer::Context;
+
+static CERTIFICATE: AtomicU64 = AtomicU64::new(0);
+static HANDSHAKE: AtomicU64 = AtomicU64::new(0);
+static NO_ACCESS_RULE: AtomicU64 = AtomicU64::new(0);
+
+const QUIC_TARGET: &str = "zenoh_link_commons::quic";
+const ACCEPT_TARGET: &str = "zenoh_transport::unicast::establishment::accept";
+const ACL_TARGET: &str = "zenoh::net::routing::interceptor::access_control";
+
+/// The events the counter looks at, and no others (the accept step logs at debug, which the
+/// launcher's log does not show by default).
+pub fn targets() -> Targets {
+    Targets::new()
+        .with_target(QUIC_TARGET, tracing::Level::WARN)
+        .with_target(ACCEPT_TARGET, tracing::Level::DEBUG)
+        .with_target(ACL_TARGET, tracing::Level::INFO)
+}
+
+/// The counting layer.
+pub struct Counter;
+
+/// An event's message.
+#[derive(Default)]
+struct Message(String);
+
+impl Visit for Message {
+    fn record_debug(&mut self, field: &Field, value: &dyn std::fmt::Debug) {
+        if field.name() == "message" {
+            self.0 = format!("{value:?}");
+        }
+    }
+}
+
+impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for Counter {
+    fn on_event(&self, event: &tracing::Event<'_>, _: Context<'_, S>) {
+        let target = event.metadata().target();
+        let mut message = Message::default();
+        event.record(&mut message);
+        let counter = if target.starts_with(QUIC_TARGET)
+            && (message.0.contains("QUIC acceptor failed")
+                || message.0.contains("Cannot accept QUIC connection"))
+        {
+            &CERTIFICATE
+        } else if target.starts_with(ACCEPT_TARGET)
+            && *event.metadata().level() == tracing::Level::DEBUG
+            && !message.0.contains("New transport link accepted")
+        {
+            // One debug event per failed accept step (an error event may precede it: not
+            // counted twice).
+            &HANDSHAKE
+        } else if target.starts_with(ACL_TARGET)
+            && message
+                .0
+                .contains("did not match any configured ACL subject")
+        {
+            &NO_ACCESS_RULE
+        } else {
+            return;
+        };
+        counter.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// What this process's router has refused so far.
+pub fn counted() -> RouterRefusals {
+    RouterRefusals {
+        certificate: CERTIFICATE.load(Ordering::Relaxed),
+        handshake: HANDSHAKE.load(Ordering::Relaxed),
+        no_access_rule: NO_ACCESS_RULE.load(Ordering::Relaxed),
+    }
+}
