@@ -441,12 +441,10 @@ fn a_rogue_without_credentials_neither_receives_nor_delivers_anything() {
         d.received, 0,
         "a rogue without credentials received samples"
     );
-    // The router counted the rogue's refused handshakes (it keeps dialling).
-    assert!(
-        d.summary.router_refusals.handshake >= 1,
-        "{:?}",
-        d.summary.router_refusals
-    );
+    // The router counted the rogue's refused handshakes (it keeps dialling), and nothing else.
+    let r = d.summary.router_refusals;
+    assert!(r.handshake >= 1, "{r:?}");
+    assert_eq!((r.certificate, r.no_access_rule), (0, 0), "{r:?}");
     assert_eq!(d.observers_sha256, undisturbed_sha256());
     assert_eq!(d.summary.rejects_total(), 0, "{:?}", d.summary.rejects);
     assert!(

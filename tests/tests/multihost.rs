@@ -217,7 +217,7 @@ enum RouterOn {
 }
 
 /// `waggle compose only-a --modality events` placed on a, b, c, the router on a (or alone).
-fn compose(dir: &Path, router: RouterOn, case: &str) -> PathBuf {
+fn compose(dir: &Path, router: RouterOn, case: &str, modality: &str) -> PathBuf {
     let file = dir.join("session.toml");
     let routers: &[&str] = match router {
         RouterOn::Alone => &["--place", "router=r"],
@@ -240,7 +240,7 @@ fn compose(dir: &Path, router: RouterOn, case: &str) -> PathBuf {
     };
     succeed(
         waggle_with_nodes()
-            .args(["compose", case, "--modality", "events"])
+            .args(["compose", case, "--modality", modality])
             .args(["--place", "*=a", "--place", "*-O1=b", "--place", "*-O3=b"])
             .args(["--place", "*-O2=c"])
             .args(routers)
@@ -367,18 +367,18 @@ fn run_session(
     router: RouterOn,
     faults: impl FnOnce(&Hosts, Instant),
 ) -> (Hosts, Vec<(String, Ended, PathBuf)>) {
-    run_case_session("only-a", name, router, faults)
+    run_case_session(("only-a", "events"), name, router, faults)
 }
 
-/// [`run_session`] of `case` (events).
+/// [`run_session`] of `(case, modality)`.
 fn run_case_session(
-    case: &str,
+    (case, modality): (&str, &str),
     name: &str,
     router: RouterOn,
     faults: impl FnOnce(&Hosts, Instant),
 ) -> (Hosts, Vec<(String, Ended, PathBuf)>) {
     let dir = fresh_dir(name);
-    let file = compose(&dir, router, case);
+    let file = compose(&dir, router, case, modality);
     let router_host = match router {
         RouterOn::Alone => "r",
         RouterOn::SupervisorHost | RouterOn::Chain => "a",
@@ -495,12 +495,12 @@ fn a_throttled_uplink_and_a_short_cut_stall_and_resume_byte_identically() {
 /// The session's `observers.json` and every camera's sensor digest equal the one-host golden
 /// run of `only-a` with event cameras; b's and c's launchers saw the mission report.
 fn assert_golden(ended: &[(String, Ended, PathBuf)], a: &Path) {
-    assert_golden_of("only-a", ended, a);
+    assert_golden_of(("only-a", "events"), ended, a);
 }
 
-/// [`assert_golden`] for `case`.
-fn assert_golden_of(case: &str, ended: &[(String, Ended, PathBuf)], a: &Path) {
-    let want = golden_entry(case, "events");
+/// [`assert_golden`] for `(case, modality)`.
+fn assert_golden_of((case, modality): (&str, &str), ended: &[(String, Ended, PathBuf)], a: &Path) {
+    let want = golden_entry(case, modality);
     let observers = std::fs::read(a.join("observers.json")).expect("observers.json");
     assert_eq!(
         sha256_hex(&observers),
@@ -543,26 +543,40 @@ fn assert_golden_of(case: &str, ended: &[(String, Ended, PathBuf)], a: &Path) {
 /// router carries b's and c's processes to a's session router (c cannot reach a otherwise).
 #[test]
 fn a_chain_of_two_routers_over_quic_gives_the_golden_run() {
-    chain_golden("only-a");
+    chain_golden("only-a", "events");
 }
 
-/// `nominal-3` (three flights, every observer working) through the chain.
+/// RGB frames (key frames of 0.9 MB) through the chain.
+#[test]
+#[ignore = "≈ 1 min: deploy/test.sh --full"]
+fn only_a_rgb_through_a_chain_of_two_routers_gives_the_golden_run() {
+    chain_golden("only-a", "rgb");
+}
+
+/// `nominal-3` (three flights, every observer working) through the chain, both modalities.
 #[test]
 #[ignore = "≈ 3 min: deploy/test.sh --full"]
 fn nominal_3_through_a_chain_of_two_routers_gives_the_golden_run() {
-    chain_golden("nominal-3");
+    chain_golden("nominal-3", "events");
 }
 
-fn chain_golden(case: &str) {
+#[test]
+#[ignore = "≈ 3 min: deploy/test.sh --full"]
+fn nominal_3_rgb_through_a_chain_of_two_routers_gives_the_golden_run() {
+    chain_golden("nominal-3", "rgb");
+}
+
+fn chain_golden(case: &str, modality: &str) {
     let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let (_hosts, ended) = run_case_session(case, case, RouterOn::Chain, |_, _| {});
+    let name = format!("{case}-{modality}");
+    let (_hosts, ended) = run_case_session((case, modality), &name, RouterOn::Chain, |_, _| {});
     for (h, e, _) in &ended {
         assert!(e.success, "host {h} failed:\n{}\n{}", e.stdout, e.stderr);
     }
     let a = &ended.iter().find(|(h, ..)| h == "a").expect("host a").2;
     let s = summary(a);
     assert!(s.mission.pass, "{:?}", s.mission.reasons);
-    assert_golden_of(case, &ended, a);
+    assert_golden_of((case, modality), &ended, a);
 }
 
 #[test]

@@ -9,6 +9,13 @@
 //! - an authenticated link that matched no access rule: `did not match any configured ACL
 //!   subject` (info, `zenoh::net::routing::interceptor::access_control`).
 //!
+//! Messages of an admitted link that a rule denies are not counted: Zenoh logs each decision at
+//! trace level, but in the same words when it fills its per-key cache — for every kind of
+//! message (queries, replies, liveliness, …), sent or not — as when it denies one that was sent
+//! (a healthy one-observer run logged 72 such `unauthorized to Put (ingress)` lines and denied
+//! nothing), so the log cannot count them. The access-control target is read at info level
+//! only.
+//!
 //! `tests/tests/hostile.rs` provokes each, so a Zenoh upgrade that rewords them fails a test
 //! instead of silently counting nothing.
 
@@ -51,29 +58,35 @@ impl Visit for Message {
     }
 }
 
+fn message_of(event: &tracing::Event<'_>) -> String {
+    let mut message = Message::default();
+    event.record(&mut message);
+    message.0
+}
+
 impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for Counter {
     fn on_event(&self, event: &tracing::Event<'_>, _: Context<'_, S>) {
         let target = event.metadata().target();
-        let mut message = Message::default();
-        event.record(&mut message);
-        let counter = if target.starts_with(QUIC_TARGET)
-            && (message.0.contains("QUIC acceptor failed")
-                || message.0.contains("Cannot accept QUIC connection"))
-        {
+        let counter = if target.starts_with(ACL_TARGET) {
+            if !message_of(event).contains("did not match any configured ACL subject") {
+                return;
+            }
+            &NO_ACCESS_RULE
+        } else if target.starts_with(QUIC_TARGET) {
+            let text = message_of(event);
+            if !(text.contains("QUIC acceptor failed")
+                || text.contains("Cannot accept QUIC connection"))
+            {
+                return;
+            }
             &CERTIFICATE
         } else if target.starts_with(ACCEPT_TARGET)
             && *event.metadata().level() == tracing::Level::DEBUG
-            && !message.0.contains("New transport link accepted")
+            && !message_of(event).contains("New transport link accepted")
         {
             // One debug event per failed accept step (an error event may precede it: not
             // counted twice).
             &HANDSHAKE
-        } else if target.starts_with(ACL_TARGET)
-            && message
-                .0
-                .contains("did not match any configured ACL subject")
-        {
-            &NO_ACCESS_RULE
         } else {
             return;
         };

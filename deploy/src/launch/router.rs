@@ -167,7 +167,7 @@ pub fn serve(
     Ok(())
 }
 
-/// `2 certificates, 1 handshake, 0 links with no access rule`.
+/// `0 TLS handshakes (certificates), 2 Zenoh handshakes (passwords), …`.
 pub fn describe_refusals(r: &crate::run_dir::RouterRefusals) -> String {
     format!(
         "{} TLS handshakes (certificates), {} Zenoh handshakes (passwords), {} links with no \
