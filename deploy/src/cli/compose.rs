@@ -21,8 +21,9 @@ pub struct ComposeArgs {
     /// (`camera-*`, `*-O2`); applied in order, later ones win. Unplaced nodes run on `local`.
     #[arg(long = "place", value_name = "ROLE=HOST")]
     place: Vec<HostPlacement>,
-    /// Endpoint the router listens on and other hosts dial, e.g. `tcp/192.168.1.10:7447`
-    /// (default `tcp/127.0.0.1:0`, one host); repeatable.
+    /// Endpoint the router listens on and other hosts dial, e.g. `quic/192.168.1.10:7447`
+    /// (mutual TLS; plain `tcp/` beyond loopback needs `--plain-tcp`; default
+    /// `tcp/127.0.0.1:0`, one host); repeatable.
     #[arg(long = "router", value_name = "ENDPOINT")]
     router: Vec<String>,
     /// A site's own router on HOST, listening on ENDPOINT (repeat for more endpoints): the

@@ -453,7 +453,7 @@ impl Compose {
         if self.router_dial_from(&remote[0]).is_empty() {
             bail!(
                 "hosts {} run nodes but the router (on {}) listens only on {}: give it an \
-                 address they reach, e.g. --router tcp/192.168.1.10:7447",
+                 address they reach, e.g. --router quic/192.168.1.10:7447",
                 remote.join(", "),
                 self.router.host,
                 self.router.listen.join(", ")
