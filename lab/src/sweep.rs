@@ -21,7 +21,8 @@ use nix::sys::signal::Signal;
 
 use crate::report::{self, RunEntry};
 use deploy::launch::process::{exit_label, signal};
-use run_format::case::{Case, PAPER_CASES, Receiver};
+use proto::Receiver;
+use run_format::case::{Case, PAPER_CASES};
 use run_format::run_dir::{PlannedRun, SWEEP_FILE, SweepManifest};
 
 /// Which sensor modalities a sweep runs (a command-line selection).

@@ -18,12 +18,10 @@ use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use clap::Parser;
 use node_args::SchedulerArgs;
 use proto::{
-    BroadcastTick, ClockTick, Departure, MissionReport, ObserverId, ObserverStatus, RejectReason,
-    Role, SessionTick, SimState, Site, TICK_NS,
+    BroadcastTick, ClockTick, Departure, EndReason, MissionReport, ObserverId, ObserverStatus,
+    RejectReason, Role, SessionTick, SimState, Site, TICK_NS,
 };
-use scheduler::{
-    DecisionNotice, EndReason, EventKind, Scheduler, SchedulerConfig, observer_positions,
-};
+use scheduler::{DecisionNotice, EventKind, Scheduler, SchedulerConfig, observer_positions};
 
 #[derive(Parser)]
 #[command(

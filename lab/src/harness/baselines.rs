@@ -34,7 +34,8 @@ use crate::harness::mission::MissionOptions;
 use crate::harness::mission_metrics::Policy;
 use crate::harness::mission_trials::{MissionTrialsOptions, MissionTrialsOut, run_mission_trials};
 use crate::harness::vary::Vary;
-use run_format::case::{Case, Receiver};
+use proto::Receiver;
+use run_format::case::Case;
 
 /// Closest approach of two drones below which a trial counts as unsafe, m.
 pub const SAFE_SEPARATION_M: f64 = 0.35;

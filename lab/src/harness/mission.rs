@@ -18,14 +18,13 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use perturb::seed::{Stream, rng};
+use proto::EndReason;
 use proto::clock::EVENT_RENDER_PERIOD_NS;
 use proto::{ClockTick, Modality, ObserverId, RenderPath, Site, TICK_NS};
 use proto::{GestureConfig, Schedule, broadcast, performer_setpoint};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use scheduler::{
-    DecisionNotice, EndReason, EventKind, Scheduler, SchedulerConfig, observer_positions,
-};
+use scheduler::{DecisionNotice, EventKind, Scheduler, SchedulerConfig, observer_positions};
 use sim::lockstep::{TickReferences, mirror, sim_state};
 use sim::render::CameraRenderer;
 use sim::world::World;
@@ -34,7 +33,8 @@ use crate::harness::air::{Tracking, set_air};
 use crate::harness::mission_metrics::{MissionMetrics, Policy, measure};
 use crate::harness::mission_observer::MissionObserver;
 use deploy::eval::summary::{check_expected, ns_s, provenance_violations};
-use run_format::case::{Case, Receiver};
+use proto::Receiver;
+use run_format::case::Case;
 use run_format::run_dir::{MissionSummary, ObserverRecord, ObserverSummary};
 
 /// What a flown mission gives: its summary, its outcome measures and every observer's record

@@ -20,7 +20,8 @@ use sim::sensor::{ObserverSensor, SensorOutput};
 use sim::world::World;
 
 use crate::harness::mission_options::MissionOptions;
-use run_format::case::{Case, Receiver};
+use proto::Receiver;
+use run_format::case::Case;
 use run_format::run_dir::ObserverRecord;
 
 /// Where an observer's input comes from.

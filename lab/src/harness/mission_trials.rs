@@ -16,7 +16,8 @@ use serde::Serialize;
 use crate::harness::mission::{MissionOptions, MissionRun, fly_case_with};
 use crate::harness::mission_metrics::{MissionMetrics, Policy};
 use crate::harness::pool::{Outcome, Tally, run_pool};
-use run_format::case::{Case, Receiver};
+use proto::Receiver;
+use run_format::case::Case;
 use run_format::run_dir::ObserverSummary;
 
 /// One case and how many times to fly it.

@@ -149,7 +149,8 @@ pub const TIMING_EVENTS: PaperTiming = PaperTiming {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use run_format::case::{BUILT_IN, Case, PAPER_CASES, Receiver};
+    use proto::Receiver;
+    use run_format::case::{BUILT_IN, Case, PAPER_CASES};
 
     /// The case files' expected outcomes agree with the paper's table wherever the paper has a
     /// run, and each case applies to exactly the modalities the paper ran it in.

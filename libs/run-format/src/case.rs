@@ -160,7 +160,7 @@ pub const PAPER_CASES: &[&str] = &[
     "dropout-o2",
 ];
 
-pub use proto::{FlightMode, Receiver};
+use proto::{FlightMode, Receiver};
 
 /// The TOML text of a case given by name or path (what [`Case::load`] parses).
 pub fn case_source(name_or_path: &str) -> Result<String, CaseError> {

@@ -10,7 +10,7 @@ use crate::error::ConfigError;
 
 // The observers' sensing modality: only the broadcast differs (the events modality flies the
 // acquisition sweep and its quiet before the first offer of every round).
-pub use proto::FlightMode;
+use proto::FlightMode;
 use proto::Modality;
 
 /// Round and session timing.

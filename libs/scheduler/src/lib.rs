@@ -93,9 +93,9 @@ pub mod reservation;
 pub mod scheduler;
 pub mod trajectory;
 
-pub use config::{FlightLimits, FlightMode, SchedulerConfig, Timing};
+pub use config::{FlightLimits, SchedulerConfig, Timing};
 pub use error::{ConfigError, NavError, SchedulerError};
-pub use log::{DecisionReject, EndReason, EventKind, LogEvent, PoseReject};
+pub use log::{DecisionReject, EventKind, LogEvent, PoseReject};
 pub use proto::Kinematics;
 pub use scheduler::{
     BroadcastPlan, DecisionNotice, Scheduler, SchedulerInput, Stats, TickOutput, observer_positions,

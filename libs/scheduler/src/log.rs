@@ -3,7 +3,7 @@
 
 use proto::{ObserverId, Offer, Site};
 
-pub use proto::EndReason;
+use proto::EndReason;
 
 /// Why a decision was not accepted. Each is counted, none is an error.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]

@@ -5,13 +5,14 @@ mod harness;
 
 use harness::{Case, Run, run, secs};
 use proptest::prelude::*;
+use proto::FlightMode;
 use proto::Modality;
 use proto::Site;
 use proto::scene::{MAX_OBSERVERS, distance_m, observer_home_m};
 use proto::sched::SessionEvent;
 use scheduler::navigation::{obstacles, plan_path};
 use scheduler::reservation::{Reservation, admit};
-use scheduler::{FlightLimits, FlightMode, Leg};
+use scheduler::{FlightLimits, Leg};
 
 const SERVICE_NS: u64 = 5_000_000_000;
 

@@ -5,10 +5,11 @@ mod harness;
 use std::collections::BTreeMap;
 
 use harness::{Case, NS_PER_S, Run, run, secs};
+use proto::EndReason;
 use proto::Modality;
 use proto::sched::SessionEvent;
 use proto::{ObserverId, Site};
-use scheduler::{DecisionNotice, DecisionReject, EndReason, EventKind};
+use scheduler::{DecisionNotice, DecisionReject, EventKind};
 
 use Site::{A, B};
 

@@ -21,7 +21,8 @@ use proto::{Kinematics, ObserverId, Site, TaskState};
 
 use crate::config::SchedulerConfig;
 use crate::error::{ConfigError, SchedulerError};
-use crate::log::{DecisionReject, EndReason, EventKind, LogEvent, PoseReject};
+use crate::log::{DecisionReject, EventKind, LogEvent, PoseReject};
+use proto::EndReason;
 
 pub use broadcast::BroadcastPlan;
 use rounds::Round;

@@ -8,10 +8,11 @@ use proto::sched::SessionEvent;
 use proto::{ObserverId, Offer};
 
 use crate::error::SchedulerError;
-use crate::log::{EndReason, EventKind};
+use crate::log::EventKind;
 use crate::scheduler::Scheduler;
 use crate::scheduler::broadcast::BroadcastPlan;
 use crate::scheduler::tick::{DecisionNotice, TickOutput};
+use proto::EndReason;
 
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Round {

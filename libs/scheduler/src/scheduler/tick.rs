@@ -7,8 +7,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use proto::sched::{Broadcast, ObserverSetpoint, SchedCommand, SessionControl};
 use proto::{ClockTick, Decision, ObserverId, SimState, Site};
 
-use crate::log::{EndReason, LogEvent};
+use crate::log::LogEvent;
 use crate::scheduler::broadcast::BroadcastPlan;
+use proto::EndReason;
 
 /// The part of an observer's decision the scheduler acts on.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]

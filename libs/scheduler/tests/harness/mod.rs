@@ -8,9 +8,9 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use proto::allocation::{CachedOffer, OfferCache, Roster};
 use proto::sched::SessionEvent;
-use proto::{ClockTick, Modality, ObserverId, Site, TICK_NS, decide};
+use proto::{ClockTick, EndReason, Modality, ObserverId, Site, TICK_NS, decide};
 use scheduler::{
-    DecisionNotice, EndReason, EventKind, Scheduler, SchedulerConfig, SchedulerInput, TickOutput,
+    DecisionNotice, EventKind, Scheduler, SchedulerConfig, SchedulerInput, TickOutput,
 };
 
 pub const NS_PER_S: u64 = 1_000_000_000;
