@@ -441,10 +441,15 @@ fn a_rogue_without_credentials_neither_receives_nor_delivers_anything() {
         d.received, 0,
         "a rogue without credentials received samples"
     );
-    // The router counted the rogue's refused handshakes (it keeps dialling), and nothing else.
+    // The router counted the rogue's refused handshakes (it keeps dialling), and nothing else:
+    // the run's own processes never had a message denied.
     let r = d.summary.router_refusals;
     assert!(r.handshake >= 1, "{r:?}");
-    assert_eq!((r.certificate, r.no_access_rule), (0, 0), "{r:?}");
+    assert_eq!(
+        (r.certificate, r.no_access_rule, r.denied_messages),
+        (0, 0, 0),
+        "{r:?}"
+    );
     assert_eq!(d.observers_sha256, undisturbed_sha256());
     assert_eq!(d.summary.rejects_total(), 0, "{:?}", d.summary.rejects);
     assert!(
@@ -519,6 +524,11 @@ fn a_process_holding_o1_credentials_cannot_publish_outside_its_own_keys() {
     }
     // Its subscription to the whole session is not among O1's: the router refuses it.
     assert_eq!(d.received, 0, "O1's credentials read beyond O1's inputs");
+    // The router counted what it denied: the puts on keys O1 does not own (5 keys, several
+    // payloads, every 250 ms); its allowed puts on its own key are not among them.
+    let r = s.router_refusals;
+    assert!(r.denied_messages > 100, "{r:?}");
+    assert!(r.denied_messages < d.sent, "{r:?}, {} sent", d.sent);
 }
 
 /// Over `quic/`, inside a whole run: observer O1's stolen password presented with camera O1's

@@ -171,7 +171,7 @@ pub fn serve(
 pub fn describe_refusals(r: &crate::run_dir::RouterRefusals) -> String {
     format!(
         "{} TLS handshakes (certificates), {} Zenoh handshakes (passwords), {} links with no \
-         access rule",
-        r.certificate, r.handshake, r.no_access_rule
+         access rule, {} data messages denied by a rule",
+        r.certificate, r.handshake, r.no_access_rule, r.denied_messages
     )
 }

@@ -256,6 +256,11 @@ pub struct RouterRefusals {
     /// Authenticated links that matched no access rule (a password with another process's
     /// certificate): everything they send or ask for is denied.
     pub no_access_rule: u64,
+    /// Data messages (puts, deletes) of admitted links that a rule denied, either way: a process
+    /// publishing a key it does not own, or a key it may not read about to be sent to it. A
+    /// lower bound (see `deploy::launch::refusals`).
+    #[serde(default)]
+    pub denied_messages: u64,
 }
 
 impl RouterRefusals {
@@ -264,7 +269,7 @@ impl RouterRefusals {
     }
 
     pub fn total(&self) -> u64 {
-        self.certificate + self.handshake + self.no_access_rule
+        self.certificate + self.handshake + self.no_access_rule + self.denied_messages
     }
 }
 
