@@ -139,6 +139,37 @@ fn check_name(what: &str, name: &str) -> Result<()> {
     Ok(())
 }
 
+/// A `LEFT=RIGHT` option (`--place ROLE=HOST`, `--site HOST=ENDPOINT`, …) that does not parse.
+/// clap names the option; this names the input and what is wrong with it.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{input:?}: {why}")]
+pub struct AssignmentError {
+    pub input: String,
+    pub why: String,
+}
+
+/// `s` as `LEFT=RIGHT`, both sides non-empty, and `RIGHT` (or `LEFT`, when `host_left`) a host
+/// name; `shape` is the form the error suggests (`ROLE=HOST (e.g. camera-*=b)`).
+fn host_assignment<'a>(
+    s: &'a str,
+    shape: &str,
+    host_left: bool,
+) -> Result<(&'a str, &'a str), AssignmentError> {
+    let err = |why: String| AssignmentError {
+        input: s.to_string(),
+        why,
+    };
+    let (left, right) = s
+        .split_once('=')
+        .ok_or_else(|| err(format!("not {shape}")))?;
+    if left.is_empty() || right.is_empty() {
+        return Err(err(format!("an empty side: want {shape}")));
+    }
+    let host = if host_left { left } else { right };
+    check_name("host", host).map_err(|e| err(e.to_string()))?;
+    Ok((left, right))
+}
+
 /// `proto/address:port` with a port number; the address and port.
 fn endpoint_parts(endpoint: &str) -> Result<(String, u16)> {
     let bad = || {

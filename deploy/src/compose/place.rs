@@ -5,7 +5,7 @@ use std::str::FromStr;
 
 use anyhow::{Result, bail};
 
-use super::{Compose, check_name};
+use super::{AssignmentError, Compose, host_assignment};
 
 /// The name that places the router.
 pub const ROUTER: &str = "router";
@@ -18,29 +18,11 @@ pub struct HostPlacement {
     pub host: String,
 }
 
-/// A placement that does not parse.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("--place {input:?}: {why}")]
-pub struct PlacementError {
-    pub input: String,
-    pub why: String,
-}
-
 impl FromStr for HostPlacement {
-    type Err = PlacementError;
+    type Err = AssignmentError;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let err = |why: String| PlacementError {
-            input: s.to_string(),
-            why,
-        };
-        let (pattern, host) = s
-            .split_once('=')
-            .ok_or_else(|| err("not ROLE=HOST (e.g. camera-*=b)".into()))?;
-        if pattern.is_empty() {
-            return Err(err("the role pattern is empty".into()));
-        }
-        check_name("host", host).map_err(|e| err(e.to_string()))?;
+        let (pattern, host) = host_assignment(s, "ROLE=HOST (e.g. camera-*=b)", false)?;
         Ok(Self {
             pattern: pattern.to_string(),
             host: host.to_string(),

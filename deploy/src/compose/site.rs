@@ -6,7 +6,7 @@ use std::str::FromStr;
 
 use anyhow::{Result, bail};
 
-use super::{SiteRouter, check_name};
+use super::{AssignmentError, SiteRouter, host_assignment};
 
 /// `HOST=VALUE`, the host checked as a host name.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -15,29 +15,11 @@ pub struct HostIs {
     pub value: String,
 }
 
-/// A `HOST=VALUE` option that does not parse.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{input:?}: {why}")]
-pub struct HostIsError {
-    pub input: String,
-    pub why: String,
-}
-
 impl FromStr for HostIs {
-    type Err = HostIsError;
+    type Err = AssignmentError;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let err = |why: String| HostIsError {
-            input: s.to_string(),
-            why,
-        };
-        let (host, value) = s
-            .split_once('=')
-            .ok_or_else(|| err("not HOST=VALUE (e.g. b=quic/10.0.0.2:7447)".into()))?;
-        check_name("host", host).map_err(|e| err(e.to_string()))?;
-        if value.is_empty() {
-            return Err(err("nothing after '='".into()));
-        }
+        let (host, value) = host_assignment(s, "HOST=VALUE (e.g. b=quic/10.0.0.2:7447)", true)?;
         Ok(Self {
             host: host.to_string(),
             value: value.to_string(),
