@@ -32,6 +32,30 @@ use anyhow::{Context, Result};
 ///
 /// When this executable cannot be located.
 pub fn waggle_binary() -> Result<PathBuf> {
+    // Inside a relocatable bundle (deploy/relocatable.sh) this executable is the bare binary in
+    // `libexec/`, which needs the wrapper's environment: name the wrapper instead.
+    if let Some(root) = std::env::var_os(RELOCATABLE_ENV).filter(|r| !r.is_empty()) {
+        return Ok(PathBuf::from(root).join("bin/waggle"));
+    }
     let exe = std::env::current_exe().context("locating the waggle-lab binary")?;
     Ok(exe.with_file_name("waggle"))
+}
+
+/// Set by a relocatable bundle's wrappers to the bundle's root.
+pub const RELOCATABLE_ENV: &str = "WAGGLE_RELOCATABLE";
+/// Set by those wrappers to what `LD_LIBRARY_PATH` was before them (for host programs such as
+/// `sbatch`, which must not load the bundle's libraries).
+pub const HOST_LIBRARY_PATH_ENV: &str = "WAGGLE_HOST_LD_LIBRARY_PATH";
+
+/// A command for a program of the host (not of the bundle): inside a relocatable bundle, with the
+/// host's own `LD_LIBRARY_PATH` back.
+pub fn host_command(program: impl AsRef<std::ffi::OsStr>) -> std::process::Command {
+    let mut cmd = std::process::Command::new(program);
+    if std::env::var_os(RELOCATABLE_ENV).is_some() {
+        match std::env::var_os(HOST_LIBRARY_PATH_ENV).filter(|p| !p.is_empty()) {
+            Some(p) => cmd.env("LD_LIBRARY_PATH", p),
+            None => cmd.env_remove("LD_LIBRARY_PATH"),
+        };
+    }
+    cmd
 }

@@ -45,10 +45,10 @@ const GLIBC: [&str; 6] = [
     "librt.so.1",
 ];
 
-/// Output files that must be byte-identical (`cost.json`, `run-cost.json` hold wall-clock time;
-/// `provenance.json` and the per-trial records name the renderer, which the lab asks `dpkg-query`
-/// for — absent in the chroot — and are compared field by field instead).
-const SAME_BYTES: [&str; 3] = ["trials.json", "point.json", "run.json"];
+/// Output files that must be byte-identical (`cost.json`, `run-cost.json` hold wall-clock time).
+/// `provenance.json` names the binary, the CPU and the renderer: the bundle says which Mesa it
+/// carries (`WAGGLE_MESA_VERSION`), so its shards merge with the checkout's on this host.
+const SAME_BYTES: [&str; 4] = ["trials.json", "point.json", "run.json", "provenance.json"];
 
 /// The test's directory. Dropped: anything still mounted below it (nothing should be: the
 /// mounts belong to the namespace) is unmounted first, so nothing is deleted through a mount.
@@ -301,7 +301,9 @@ fn the_bundle_runs_a_lab_command_in_an_empty_root_with_identical_results() {
     // environment. The wrappers are reached through /opt/waggle/bin and the /bin/waggle symlink.
     let t = Instant::now();
     let inner = format!(
-        "set -e; for b in {}; do /opt/waggle/bin/$b --version; done; exec /bin/waggle {} --out /tmp/out",
+        "set -e; for b in {}; do /opt/waggle/bin/$b --version; done; \
+         /bin/waggle study event-noise --slurm --shard-count 2 --out /tmp/jobs >/dev/null; \
+         exec /bin/waggle {} --out /tmp/out",
         ["waggle", "waggle-lab"]
             .iter()
             .chain(&waggle_tests::NODES)
@@ -339,6 +341,12 @@ fn the_bundle_runs_a_lab_command_in_an_empty_root_with_identical_results() {
     );
     let outside_s = t.elapsed();
 
+    // Job files written from the bundle run the bundle's wrapper, not the bare binary.
+    let array = std::fs::read_to_string(root.join("tmp/jobs/slurm/array.sbatch")).unwrap();
+    assert!(
+        array.contains("exec /opt/waggle/bin/waggle study"),
+        "the job array does not run the bundle's wrapper: {array}"
+    );
     let inside = root.join("tmp/out");
     for f in SAME_BYTES {
         let (a, b) = (

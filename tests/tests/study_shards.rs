@@ -2,7 +2,8 @@
 //! and `waggle trials --shard K/N` run disjoint blocks of the trials, `waggle study merge` writes
 //! the very bytes one process writes (study.json, every trials.json, report.md, the figures),
 //! a shard killed with SIGKILL resumes running only its missing trials (a damaged record is
-//! rerun), and merging refuses what is not one run.
+//! rerun), and merging refuses what is not one run. Shards on one host share a render cache on
+//! disk (`--render-cache`): one of them flies a flight, the others read it.
 
 use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
@@ -241,9 +242,30 @@ fn trials_shards_merge_to_the_single_run_and_a_rerun_resumes() {
     };
     let single = dir.join("single");
     run(&[], &single);
+    // The two shards at once on this host, sharing a render cache: one flies the broadcast, the
+    // other waits for it and reads it; results as without the cache.
     let (a, b) = (dir.join("a"), dir.join("b"));
-    run(&["--shard", "1/2"], &a);
-    run(&["--shard", "2/2"], &b);
+    let cache = dir.join("render-cache");
+    let outs: Vec<String> = std::thread::scope(|scope| {
+        let shards = [("1/2", &a), ("2/2", &b)].map(|(k, out)| {
+            let cache = s(&cache);
+            scope.spawn(move || run(&["--shard", k, "--render-cache", cache], out))
+        });
+        shards
+            .map(|h| String::from_utf8_lossy(&h.join().unwrap().stdout).into_owned())
+            .to_vec()
+    });
+    let from_cache = outs
+        .iter()
+        .filter(|o| o.contains("1 flight(s) (1 from the render cache)"))
+        .count();
+    assert_eq!(from_cache, 1, "{outs:?}");
+    let entries = std::fs::read_dir(&cache)
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".renders"))
+        .count();
+    assert_eq!(entries, 1);
     assert_eq!(records(&a), ["000000.json"]);
     assert_eq!(records(&b), ["000001.json", "000002.json"]);
     let merged = dir.join("merged");
@@ -355,6 +377,10 @@ fn shard_arguments_are_checked_and_cluster_files_written() {
             "2",
             "--kubernetes",
             "registry.example/waggle:1",
+            "--render-cache",
+            "/scratch/waggle-renders",
+            "--waggle",
+            "/opt/waggle/bin/waggle",
             "--out",
             s(&dir),
         ],
@@ -368,6 +394,8 @@ fn shard_arguments_are_checked_and_cluster_files_written() {
         "--time=01:00:00",
         "--mem=4G",
         "--cpus-per-task=2",
+        "exec /opt/waggle/bin/waggle study",
+        "--render-cache /scratch/waggle-renders",
     ] {
         assert!(array.contains(needle), "{needle}: {array}");
     }

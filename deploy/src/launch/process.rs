@@ -186,12 +186,14 @@ impl Spawner<'_> {
         if std::env::var_os("RUST_LOG").is_none() {
             cmd.env("RUST_LOG", "info,zenoh=warn");
         }
-        // Backup for binaries built without the rpath to MuJoCo.
+        // Backup for binaries built without the rpath to MuJoCo: the checkout's copy, after what
+        // the environment names (a relocatable bundle's wrapper names its own libraries, which
+        // must win; see deploy/relocatable.sh).
         let mujoco = Path::new(env!("CARGO_MANIFEST_DIR")).join("../third_party/mujoco/lib");
-        let mut paths = vec![mujoco];
-        if let Some(old) = std::env::var_os("LD_LIBRARY_PATH") {
-            paths.extend(std::env::split_paths(&old));
-        }
+        let mut paths: Vec<std::path::PathBuf> = std::env::var_os("LD_LIBRARY_PATH")
+            .map(|old| std::env::split_paths(&old).collect())
+            .unwrap_or_default();
+        paths.push(mujoco);
         cmd.env("LD_LIBRARY_PATH", std::env::join_paths(paths)?);
         let child = cmd
             .spawn()

@@ -7,6 +7,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 
 use crate::harness::cluster::ClusterJob;
+use crate::harness::render_cache::RenderCache;
 use crate::harness::shard::Shard;
 use crate::harness::study::StudyFile;
 use crate::harness::study_merge::{MergeOptions, Merged, merge as merge_dirs};
@@ -45,6 +46,28 @@ impl ShardArgs {
     }
 }
 
+/// `--render-cache DIR`: flights kept on disk and shared by the processes of one host.
+#[derive(Debug, Clone, Args)]
+pub struct RenderCacheArg {
+    /// Keep rendered flights in DIR, shared by every run on this host (e.g. a study's shards
+    /// on one node): a flight another run has rendered, or is rendering, is read instead of
+    /// flown again. Entries are addressed by the flight, this binary and the host kind, checked
+    /// on reading (a damaged one is flown again) and never evicted: a node-local scratch
+    /// directory suits it. Results are identical with or without it.
+    #[arg(long, value_name = "DIR")]
+    pub render_cache: Option<PathBuf>,
+}
+
+impl RenderCacheArg {
+    /// The cache, opened (created if absent), if one was given.
+    pub fn open(&self) -> Result<Option<RenderCache>> {
+        self.render_cache
+            .as_deref()
+            .map(RenderCache::open)
+            .transpose()
+    }
+}
+
 /// `--slurm` / `--kubernetes IMAGE` and the resources of their tasks.
 #[derive(Debug, Clone, Args)]
 pub struct ClusterArgs {
@@ -76,6 +99,10 @@ pub struct ClusterArgs {
     /// With --slurm: submit at once (runs DIR/slurm/submit.sh).
     #[arg(long, requires = "slurm")]
     submit: bool,
+    /// The waggle the tasks run, a path every node sees (default: this one; a relocatable
+    /// bundle's `bin/waggle` when run from one, see deploy/relocatable.sh).
+    #[arg(long, value_name = "PATH")]
+    waggle: Option<PathBuf>,
 }
 
 impl ClusterArgs {
@@ -91,6 +118,7 @@ impl ClusterArgs {
         out: &Path,
         shards: &ShardArgs,
         render: &super::RenderArg,
+        cache: &RenderCacheArg,
     ) -> Result<()> {
         let n = shards
             .shard_count
@@ -104,6 +132,16 @@ impl ClusterArgs {
         {
             extra.extend(["--render".to_owned(), v.get_name().to_owned()]);
         }
+        if let Some(dir) = &cache.render_cache {
+            extra.extend([
+                "--render-cache".to_owned(),
+                dir.to_string_lossy().into_owned(),
+            ]);
+        }
+        let waggle = match &self.waggle {
+            Some(w) => std::path::absolute(w).context("the --waggle path")?,
+            None => crate::waggle_binary()?,
+        };
         let job = ClusterJob {
             name: study.name.clone(),
             study_toml: toml::to_string(study).context("writing the study as TOML")?,
@@ -112,7 +150,7 @@ impl ClusterArgs {
             time: self.time.clone(),
             mem: self.mem.clone(),
             cpus_per_task: self.cpus_per_task.max(1),
-            waggle: crate::waggle_binary()?,
+            waggle,
             extra,
         };
         if let Some(image) = &self.kubernetes {
@@ -126,7 +164,7 @@ impl ClusterArgs {
         if self.slurm {
             let submit = job.write_slurm(out)?;
             if self.submit {
-                let status = std::process::Command::new("bash")
+                let status = crate::host_command("bash")
                     .arg(&submit)
                     .status()
                     .with_context(|| format!("running {}", submit.display()))?;

@@ -13,7 +13,7 @@ use crate::harness::baselines::{BaselineStudy, run_baselines};
 use crate::harness::shard::Shard;
 use crate::harness::study::{Study, StudyFile, study_text};
 use crate::harness::study_merge::{MergeOptions, Merged, merge};
-use crate::harness::study_run::run_study_part;
+use crate::harness::study_run::{PartRun, run_study_part};
 use run_format::run_dir::lock::RunLock;
 
 #[derive(Debug, Args)]
@@ -28,7 +28,7 @@ pub struct StudyArgs {
     /// Output directory: one subdirectory per point (trials.json, cost.json, the per-trial
     /// records under trials/), study.json, success-<condition>.svg, report.md, cost.md. Rerun
     /// into the same directory to resume: only trials not recorded run.
-    #[arg(long, required = true)]
+    #[arg(long, required_unless_present = "print")]
     out: Option<PathBuf>,
     /// Trials at once (threads; default: the machine's cores).
     #[arg(long)]
@@ -45,6 +45,8 @@ pub struct StudyArgs {
     cluster: super::shard::ClusterArgs,
     #[command(flatten)]
     render: super::RenderArg,
+    #[command(flatten)]
+    render_cache: super::shard::RenderCacheArg,
 }
 
 #[derive(Debug, clap::Subcommand)]
@@ -58,14 +60,15 @@ pub fn run(args: StudyArgs) -> Result<()> {
     if let Some(StudyCommand::Merge(merge)) = args.command {
         return super::shard::merge(&merge);
     }
+    if let (Some(name), true) = (&args.study, args.print) {
+        Study::load(name)?;
+        print!("{}", study_text(name)?.0);
+        return Ok(());
+    }
     let (Some(name), Some(out)) = (args.study.clone(), args.out.clone()) else {
         bail!("give a study and --out DIR (or `waggle study merge DIR… --out DIR`)");
     };
     let study = Study::load(&name)?;
-    if args.print {
-        print!("{}", study_text(&name)?.0);
-        return Ok(());
-    }
     let jobs = args
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get))
@@ -76,7 +79,13 @@ pub fn run(args: StudyArgs) -> Result<()> {
                 study.trials = t;
             }
             if args.cluster.wanted() {
-                return args.cluster.write(&study, &out, &args.shard, &args.render);
+                return args.cluster.write(
+                    &study,
+                    &out,
+                    &args.shard,
+                    &args.render,
+                    &args.render_cache,
+                );
             }
             let shard = args.shard.shard()?;
             let _lock = RunLock::acquire(&out)?;
@@ -164,14 +173,18 @@ fn run_link_study(
     jobs: usize,
 ) -> Result<()> {
     let stop = bus::on_stop_signal();
+    let cache = args.render_cache.open()?;
     let bar = bar_for(0);
     let started = std::time::Instant::now();
     let counts = run_study_part(
         study,
         out,
-        args.render.path,
-        jobs,
-        shard,
+        PartRun {
+            render: args.render.path,
+            jobs,
+            shard,
+            cache: cache.as_ref(),
+        },
         &stop,
         |done, part| {
             bar.set_length(part);
@@ -181,13 +194,23 @@ fn run_link_study(
     bar.finish_and_clear();
     let what = shard.map_or_else(|| "study".to_owned(), |s| format!("shard {s} of the study"));
     println!(
-        "{what} {}: {} trials in this part: {} ran now, {} were recorded{}; {:.0} s wall ({jobs} jobs)",
+        "{what} {}: {} trials in this part: {} ran now, {} were recorded{}; {} shared flight(s){}; \
+         {:.0} s wall ({jobs} jobs)",
         study.name,
         counts.part,
         counts.ran,
         counts.recorded,
         if counts.damaged > 0 {
             format!(", {} damaged records set aside and rerun", counts.damaged)
+        } else {
+            String::new()
+        },
+        counts.shared_flights,
+        if cache.is_some() {
+            format!(
+                " ({} from the render cache)",
+                counts.shared_flights_from_cache
+            )
         } else {
             String::new()
         },

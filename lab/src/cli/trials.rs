@@ -17,7 +17,7 @@ use crate::harness::mission_trials::{MissionTrialsOptions, mission_criterion, ru
 use crate::harness::pool::Tally;
 use crate::harness::run_files::{PointCostSum, RunCost, RunKind, RunManifest, cpu_s};
 use crate::harness::study_merge::{MergeOptions, Merged, merge};
-use crate::harness::study_run::{header, recorded, run_point};
+use crate::harness::study_run::{FlightSource, header, recorded, run_point};
 use crate::harness::trials::{TrialsOptions, criterion, definition};
 use run_format::case::Case;
 use run_format::run_dir::lock::RunLock;
@@ -67,6 +67,8 @@ pub struct TrialsArgs {
     render: super::RenderArg,
     #[command(flatten)]
     shard: super::shard::ShardArgs,
+    #[command(flatten)]
+    render_cache: super::shard::RenderCacheArg,
     /// Output directory: trials.json (deterministic), cost.json (wall-clock figures) and the
     /// per-trial records under trials/. Rerun into the same directory to resume: only trials
     /// not recorded run.
@@ -144,6 +146,7 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     };
     opts.check()?;
     let shard = args.shard.shard()?;
+    let cache = args.render_cache.open()?;
     let _lock = RunLock::acquire(&args.out)?;
     RunManifest {
         kind: RunKind::Trials,
@@ -174,7 +177,10 @@ pub fn run(args: TrialsArgs) -> Result<()> {
             &opts,
             &args.out,
             ".",
-            None,
+            FlightSource {
+                shared: None,
+                cache: cache.as_ref(),
+            },
             &missing,
             &stop,
             |done, successes| {
@@ -194,8 +200,8 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     }
     .add_to(&args.out)?;
     println!(
-        "this run: {} trials ran, {already} were recorded{}; {} flight(s) {:.1} s, trials {:.1} s \
-         ({:.2} s per trial at {} jobs), render cache {:.1} MB",
+        "this run: {} trials ran, {already} were recorded{}; {} flight(s){} {:.1} s, trials \
+         {:.1} s ({:.2} s per trial at {} jobs), renders held {:.1} MB",
         cost.trials_run,
         if damaged > 0 {
             format!(", {damaged} damaged records set aside and rerun")
@@ -203,6 +209,11 @@ pub fn run(args: TrialsArgs) -> Result<()> {
             String::new()
         },
         cost.flights,
+        if cost.flights_from_cache > 0 {
+            format!(" ({} from the render cache)", cost.flights_from_cache)
+        } else {
+            String::new()
+        },
         cost.fly_and_render_s,
         cost.trials_s,
         cost.trials_s / cost.trials_run.max(1) as f64,

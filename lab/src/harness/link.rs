@@ -14,7 +14,7 @@ use proto::ReleasedFrame;
 use proto::scene::{Formation, MAX_OBSERVERS, Placement, distance_m, observer_name};
 use proto::{GestureConfig, Receiver, Rectification, RenderPath, Schedule, broadcast};
 use proto::{SegmentToken, SegmenterConfig};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use sim::render::CameraRenderer;
 use sim::sensor::{ObserverSensor, SensorOutput};
 use sim::world::World;
@@ -143,21 +143,21 @@ pub(crate) const LEAD_IN_NS: u64 = 1_000_000_000;
 pub(crate) const IDEAL_PERIOD_NS: u64 = 40_000_000;
 
 /// One confirmed token of `waggle link --json`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct TokenOut {
     pub token: String,
     pub t_s: f64,
 }
 
 /// One released frame of `waggle link --json`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FrameOut {
     pub payload: String,
     pub final_null_s: f64,
 }
 
 /// One observer's decodes.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ObserverOut {
     pub payloads: Vec<String>,
     pub frames: Vec<FrameOut>,

@@ -2,7 +2,7 @@
 //! ([`link`]), the performer's flight as physics references ([`performer_flight`]) and the
 //! offline PNG → events converter ([`convert`]), decode success against viewpoint
 //! ([`viewpoints`]), seeded perturbed trials on a flight rendered once ([`trials`],
-//! [`trial_observer`], [`rendered_flight`]) and studies of them ([`study`]); per-trial records that make runs
+//! [`trial_observer`], [`rendered_flight`], kept on disk by [`render_cache`]) and studies of them ([`study`]); per-trial records that make runs
 //! resumable ([`records`], [`run_files`]), shards and their merge ([`shard`], [`study_run`],
 //! [`study_merge`]) and cluster job files ([`cluster`]).
 
@@ -22,6 +22,7 @@ pub mod performer_flight;
 pub mod pool;
 pub mod raw;
 pub mod records;
+pub mod render_cache;
 pub mod rendered_flight;
 pub mod run_files;
 pub mod shard;

@@ -90,15 +90,21 @@ fn cpu_model() -> String {
 /// draws. The lab holds no GL context of its own (no `unsafe`), so this names the stack rather
 /// than asking it.
 fn renderer() -> String {
-    let mesa = std::process::Command::new("dpkg-query")
-        .args(["-W", "-f=${Version}", "libegl-mesa0"])
-        .output()
+    // A relocatable bundle carries its own Mesa and says which (deploy/relocatable.sh).
+    let bundled = std::env::var("WAGGLE_MESA_VERSION")
         .ok()
-        .filter(|o| o.status.success())
-        .map_or_else(
-            || "unknown".to_owned(),
-            |o| String::from_utf8_lossy(&o.stdout).trim().to_owned(),
-        );
+        .filter(|v| !v.is_empty());
+    let mesa = bundled.unwrap_or_else(|| {
+        crate::host_command("dpkg-query")
+            .args(["-W", "-f=${Version}", "libegl-mesa0"])
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map_or_else(
+                || "unknown".to_owned(),
+                |o| String::from_utf8_lossy(&o.stdout).trim().to_owned(),
+            )
+    });
     let mut s = format!("EGL, Mesa {mesa}");
     for var in ["GALLIUM_DRIVER", "LIBGL_ALWAYS_SOFTWARE", "EGL_PLATFORM"] {
         if let Ok(v) = std::env::var(var) {

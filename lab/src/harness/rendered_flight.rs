@@ -59,20 +59,20 @@ pub struct Gusts {
 }
 
 /// One camera's stored render: its stamp and what changed since the previous one.
-#[derive(Debug, Clone)]
-struct Update {
-    stamp_ns: u64,
-    change: FrameChange,
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct Update {
+    pub(crate) stamp_ns: u64,
+    pub(crate) change: FrameChange,
     /// The changed pixels: the rectangle's rows (`Within`), the whole frame (`All`), or none.
-    pixels: Vec<u8>,
+    pub(crate) pixels: Vec<u8>,
 }
 
 /// Every render of one camera.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct RenderTrack {
-    frame_len: usize,
-    width: usize,
-    updates: Vec<Update>,
+    pub(crate) frame_len: usize,
+    pub(crate) width: usize,
+    pub(crate) updates: Vec<Update>,
 }
 
 /// A flown and rendered broadcast, with the ideal receiver's decodes of the same flight.

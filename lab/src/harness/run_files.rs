@@ -92,6 +92,9 @@ pub struct PointCostSum {
     /// Trials run (not those found recorded).
     pub trials_run: u64,
     pub flights: u64,
+    /// Of them, read from the render cache on disk (`--render-cache`).
+    #[serde(default)]
+    pub flights_from_cache: u64,
     pub fly_and_render_s: f64,
     pub trials_s: f64,
     /// The largest render cache any run held, MB.
@@ -106,6 +109,7 @@ impl PointCostSum {
         Self {
             trials_run,
             flights: cost.flights,
+            flights_from_cache: cost.flights_from_cache,
             fly_and_render_s: cost.fly_and_render_s,
             trials_s: cost.trials_s,
             render_cache_mb: cost.render_cache_mb,
@@ -116,6 +120,7 @@ impl PointCostSum {
     pub fn add(&mut self, o: &Self) {
         self.trials_run += o.trials_run;
         self.flights += o.flights;
+        self.flights_from_cache += o.flights_from_cache;
         self.fly_and_render_s += o.fly_and_render_s;
         self.trials_s += o.trials_s;
         self.render_cache_mb = self.render_cache_mb.max(o.render_cache_mb);
@@ -138,6 +143,9 @@ pub struct RunCost {
     pub shared_flights: u64,
     #[serde(default)]
     pub shared_fly_s: f64,
+    /// Of the shared flights, read from the render cache on disk (`--render-cache`).
+    #[serde(default)]
+    pub shared_flights_from_cache: u64,
     /// By point directory (`.` for `waggle trials`).
     pub points: BTreeMap<String, PointCostSum>,
 }
@@ -150,6 +158,7 @@ impl RunCost {
         self.trials_run += o.trials_run;
         self.shared_flights += o.shared_flights;
         self.shared_fly_s += o.shared_fly_s;
+        self.shared_flights_from_cache += o.shared_flights_from_cache;
         for (k, v) in &o.points {
             self.points.entry(k.clone()).or_default().add(v);
         }

@@ -13,7 +13,8 @@ use sim::sensor::EVENT_RENDER_PERIOD_NS;
 
 use crate::harness::records::{HEADER_FILE, Provenance, RecordScan, scan, set_aside, write_json};
 use crate::harness::records::{read_json, write_record};
-use crate::harness::rendered_flight::{RenderedFlight, fly_rendered};
+use crate::harness::render_cache::{Fetched, RenderCache, fly_through};
+use crate::harness::rendered_flight::RenderedFlight;
 use crate::harness::run_files::{PointCostSum, RunCost, RunKind, RunManifest, cpu_s};
 use crate::harness::shard::{Shard, split};
 use crate::harness::study::{Point, StudyFile};
@@ -30,6 +31,9 @@ pub struct RunCounts {
     pub ran: u64,
     /// Records found damaged (set aside and rerun).
     pub damaged: u64,
+    /// Shared flights used, and how many of them were read from the render cache on disk.
+    pub shared_flights: u64,
+    pub shared_flights_from_cache: u64,
 }
 
 /// The study's definition as `run.json` records it (the TOML a merge reads back).
@@ -69,13 +73,21 @@ pub fn header(dir: &Path) -> Option<TrialsHeader> {
     read_json(&dir.join(HEADER_FILE)).ok()
 }
 
+/// Where a point's flight comes from: a flight shared with other points, else flown for it
+/// (through the render cache on disk, if any).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct FlightSource<'a> {
+    pub shared: Option<&'a RenderedFlight>,
+    pub cache: Option<&'a RenderCache>,
+}
+
 /// Runs `opts`' trials `missing` into `dir` (records as they end, header once flown) and
 /// returns the run's cost of them.
 pub fn run_point(
     opts: &TrialsOptions,
     dir: &Path,
     name: &str,
-    shared: Option<&RenderedFlight>,
+    FlightSource { shared, cache }: FlightSource<'_>,
     missing: &[u64],
     stop: &AtomicBool,
     progress: impl Fn(u64, u64) + Sync,
@@ -88,6 +100,7 @@ pub fn run_point(
     } = run_trials(
         opts,
         shared,
+        cache,
         missing,
         stop,
         |r| write_record(dir, name, r),
@@ -110,15 +123,28 @@ pub fn run_point(
     ))
 }
 
+/// How a run of a study's part goes: its cameras' render path, trials at once, which shard (all
+/// when none), and the render cache on disk (none: flights are kept in memory only).
+#[derive(Debug, Clone, Copy)]
+pub struct PartRun<'a> {
+    pub render: RenderPath,
+    pub jobs: usize,
+    pub shard: Option<Shard>,
+    pub cache: Option<&'a RenderCache>,
+}
+
 /// Runs the study's trials (all, or shard `shard`'s block) that `out` does not hold yet.
 /// `progress(done, part)` counts this part's trials, recorded ones included. The cost of this
 /// run is added to `out/run-cost.json`, also when `stop` interrupts it.
 pub fn run_study_part(
     study: &StudyFile,
     out: &Path,
-    render: RenderPath,
-    jobs: usize,
-    shard: Option<Shard>,
+    PartRun {
+        render,
+        jobs,
+        shard,
+        cache,
+    }: PartRun<'_>,
     stop: &AtomicBool,
     progress: impl Fn(u64, u64) + Sync,
 ) -> Result<RunCounts> {
@@ -160,6 +186,7 @@ pub fn run_study_part(
         out,
         &points,
         &work,
+        cache,
         stop,
         |n| {
             progress(done.fetch_add(n, Ordering::SeqCst) + n, counts.part);
@@ -167,6 +194,8 @@ pub fn run_study_part(
         &mut cost,
     );
     counts.ran = cost.trials_run;
+    counts.shared_flights = cost.shared_flights;
+    counts.shared_flights_from_cache = cost.shared_flights_from_cache;
     cost.wall_s = started.elapsed().as_secs_f64();
     cost.cpu_s = cpu_s() - cpu_before;
     cost.add_to(out)?;
@@ -178,6 +207,7 @@ fn run_work(
     out: &Path,
     points: &[Point],
     work: &[(usize, Vec<u64>)],
+    cache: Option<&RenderCache>,
     stop: &AtomicBool,
     one_done: impl Fn(u64) + Sync,
     cost: &mut RunCost,
@@ -206,8 +236,10 @@ fn run_work(
                     .unwrap_or(EVENT_RENDER_PERIOD_NS);
                 let spec = point.options.shared_flight_spec(period_ns)?;
                 let started = std::time::Instant::now();
-                flight = Some((key, fly_rendered(spec)?));
+                let (flown, fetched) = fly_through(cache, spec)?;
+                flight = Some((key, flown));
                 cost.shared_flights += 1;
+                cost.shared_flights_from_cache += u64::from(fetched == Fetched::Hit);
                 cost.shared_fly_s += started.elapsed().as_secs_f64();
             }
             flight.as_ref().map(|(_, f)| f)
@@ -217,7 +249,7 @@ fn run_work(
             &point.options,
             &dir,
             &point.dir,
-            shared,
+            FlightSource { shared, cache },
             missing,
             stop,
             |_, _| {

@@ -24,7 +24,8 @@ use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
 use crate::harness::link::{ObserverOut, bits6, broadcast_schedule};
 use crate::harness::pool::run_pool_on;
-use crate::harness::rendered_flight::{FlightSpec, Gusts, RenderedFlight, fly_rendered};
+use crate::harness::render_cache::{Fetched, RenderCache, fly_through};
+use crate::harness::rendered_flight::{FlightSpec, Gusts, RenderedFlight};
 use crate::harness::trial_observer::{Observed, Sensing, observe_cached, observe_flying};
 
 /// One condition and how many times to try it.
@@ -321,6 +322,7 @@ pub struct TrialsRun {
 pub fn run_trials(
     opts: &TrialsOptions,
     flown: Option<&RenderedFlight>,
+    cache: Option<&RenderCache>,
     indices: &[u64],
     stop: &AtomicBool,
     on_record: impl Fn(&TrialRecord) -> Result<()> + Sync,
@@ -332,6 +334,7 @@ pub fn run_trials(
     }
     let started = std::time::Instant::now();
     let own;
+    let mut from_cache = 0;
     let shared = match flown {
         _ if opts.perturbation.reflies() => None,
         Some(f) => {
@@ -347,7 +350,9 @@ pub fn run_trials(
             Some(f)
         }
         None => {
-            own = fly_rendered(opts.flight_spec(None)?)?;
+            let (flight, fetched) = fly_through(cache, opts.flight_spec(None)?)?;
+            from_cache += u64::from(fetched == Fetched::Hit);
+            own = flight;
             Some(&own)
         }
     };
@@ -355,10 +360,11 @@ pub fn run_trials(
     // The reference: the unperturbed flight's ideal releases (flown here when trials re-fly).
     let nominal_ideal: Vec<ObserverOut> = match shared {
         Some(f) => f.ideal.get(&opts.modality).cloned().unwrap_or_default(),
-        None => fly_rendered(opts.flight_spec(None)?)?
-            .ideal
-            .remove(&opts.modality)
-            .unwrap_or_default(),
+        None => {
+            let (mut flight, fetched) = fly_through(cache, opts.flight_spec(None)?)?;
+            from_cache += u64::from(fetched == Fetched::Hit);
+            flight.ideal.remove(&opts.modality).unwrap_or_default()
+        }
     };
     let trials_started = std::time::Instant::now();
     let records = run_pool_on(
@@ -380,6 +386,7 @@ pub fn run_trials(
         } else {
             records.len() as u64 + 1
         },
+        flights_from_cache: from_cache,
         fly_and_render_s: fly_s,
         trials_s: trials_started.elapsed().as_secs_f64(),
         render_cache_mb: shared
@@ -451,7 +458,8 @@ mod tests {
     use proto::scene::Formation;
     use proto::{Modality, Rectification, RenderPath};
 
-    use super::{Observed, TrialsOptions, fly_rendered, observe_cached, observe_flying};
+    use super::{Observed, TrialsOptions, observe_cached, observe_flying};
+    use crate::harness::rendered_flight::fly_rendered;
 
     fn digest(observed: &[Observed]) -> Vec<String> {
         observed

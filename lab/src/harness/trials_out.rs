@@ -152,7 +152,10 @@ pub struct PlacementOut {
 /// Wall-clock figures of a run, reported beside (never inside) `trials.json`.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct TrialsCost {
+    /// Flights used (flown, or read from the render cache).
     pub flights: u64,
+    /// Of them, read from the render cache on disk.
+    pub flights_from_cache: u64,
     pub fly_and_render_s: f64,
     pub trials_s: f64,
     pub render_cache_mb: f64,

@@ -1,0 +1,594 @@
+//! A render cache on disk, shared by every process on one host (`--render-cache DIR`): the
+//! shards of a study that a cluster places on the same node fly and render each shared flight
+//! once between them, and a resumed run does not fly again what it flew before it was cut.
+//!
+//! An entry is addressed by the SHA-256 of everything that decides its content: the flight's
+//! full specification, the binary (its version and executable hash), the CPU model and the
+//! renderer ([`Provenance`]: llvmpipe's output may depend on the CPU's instruction set). Another
+//! binary or machine kind simply misses, so a cache directory shared over a network file system
+//! never hands one host's renders to another kind of host.
+//!
+//! Concurrent writers are safe: a process takes an exclusive lock on the entry's lock file
+//! (`flock`) before it looks, so a second shard asking for a flight the first is rendering waits
+//! for it and then reads it, rather than rendering it again. An entry is written to a temporary
+//! file, synced and renamed into place, so a killed writer leaves no partial entry (its
+//! temporary file is removed by the next writer of that entry, which holds the lock). Every
+//! entry ends with the SHA-256 of its bytes; a damaged entry is counted, set aside
+//! (`*.damaged`) and flown again: the cache can cost time, never change a result.
+//!
+//! Entries are never evicted: remove the directory when a study is done (a node-local
+//! scratch directory suits it).
+
+use std::collections::BTreeMap;
+use std::fs::{File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail, ensure};
+use proto::{FrameChange, Modality};
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use crate::harness::link::ObserverOut;
+use crate::harness::records::Provenance;
+use crate::harness::rendered_flight::{
+    FlightSpec, RenderTrack, RenderedFlight, Update, fly_rendered,
+};
+
+/// The first bytes of an entry (format version 1).
+const MAGIC: &[u8; 8] = b"WGLRNDR1";
+/// The format tag inside an entry's metadata and its key.
+const FORMAT: &str = "waggle-renders-1";
+const DIGEST_LEN: usize = 32;
+
+/// A render cache directory.
+#[derive(Debug, Clone)]
+pub struct RenderCache {
+    dir: PathBuf,
+}
+
+/// How a flight was obtained.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Fetched {
+    /// Read from the cache.
+    Hit,
+    /// Flown and rendered now (and stored).
+    Flown,
+    /// The entry was damaged (why), set aside, and the flight flown again.
+    Replaced(String),
+}
+
+/// An entry's metadata (JSON): what the pixel section holds, and the flight's results.
+#[derive(Debug, Serialize, Deserialize)]
+struct Meta {
+    format: String,
+    key: String,
+    /// The flight's specification as this binary prints it (for a reader of the cache).
+    spec: String,
+    provenance: Provenance,
+    ideal: BTreeMap<Modality, Vec<ObserverOut>>,
+    sim_ns: u64,
+    performer_max_tracking_error_m: f64,
+    contact_steps: u64,
+    tracks: Vec<TrackMeta>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct TrackMeta {
+    frame_len: usize,
+    width: usize,
+    /// (stamp, change, bytes of its pixels in the pixel section).
+    updates: Vec<(u64, FrameChange, usize)>,
+}
+
+impl RenderCache {
+    /// The cache in `dir` (created if absent).
+    ///
+    /// # Errors
+    ///
+    /// When the directory cannot be created.
+    pub fn open(dir: &Path) -> Result<Self> {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("creating the render cache {}", dir.display()))?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+        })
+    }
+
+    /// The cache's directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The address of `spec`'s entry: hex SHA-256 of the format, this binary and host kind, and
+    /// the specification.
+    ///
+    /// # Errors
+    ///
+    /// When this binary's provenance cannot be computed.
+    pub fn key(spec: &FlightSpec) -> Result<String> {
+        let p = Provenance::here()?;
+        let mut h = Sha256::new();
+        for part in [
+            FORMAT,
+            &p.version,
+            &p.cpu,
+            &p.renderer,
+            &format!("{spec:?}"),
+        ] {
+            h.update((part.len() as u64).to_le_bytes());
+            h.update(part.as_bytes());
+        }
+        Ok(hex(&h.finalize()))
+    }
+
+    fn entry(&self, key: &str) -> PathBuf {
+        self.dir.join(format!("{key}.renders"))
+    }
+
+    /// `spec`'s flight: read from the cache, or flown, rendered and stored. Holds the entry's
+    /// lock throughout, so a concurrent request for the same flight waits and then reads it.
+    ///
+    /// # Errors
+    ///
+    /// When the flight fails, or the cache cannot be locked or written.
+    pub fn fly(&self, spec: FlightSpec) -> Result<(RenderedFlight, Fetched)> {
+        let key = Self::key(&spec)?;
+        let lock_path = self.dir.join(format!("{key}.lock"));
+        let lock = OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&lock_path)
+            .with_context(|| format!("opening {}", lock_path.display()))?;
+        lock.lock()
+            .with_context(|| format!("locking {}", lock_path.display()))?;
+        let path = self.entry(&key);
+        let mut fetched = Fetched::Flown;
+        if path.exists() {
+            match read_entry(&path, &key, &spec) {
+                Ok(flight) => return Ok((flight, Fetched::Hit)),
+                Err(why) => {
+                    let why = format!("{why:#}");
+                    let aside = path.with_extension("renders.damaged");
+                    std::fs::rename(&path, &aside)
+                        .with_context(|| format!("setting the damaged {} aside", path.display()))?;
+                    fetched = Fetched::Replaced(why);
+                }
+            }
+        }
+        self.remove_temporaries(&key)?;
+        let flight = fly_rendered(spec)?;
+        let bytes = encode(&flight, &key)?;
+        let tmp = self.dir.join(format!("{key}.tmp-{}", std::process::id()));
+        write_synced(&tmp, &bytes)?;
+        std::fs::rename(&tmp, &path)
+            .with_context(|| format!("renaming {} into place", tmp.display()))?;
+        if let Ok(d) = File::open(&self.dir) {
+            // The rename is durable once the directory is synced; a failure only risks a miss.
+            let _ = d.sync_all();
+        }
+        drop(lock);
+        Ok((flight, fetched))
+    }
+
+    /// Removes what killed writers of `key` left (only the lock's holder writes an entry).
+    fn remove_temporaries(&self, key: &str) -> Result<()> {
+        let prefix = format!("{key}.tmp-");
+        let entries = std::fs::read_dir(&self.dir)
+            .with_context(|| format!("listing {}", self.dir.display()))?;
+        for e in entries.flatten() {
+            if e.file_name().to_string_lossy().starts_with(&prefix) {
+                std::fs::remove_file(e.path())
+                    .with_context(|| format!("removing {}", e.path().display()))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Flies `spec` through `cache` when there is one (see [`RenderCache::fly`]); reports a damaged
+/// entry on stderr.
+///
+/// # Errors
+///
+/// As [`RenderCache::fly`] and [`fly_rendered`].
+pub fn fly_through(
+    cache: Option<&RenderCache>,
+    spec: FlightSpec,
+) -> Result<(RenderedFlight, Fetched)> {
+    match cache {
+        None => Ok((fly_rendered(spec)?, Fetched::Flown)),
+        Some(c) => {
+            let (flight, fetched) = c.fly(spec)?;
+            if let Fetched::Replaced(why) = &fetched {
+                eprintln!(
+                    "render cache {}: a damaged entry ({why}) was set aside and flown again",
+                    c.dir().display()
+                );
+            }
+            Ok((flight, fetched))
+        }
+    }
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+fn write_synced(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut f = File::create(path).with_context(|| format!("creating {}", path.display()))?;
+    f.write_all(bytes)
+        .and_then(|()| f.sync_all())
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// An entry: magic, metadata length (u64 LE), metadata (JSON), the pixel section, SHA-256 of
+/// all before it.
+fn encode(flight: &RenderedFlight, key: &str) -> Result<Vec<u8>> {
+    let meta = Meta {
+        format: FORMAT.into(),
+        key: key.into(),
+        spec: format!("{:?}", flight.spec),
+        provenance: Provenance::here()?.clone(),
+        ideal: flight.ideal.clone(),
+        sim_ns: flight.sim_ns,
+        performer_max_tracking_error_m: flight.performer_max_tracking_error_m,
+        contact_steps: flight.contact_steps,
+        tracks: flight
+            .tracks
+            .iter()
+            .map(|t| TrackMeta {
+                frame_len: t.frame_len,
+                width: t.width,
+                updates: t
+                    .updates
+                    .iter()
+                    .map(|u| (u.stamp_ns, u.change, u.pixels.len()))
+                    .collect(),
+            })
+            .collect(),
+    };
+    let meta = serde_json::to_vec(&meta).context("writing a render cache entry's metadata")?;
+    let pixels: usize = flight.stored_bytes();
+    let mut out = Vec::with_capacity(MAGIC.len() + 8 + meta.len() + pixels + DIGEST_LEN);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&(meta.len() as u64).to_le_bytes());
+    out.extend_from_slice(&meta);
+    for t in &flight.tracks {
+        for u in &t.updates {
+            out.extend_from_slice(&u.pixels);
+        }
+    }
+    let digest = Sha256::digest(&out);
+    out.extend_from_slice(&digest);
+    Ok(out)
+}
+
+/// Reads and checks the entry at `path` for `key`; the flight's `spec` is the caller's (the key
+/// covers it).
+fn read_entry(path: &Path, key: &str, spec: &FlightSpec) -> Result<RenderedFlight> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    decode(&bytes, key, spec)
+}
+
+fn decode(bytes: &[u8], key: &str, spec: &FlightSpec) -> Result<RenderedFlight> {
+    let head = MAGIC.len() + 8;
+    ensure!(
+        bytes.len() >= head + DIGEST_LEN,
+        "{} bytes: shorter than an entry's header",
+        bytes.len()
+    );
+    ensure!(&bytes[..MAGIC.len()] == MAGIC, "not a render cache entry");
+    let (body, digest) = bytes.split_at(bytes.len() - DIGEST_LEN);
+    ensure!(
+        Sha256::digest(body).as_slice() == digest,
+        "its SHA-256 does not match its content"
+    );
+    let meta_len = u64::from_le_bytes(bytes[MAGIC.len()..head].try_into()?);
+    let meta_end = usize::try_from(meta_len)
+        .ok()
+        .and_then(|n| head.checked_add(n))
+        .filter(|&end| end <= body.len())
+        .context("its metadata length runs past its end")?;
+    let meta: Meta = serde_json::from_slice(&body[head..meta_end]).context("its metadata")?;
+    ensure!(
+        meta.format == FORMAT,
+        "format {} is not {FORMAT}",
+        meta.format
+    );
+    ensure!(meta.key == key, "it holds entry {}", meta.key);
+    ensure!(
+        meta.tracks.len() == spec.formation.len(),
+        "{} tracks for {} observers",
+        meta.tracks.len(),
+        spec.formation.len()
+    );
+    let mut at = meta_end;
+    let mut tracks = Vec::with_capacity(meta.tracks.len());
+    for (i, t) in meta.tracks.iter().enumerate() {
+        let mut track = RenderTrack {
+            frame_len: t.frame_len,
+            width: t.width,
+            updates: Vec::with_capacity(t.updates.len()),
+        };
+        for (k, &(stamp_ns, change, len)) in t.updates.iter().enumerate() {
+            check_update(t, k, change, len).with_context(|| format!("track {i}, render {k}"))?;
+            let end = at
+                .checked_add(len)
+                .filter(|&e| e <= body.len())
+                .with_context(|| format!("track {i}, render {k}: pixels run past the end"))?;
+            track.updates.push(Update {
+                stamp_ns,
+                change,
+                pixels: body[at..end].to_vec(),
+            });
+            at = end;
+        }
+        tracks.push(track);
+    }
+    ensure!(
+        at == body.len(),
+        "{} bytes after the last render",
+        body.len() - at
+    );
+    Ok(RenderedFlight {
+        spec: spec.clone(),
+        tracks,
+        ideal: meta.ideal,
+        sim_ns: meta.sim_ns,
+        performer_max_tracking_error_m: meta.performer_max_tracking_error_m,
+        contact_steps: meta.contact_steps,
+    })
+}
+
+/// A render's pixels must fit its frame, so that replaying it cannot index outside the frame.
+fn check_update(t: &TrackMeta, k: usize, change: FrameChange, len: usize) -> Result<()> {
+    if t.width == 0 || !t.frame_len.is_multiple_of(3 * t.width) {
+        bail!(
+            "frame of {} bytes is not rows {} pixels wide",
+            t.frame_len,
+            t.width
+        );
+    }
+    let height = t.frame_len / (3 * t.width);
+    let want = match change {
+        FrameChange::Nothing => 0,
+        FrameChange::All => t.frame_len,
+        FrameChange::Within(r) => {
+            let (x, y) = (usize::from(r.x), usize::from(r.y));
+            let (w, h) = (usize::from(r.width), usize::from(r.height));
+            ensure!(
+                x + w <= t.width && y + h <= height,
+                "rectangle {r:?} outside a {}×{height} frame",
+                t.width
+            );
+            3 * w * h
+        }
+    };
+    ensure!(
+        k > 0 || change == FrameChange::All,
+        "the first render is not whole"
+    );
+    ensure!(len == want, "{len} bytes of pixels where {want} are due");
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::harness::trials::TrialsOptions;
+    use perturb::Perturbation;
+    use proto::scene::Formation;
+    use proto::{Modality, Rectification, RenderPath};
+
+    /// A short real flight (MuJoCo and the renderer): one observer, 1.5 s.
+    fn spec(end_ns: u64) -> FlightSpec {
+        let opts = TrialsOptions {
+            payloads: vec![0b011010],
+            formation: Formation::standard(1).unwrap(),
+            modality: Modality::Rgb,
+            trials: 1,
+            seed: 0,
+            perturbation: Perturbation::parse::<&str>(&[]).unwrap(),
+            jobs: 1,
+            render: RenderPath::Damage,
+            rectification: Rectification::Pitched,
+            acquisition: Some(false),
+        };
+        let mut spec = opts.shared_flight_spec(40_000_000).unwrap();
+        spec.end_ns = end_ns;
+        spec
+    }
+
+    fn same(a: &RenderedFlight, b: &RenderedFlight) {
+        assert_eq!(a.tracks, b.tracks);
+        assert_eq!(
+            serde_json::to_string(&a.ideal).unwrap(),
+            serde_json::to_string(&b.ideal).unwrap()
+        );
+        assert_eq!((a.sim_ns, a.contact_steps), (b.sim_ns, b.contact_steps));
+        assert_eq!(
+            a.performer_max_tracking_error_m.to_bits(),
+            b.performer_max_tracking_error_m.to_bits()
+        );
+    }
+
+    /// A directory of this test process, removed when dropped.
+    struct Scratch(PathBuf);
+
+    impl Scratch {
+        fn new(name: &str) -> Self {
+            let d = std::env::temp_dir()
+                .join(format!("waggle-render-cache-{}-{name}", std::process::id()));
+            let _ = std::fs::remove_dir_all(&d);
+            Self(d)
+        }
+
+        fn path(&self) -> &Path {
+            &self.0
+        }
+    }
+
+    impl Drop for Scratch {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    fn entries(dir: &Path, ending: &str) -> usize {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .file_name()
+                    .to_string_lossy()
+                    .ends_with(ending)
+            })
+            .count()
+    }
+
+    /// Stored, read back equal; another flight is another entry; damage of any kind is found,
+    /// set aside and flown again with the same result; a killed writer's leftover is removed.
+    #[test]
+    fn a_cached_flight_reads_back_exactly_and_damage_is_flown_again() {
+        let dir = Scratch::new("read-back");
+        let cache = RenderCache::open(dir.path()).unwrap();
+        let s = spec(1_500_000_000);
+        let key = RenderCache::key(&s).unwrap();
+        std::fs::write(dir.path().join(format!("{key}.tmp-999999")), b"partial").unwrap();
+        let (flown, how) = cache.fly(s.clone()).unwrap();
+        assert_eq!(how, Fetched::Flown);
+        assert!(flown.stored_bytes() > 0 && flown.sim_ns > 0);
+        assert_eq!(entries(dir.path(), ".renders"), 1);
+        assert!(!dir.path().join(format!("{key}.tmp-999999")).exists());
+        let (read, how) = cache.fly(s.clone()).unwrap();
+        assert_eq!(how, Fetched::Hit);
+        same(&flown, &read);
+        assert_eq!(read.spec.end_ns, s.end_ns);
+
+        let other = spec(1_000_000_000);
+        assert_ne!(RenderCache::key(&other).unwrap(), key);
+        let (o, how) = cache.fly(other).unwrap();
+        assert_eq!(how, Fetched::Flown);
+        assert_ne!(o.tracks, flown.tracks);
+
+        let path = cache.entry(&key);
+        let good = std::fs::read(&path).unwrap();
+        let flip_pixel = good.len() - DIGEST_LEN - 5;
+        type Damage = Box<dyn Fn(&mut Vec<u8>)>;
+        let damages: [(&str, Damage); 4] = [
+            ("a pixel", Box::new(move |b| b[flip_pixel] ^= 0x10)),
+            ("the digest", Box::new(|b| *b.last_mut().unwrap() ^= 1)),
+            ("cut short", Box::new(|b| b.truncate(b.len() / 2))),
+            ("empty", Box::new(|b| b.clear())),
+        ];
+        for (k, (what, damage)) in damages.iter().enumerate() {
+            let mut bytes = good.clone();
+            damage(&mut bytes);
+            std::fs::write(&path, &bytes).unwrap();
+            let (again, how) = cache.fly(s.clone()).unwrap();
+            assert!(matches!(how, Fetched::Replaced(_)), "{what}: {how:?}");
+            same(&flown, &again);
+            assert_eq!(std::fs::read(&path).unwrap(), good, "{what}");
+            assert!(
+                path.with_extension("renders.damaged").exists(),
+                "{what} {k}"
+            );
+        }
+    }
+
+    /// Shards on one host asking at once: one flies, the others wait on its lock and read it.
+    #[test]
+    fn concurrent_requests_fly_once() {
+        let dir = Scratch::new("concurrent");
+        let s = spec(1_000_000_000);
+        let results: Vec<(RenderedFlight, Fetched)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..3)
+                .map(|_| {
+                    let (d, s) = (dir.path().to_path_buf(), s.clone());
+                    scope.spawn(move || RenderCache::open(&d).unwrap().fly(s).unwrap())
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        let flown = results.iter().filter(|(_, h)| *h == Fetched::Flown).count();
+        let hits = results.iter().filter(|(_, h)| *h == Fetched::Hit).count();
+        assert_eq!((flown, hits), (1, 2));
+        for (f, _) in &results[1..] {
+            same(&results[0].0, f);
+        }
+        assert_eq!(entries(dir.path(), ".renders"), 1);
+    }
+
+    fn track(frame: &[u8], width: usize, changes: &[(FrameChange, Vec<u8>)]) -> RenderTrack {
+        RenderTrack {
+            frame_len: frame.len(),
+            width,
+            updates: changes
+                .iter()
+                .enumerate()
+                .map(|(k, (c, p))| Update {
+                    stamp_ns: k as u64 * 10,
+                    change: *c,
+                    pixels: p.clone(),
+                })
+                .collect(),
+        }
+    }
+
+    fn meta_of(t: &RenderTrack) -> TrackMeta {
+        TrackMeta {
+            frame_len: t.frame_len,
+            width: t.width,
+            updates: t
+                .updates
+                .iter()
+                .map(|u| (u.stamp_ns, u.change, u.pixels.len()))
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn renders_that_do_not_fit_their_frame_are_refused() {
+        let rect = |x, y, width, height| proto::PixelRect {
+            x,
+            y,
+            width,
+            height,
+        };
+        let frame = vec![0u8; 3 * 4 * 2];
+        let good = track(
+            &frame,
+            4,
+            &[
+                (FrameChange::All, frame.clone()),
+                (FrameChange::Nothing, vec![]),
+                (FrameChange::Within(rect(1, 1, 3, 1)), vec![7; 9]),
+            ],
+        );
+        let m = meta_of(&good);
+        for (k, &(_, c, len)) in m.updates.iter().enumerate() {
+            check_update(&m, k, c, len).unwrap();
+        }
+        let cases = [
+            (1, FrameChange::Within(rect(2, 0, 3, 1)), 9, "outside"),
+            (1, FrameChange::Within(rect(0, 1, 1, 2)), 6, "outside"),
+            (1, FrameChange::Within(rect(0, 0, 1, 1)), 4, "are due"),
+            (1, FrameChange::All, 3, "are due"),
+            (1, FrameChange::Nothing, 1, "are due"),
+            (0, FrameChange::Nothing, 0, "not whole"),
+        ];
+        for (k, change, len, says) in cases {
+            let err = check_update(&m, k, change, len).unwrap_err().to_string();
+            assert!(err.contains(says), "{change:?} {len}: {err}");
+        }
+        let crooked = TrackMeta {
+            frame_len: 10,
+            width: 4,
+            updates: vec![],
+        };
+        assert!(check_update(&crooked, 0, FrameChange::All, 10).is_err());
+    }
+}
