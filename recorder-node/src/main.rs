@@ -6,7 +6,9 @@
 //! a chunk and flushes the file every `--flush-ms` of wall time, so a kill loses at most that
 //! much; it finishes the file (summary and footer) after `MissionEnd`, on SIGINT/SIGTERM, or
 //! when the simulator and the scheduler are both gone. With `--live ADDR:PORT` it also serves
-//! every view channel over a Foxglove WebSocket while it records ([`live`]).
+//! every view channel over a Foxglove WebSocket while it records ([`live`]); with
+//! `--ros2-domain N` it publishes the session as ROS 2 topics on `rmw_zenoh`
+//! ([`ros2_bag::live`]).
 
 mod live;
 
@@ -23,6 +25,7 @@ use node_args::{RecorderArgs, RecorderOutput};
 use proto::{RejectReason, Role};
 use recording::foxglove::LogLevel;
 use recording::{Recorded, RecorderOptions, SessionInfo, SessionWriter};
+use ros2_bag::live::{LiveOptions, LiveView};
 
 #[derive(Parser)]
 #[command(
@@ -53,6 +56,8 @@ fn main() -> Result<()> {
         writer = writer.with_tap(Box::new(live));
     }
 
+    let mut ros2 = ros2_view(&args)?;
+
     let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
     let keys = bus.keys().clone();
     bus.subscribe(&keys.all())?;
@@ -75,6 +80,9 @@ fn main() -> Result<()> {
         match bus.recv(Duration::from_millis(50)) {
             Some(Inbound::Data { key, payload }) => {
                 last_data = Instant::now();
+                if let Some(view) = ros2.as_mut() {
+                    publish_ros2(view, keys.prefix(), &key, &payload, writer.sim_time_ns());
+                }
                 match writer.record(&key, &payload)? {
                     Recorded::Message { mission_end, .. } => {
                         if mission_end {
@@ -148,7 +156,48 @@ fn main() -> Result<()> {
         &rejects.report(),
     );
     let _ = bus.close();
+    if let Some(view) = ros2 {
+        let counts = view.close().context("closing the live ROS 2 view")?;
+        tracing::info!(
+            published = counts.published.values().sum::<u64>(),
+            topics = counts.published.len(),
+            failed = counts.failed,
+            "live ROS 2 view closed"
+        );
+    }
     Ok(())
+}
+
+/// The live ROS 2 view, when `--ros2-domain` asks for one.
+fn ros2_view(args: &Args) -> Result<Option<LiveView>> {
+    let Some(domain) = args.output.ros2_domain else {
+        return Ok(None);
+    };
+    let options = LiveOptions {
+        domain,
+        router: args
+            .output
+            .ros2_router
+            .clone()
+            .unwrap_or_else(|| ros2_bag::live::DEFAULT_ROUTER.to_string()),
+        observers: args.node.observers,
+        session: args.node.session.clone(),
+    };
+    LiveView::start(&options)
+        .map(Some)
+        .context("starting the live ROS 2 view")
+}
+
+/// Hands a session message to the live ROS 2 view (a key of no known kind, or a payload that
+/// does not decode, is the recording's to count).
+fn publish_ros2(view: &mut LiveView, prefix: &str, key: &str, payload: &[u8], last_ns: u64) {
+    let Some(topic) = recording::classify(prefix, key) else {
+        return;
+    };
+    if let Ok(msg) = recording::decode(topic.kind, payload) {
+        let log_time_ns = msg.sim_time_ns().unwrap_or(last_ns);
+        view.publish(&topic.topic, msg, log_time_ns);
+    }
 }
 
 /// The MCAP writer for `args.output.out` (directory created), its header and metadata written.

@@ -111,6 +111,7 @@ impl SessionArgs {
             endpoints: Endpoints::default(),
             render: self.render.path,
             live: None,
+            ros2: None,
             sensor,
         };
         Ok((case, modality, opts))
@@ -140,6 +141,25 @@ pub struct LaunchArgs {
     /// the recorder's host.
     #[arg(long, value_name = "PORT")]
     pub live: Option<u16>,
+    /// Also publish the run live as ROS 2 topics in this ROS domain, as ROS 2 Jazzy's
+    /// `rmw_zenoh` does (the topics and types of `waggle export ros2`), from the recorder's
+    /// host: `ros2 topic echo` under RMW_IMPLEMENTATION=rmw_zenoh_cpp sees them.
+    #[arg(long, value_name = "N")]
+    pub ros2_domain: Option<u32>,
+    /// The ROS side's Zenoh router for --ros2-domain (default: tcp/localhost:7447, where
+    /// `ros2 run rmw_zenoh_cpp rmw_zenohd` listens).
+    #[arg(long, value_name = "ENDPOINT", requires = "ros2_domain")]
+    pub ros2_router: Option<String>,
+}
+
+impl LaunchArgs {
+    /// The live ROS 2 view asked for, if any.
+    pub fn ros2(&self) -> Option<crate::launch::up::Ros2View> {
+        self.ros2_domain.map(|domain| crate::launch::up::Ros2View {
+            domain,
+            router: self.ros2_router.clone(),
+        })
+    }
 }
 
 #[derive(Debug, Args)]
@@ -157,6 +177,7 @@ pub struct RunArgs {
 pub fn run(args: RunArgs) -> Result<()> {
     let (case, modality, mut opts) = args.session.options()?;
     let launch = args.launch;
+    opts.ros2 = launch.ros2();
     opts.out = launch.out;
     opts.bin_dir = launch.bin_dir;
     opts.quiet = launch.quiet;

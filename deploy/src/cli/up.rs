@@ -52,12 +52,14 @@ pub fn run(args: UpArgs) -> Result<()> {
     let compose = Compose::load(&args.file)?;
     let secrets = open_secrets(&compose, &args.file, args.host.as_deref())?;
     let json = args.launch.json;
+    let ros2 = args.launch.ros2();
     let opts = UpOptions {
         host: args.host,
         out: args.launch.out,
         bin_dir: args.launch.bin_dir,
         quiet: args.launch.quiet,
         live: args.launch.live,
+        ros2,
     };
     match up(&compose, secrets.as_ref(), &opts)? {
         UpDone::Supervised(done) => {

@@ -150,6 +150,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                     endpoints: Endpoints::default(),
                     render,
                     live: None,
+                    ros2: None,
                     sensor: node_args::SensorArgs::default(),
                 },
             )?;

@@ -76,6 +76,8 @@ pub struct RunOptions {
     pub render: RenderPath,
     /// Serve the view channels live over a Foxglove WebSocket on this loopback port.
     pub live: Option<u16>,
+    /// Publish the session live as ROS 2 topics on `rmw_zenoh`.
+    pub ros2: Option<up::Ros2View>,
     /// The event cameras' sensor model (default: the paper's ideal sensors).
     pub sensor: SensorArgs,
 }
@@ -201,6 +203,7 @@ pub fn run_case(case: &Case, modality: Modality, opts: &RunOptions) -> Result<Ru
         bin_dir: opts.bin_dir.clone(),
         quiet: opts.quiet,
         live: opts.live,
+        ros2: opts.ros2.clone(),
     };
     match up::up(&compose, secrets.as_ref(), &up_opts)? {
         UpDone::Supervised(done) => Ok(*done),

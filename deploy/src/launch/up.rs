@@ -41,6 +41,15 @@ pub struct UpOptions {
     /// Serve the view channels live over a Foxglove WebSocket on this loopback port (the
     /// recorder's host).
     pub live: Option<u16>,
+    /// Publish the session live as ROS 2 topics on `rmw_zenoh` (the recorder's host).
+    pub ros2: Option<Ros2View>,
+}
+
+/// The live ROS 2 view: ROS domain and the ROS side's Zenoh router (default `rmw_zenohd`'s).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Ros2View {
+    pub domain: u32,
+    pub router: Option<String>,
 }
 
 /// A host's own record.
@@ -179,7 +188,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
         &share,
         &spawner,
         &place.out_dir,
-        opts.live,
+        (opts.live, opts.ros2.as_ref()),
         &mut procs,
     );
     let stop = bus::on_stop_signal();
@@ -385,7 +394,7 @@ fn spawn_share(
     share: &Share,
     spawner: &Spawner<'_>,
     out_dir: &Path,
-    live: Option<u16>,
+    views: (Option<u16>, Option<&Ros2View>),
     procs: &mut Vec<Proc>,
 ) -> Result<()> {
     for node in compose
@@ -396,11 +405,21 @@ fn spawn_share(
         let mut args = node.args.clone();
         let recorder = node.role.role == Role::Recorder;
         if recorder {
-            let output = recorder_output(&compose.case, out_dir, live)?;
+            let output = recorder_output(&compose.case, out_dir, views)?;
             args.extend(output.to_args());
             if let Some(addr) = output.live {
                 eprintln!(
                     "live view: ws://{addr} (Foxglove: Open connection → Foxglove WebSocket)"
+                );
+            }
+            if let Some(domain) = output.ros2_domain {
+                eprintln!(
+                    "live ROS 2 view: domain {domain} via {} (ros2 topic list under \
+                     RMW_IMPLEMENTATION=rmw_zenoh_cpp)",
+                    output
+                        .ros2_router
+                        .as_deref()
+                        .unwrap_or(ros2_bag::live::DEFAULT_ROUTER)
                 );
             }
         }
@@ -413,7 +432,11 @@ fn spawn_share(
 
 /// Where the recorder writes in the run directory, and the live view's loopback address; writes
 /// the case text to `out_dir/case.toml` so the recording holds the case and its expected outcome.
-fn recorder_output(case_text: &str, out_dir: &Path, live: Option<u16>) -> Result<RecorderOutput> {
+fn recorder_output(
+    case_text: &str,
+    out_dir: &Path,
+    (live, ros2): (Option<u16>, Option<&Ros2View>),
+) -> Result<RecorderOutput> {
     let case_file = out_dir.join(CASE_FILE);
     std::fs::write(&case_file, case_text)
         .with_context(|| format!("writing {}", case_file.display()))?;
@@ -421,5 +444,7 @@ fn recorder_output(case_text: &str, out_dir: &Path, live: Option<u16>) -> Result
         out: out_dir.join(RECORDING_FILE),
         case_file: Some(case_file),
         live: live.map(|port| std::net::SocketAddr::from(([127, 0, 0, 1], port))),
+        ros2_domain: ros2.map(|r| r.domain),
+        ros2_router: ros2.and_then(|r| r.router.clone()),
     })
 }

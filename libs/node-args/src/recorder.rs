@@ -1,6 +1,6 @@
 //! `recorder-node`'s arguments: what the compose file decides ([`RecorderArgs`]) and what the
 //! launcher of the recorder's host adds ([`RecorderOutput`]: paths in its run directory, the
-//! live view's address).
+//! live view's address, the live ROS 2 view's domain and router).
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -82,6 +82,14 @@ pub struct RecorderOutput {
     /// (e.g. `127.0.0.1:8765`), while recording.
     #[arg(long, value_name = "ADDR:PORT")]
     pub live: Option<SocketAddr>,
+    /// Also publish the session live as ROS 2 topics, as ROS 2 Jazzy's `rmw_zenoh` does, in
+    /// this ROS domain (`ROS_DOMAIN_ID`): the topics `waggle export ros2` writes.
+    #[arg(long, value_name = "N")]
+    pub ros2_domain: Option<u32>,
+    /// The ROS side's Zenoh router for --ros2-domain (default: tcp/localhost:7447, where
+    /// `rmw_zenohd` listens).
+    #[arg(long, value_name = "ENDPOINT", requires = "ros2_domain")]
+    pub ros2_router: Option<String>,
 }
 
 impl RecorderOutput {
@@ -91,6 +99,8 @@ impl RecorderOutput {
             .value("--out", self.out.display())
             .opt("--case-file", self.case_file.as_ref().map(|p| p.display()))
             .opt("--live", self.live)
+            .opt("--ros2-domain", self.ros2_domain)
+            .opt("--ros2-router", self.ros2_router.as_ref())
             .done()
     }
 }

@@ -155,11 +155,22 @@ fn the_recorders_output_round_trips() {
             out: "runs/x/session.mcap".into(),
             case_file: Some("runs/x/case.toml".into()),
             live: Some("127.0.0.1:8765".parse().unwrap()),
+            ros2_domain: Some(7),
+            ros2_router: Some("tcp/10.0.0.2:7447".into()),
+        },
+        RecorderOutput {
+            out: "y.mcap".into(),
+            case_file: None,
+            live: None,
+            ros2_domain: Some(0),
+            ros2_router: None,
         },
         RecorderOutput {
             out: "a b/s.mcap".into(),
             case_file: None,
             live: None,
+            ros2_domain: None,
+            ros2_router: None,
         },
     ] {
         let argv = std::iter::once("recorder-node".to_string()).chain(out.to_args());

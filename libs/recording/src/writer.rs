@@ -257,6 +257,11 @@ impl<W: Write + Seek> SessionWriter<W> {
         out
     }
 
+    /// The session's sim time as far as recorded (the log time of a message without its own).
+    pub fn sim_time_ns(&self) -> u64 {
+        self.sim_time_ns
+    }
+
     pub fn stats(&self) -> &RecordStats {
         &self.stats
     }

@@ -63,4 +63,6 @@ pub enum Ros2Error {
     BagRead { path: String, reason: String },
     #[error("encoding a PNG image of {observer}: {reason}")]
     Png { observer: String, reason: String },
+    #[error("the live ROS 2 view: {reason}")]
+    Live { reason: String },
 }

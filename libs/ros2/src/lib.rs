@@ -16,24 +16,32 @@
 //! - [`bag`]: the bag writer ([`BagWriter`]) and `metadata.yaml`;
 //! - [`geometry`]: camera intrinsics (`CameraInfo`) and the camera's optical frame from Waggle's
 //!   camera model;
+//! - [`convert`]: Waggle messages → ROS 2 messages, shared by the export and the live view;
 //! - [`export`]: a recording (`session.mcap`) → a bag, deterministic (the same run gives the same
 //!   bytes) and sorted by time;
+//! - [`rmw_zenoh`] and [`live`]: the same messages published live as ROS 2 Jazzy's Zenoh
+//!   middleware publishes them (`waggle run --ros2-domain N`);
 //! - [`ingest`]: an `event_camera_msgs` bag read back into events (`waggle decode`).
 //!
-//! Pure apart from the files it reads and writes; errors are [`Ros2Error`].
+//! Pure apart from the files it reads and writes and [`live`]'s Zenoh session; errors are
+//! [`Ros2Error`].
 
 pub mod bag;
 pub mod cdr;
+pub mod convert;
 pub mod definitions;
 pub mod error;
 pub mod export;
 pub mod geometry;
 pub mod ingest;
+pub mod live;
 pub mod messages;
+pub mod rmw_zenoh;
 pub mod waggle_msgs;
 
 pub use bag::{BagSummary, BagWriter, QosProfile, TopicSpec};
 pub use cdr::{CdrEncode, CdrError, CdrReader, CdrWriter, RosMessage};
+pub use convert::{Converted, Converter};
 pub use error::Ros2Error;
 pub use export::{ExportOptions, ExportReport, ImageFormat, export_run};
 
