@@ -1,4 +1,4 @@
-//! Waggle messages → ROS 2 messages ([`Converter`]), shared by the bag export
+//! Waggle messages → ROS 2 messages ([`RosConverter`]), shared by the bag export
 //! ([`crate::export`]) and the live view on `rmw_zenoh` ([`crate::live`]). The mapping of keys to
 //! topics and types is the table in [`crate::export`].
 
@@ -14,13 +14,31 @@ use recording::Decoded;
 use crate::bag::QosProfile;
 use crate::cdr::RosMessage;
 use crate::error::Ros2Error;
-use crate::export::{ExportOptions, ImageFormat, WORLD_FRAME};
 use crate::geometry::{camera_info, camera_mount};
 use crate::messages::{
     CompressedImageMsg, EventPacketMsg, HeaderMsg, ImageMsg, QuaternionMsg, TfMessage,
     TransformStampedMsg, Vector3Msg,
 };
 use crate::waggle_msgs::{DecisionMsg, FaultMsg, FrameMsg, TokenMsg, optical_frame};
+
+/// The world frame of `/tf`.
+pub const WORLD_FRAME: &str = "world";
+
+/// How RGB frames go into the bag.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ImageFormat {
+    /// `sensor_msgs/msg/CompressedImage`, lossless PNG.
+    #[default]
+    Png,
+    /// `sensor_msgs/msg/Image`, `rgb8`.
+    Raw,
+}
+
+/// What to export.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ExportOptions {
+    pub images: ImageFormat,
+}
 
 /// One camera's conversion state.
 struct Camera {
@@ -44,7 +62,7 @@ pub struct Converted {
 
 /// Waggle messages → ROS 2 messages, in the order they come (one per recording or session: it
 /// keeps each camera's RGB reassembly and EVT 3.0 encoder).
-pub struct Converter {
+pub struct RosConverter {
     /// What is converted, for errors (a recording's path, or a session).
     source: String,
     options: ExportOptions,
@@ -57,7 +75,7 @@ pub struct Converter {
     images: u64,
 }
 
-impl Converter {
+impl RosConverter {
     /// A converter of `source` (named in errors) whose observers' cameras are pitched as
     /// `pitch_rad` says (their static transforms).
     pub fn new(source: &str, options: ExportOptions, pitch_rad: BTreeMap<String, f64>) -> Self {

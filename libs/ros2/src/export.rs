@@ -2,7 +2,7 @@
 //!
 //! | Waggle key | bag topic | type |
 //! | --- | --- | --- |
-//! | `sensor/<o>/rgb` | `/<o>/camera/image_raw/compressed` (PNG, lossless) or, with [`ImageFormat::Raw`], `/<o>/camera/image_raw` | `sensor_msgs/msg/CompressedImage` / `Image` (`rgb8`) |
+//! | `sensor/<o>/rgb` | `/<o>/camera/image_raw/compressed` (PNG, lossless) or, with [`crate::ImageFormat::Raw`], `/<o>/camera/image_raw` | `sensor_msgs/msg/CompressedImage` / `Image` (`rgb8`) |
 //! | `sensor/<o>/events` | `/<o>/events` | `event_camera_msgs/msg/EventPacket`, `encoding: "evt3"` |
 //! | either sensor | `/<o>/camera/camera_info` (with every image or packet) | `sensor_msgs/msg/CameraInfo` |
 //! | `sim/state` | `/tf` (`world` → each drone's body frame) | `tf2_msgs/msg/TFMessage` |
@@ -32,30 +32,11 @@ use recording::{
 };
 
 use crate::bag::{BagSummary, BagWriter};
-use crate::convert::{Converted, Converter};
+use crate::convert::{Converted, ExportOptions, RosConverter};
 use crate::error::Ros2Error;
 
 /// Messages are held this long (sim time) to be written in log-time order.
 pub const REORDER_WINDOW_NS: u64 = 1_000_000_000;
-/// The world frame of `/tf`.
-pub const WORLD_FRAME: &str = "world";
-
-/// How RGB frames go into the bag.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum ImageFormat {
-    /// `sensor_msgs/msg/CompressedImage`, lossless PNG.
-    #[default]
-    Png,
-    /// `sensor_msgs/msg/Image`, `rgb8`.
-    Raw,
-}
-
-/// What to export.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct ExportOptions {
-    pub images: ImageFormat,
-}
-
 /// What an export wrote.
 #[derive(Debug, Clone)]
 pub struct ExportReport {
@@ -103,7 +84,7 @@ impl Pending {
 
 /// The bag side of an export: the reorder window and the writer.
 struct Exporter {
-    converter: Converter,
+    converter: RosConverter,
     bag: BagWriter,
     pending: BinaryHeap<Pending>,
     order: u64,
@@ -223,7 +204,7 @@ fn export_into(
     let shown = recording.display().to_string();
     let pitch_rad = pitches(recording)?;
     let mut x = Exporter {
-        converter: Converter::new(&shown, *options, pitch_rad),
+        converter: RosConverter::new(&shown, *options, pitch_rad),
         bag: BagWriter::create(staging)?,
         pending: BinaryHeap::new(),
         order: 0,

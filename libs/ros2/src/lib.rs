@@ -41,9 +41,10 @@ pub mod waggle_msgs;
 
 pub use bag::{BagSummary, BagWriter, QosProfile, TopicSpec};
 pub use cdr::{CdrEncode, CdrError, CdrReader, CdrWriter, RosMessage};
-pub use convert::{Converted, Converter};
+pub use convert::{Converted, RosConverter};
+pub use convert::{ExportOptions, ImageFormat};
 pub use error::Ros2Error;
-pub use export::{ExportOptions, ExportReport, ImageFormat, export_run};
+pub use export::{ExportReport, export_run};
 
 /// The ROS 2 release whose rosbag2 format the bags follow (`ros_distro` in `metadata.yaml`).
 pub const ROS_DISTRO: &str = "jazzy";

@@ -1,5 +1,5 @@
 //! The live ROS 2 view: a session's messages converted as the bag export converts them
-//! ([`Converter`]) and published as `rmw_zenoh` publishes ([`crate::rmw_zenoh`]), so
+//! ([`RosConverter`]) and published as `rmw_zenoh` publishes ([`crate::rmw_zenoh`]), so
 //! `ros2 topic echo` under `RMW_IMPLEMENTATION=rmw_zenoh_cpp` sees them while the run flies.
 //!
 //! It is its own Zenoh session, apart from Waggle's authenticated bus: a client of the ROS
@@ -18,9 +18,10 @@ use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Publisher;
 use zenoh::qos::CongestionControl;
 
-use crate::convert::Converter;
+use crate::convert::ExportOptions;
+use crate::convert::RosConverter;
 use crate::error::Ros2Error;
-use crate::export::{ExportOptions, formation_pitches};
+use crate::export::formation_pitches;
 use crate::rmw_zenoh::{NodeEntities, Publication};
 
 /// The node name the view publishes as.
@@ -61,7 +62,7 @@ pub struct LiveView {
     session: zenoh::Session,
     node: NodeEntities,
     _node_token: LivelinessToken,
-    converter: Converter,
+    converter: RosConverter,
     topics: BTreeMap<String, Topic>,
     counts: LiveCounts,
 }
@@ -109,7 +110,7 @@ impl LiveView {
             session,
             node,
             _node_token: node_token,
-            converter: Converter::new(
+            converter: RosConverter::new(
                 &format!("session {}", options.session),
                 ExportOptions::default(),
                 formation_pitches(options.observers),
