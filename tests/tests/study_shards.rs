@@ -468,3 +468,82 @@ fn a_crossed_study_is_laid_out_per_factor_and_merges_byte_for_byte() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A baselines study (whole missions per case × arm × level): three shards, one of them
+/// rerun after a record was damaged, merge to the single run byte for byte; a rerun of the
+/// single run flies nothing.
+#[test]
+fn a_baselines_study_in_shards_merges_to_the_single_run_byte_for_byte() {
+    let dir = tmp("baselines-shards");
+    let file = dir.join("b.toml");
+    std::fs::write(
+        &file,
+        "name = \"bl\"\ncases = [\"only-a\"]\narms = [\"ideal\", \"fixed\"]\ntrials = 2\n\
+         seed = 3\n[[vary]]\nkey = \"flight.gust_sigma_n\"\nlevels = [0.0, 0.004]\n",
+    )
+    .unwrap();
+    let single = dir.join("single");
+    waggle(
+        &["study", s(&file), "--jobs", "2", "--out", s(&single)],
+        "single",
+    );
+    let out = waggle(&["study", s(&file), "--out", s(&single)], "rerun");
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("0 flown now, 8 were recorded"),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let shards: Vec<PathBuf> = (1..=3).map(|k| dir.join(format!("shard-{k}"))).collect();
+    for (k, d) in shards.iter().enumerate() {
+        let shard = format!("{}/3", k + 1);
+        waggle(
+            &["study", s(&file), "--shard", &shard, "--out", s(d)],
+            &shard,
+        );
+    }
+    // Shard 2 (missions 2..5: both of the second point's, the third point's first) has a
+    // record damaged: its rerun flies that mission again.
+    let rec = shards[1].join("only-a-fixed-allocation-flight.gust_sigma_n-0/trials/000000.json");
+    let text = std::fs::read_to_string(&rec).unwrap();
+    std::fs::write(&rec, text.replacen("\"seed\":", "\"seed\": 1", 1)).unwrap();
+    let out = waggle(
+        &["study", s(&file), "--shard", "2/3", "--out", s(&shards[1])],
+        "rerun of shard 2",
+    );
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("1 flown now"),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let merged = dir.join("merged");
+    let mut args = vec!["study", "merge"];
+    args.extend(shards.iter().map(|d| s(d)));
+    args.extend(["--out", s(&merged)]);
+    waggle(&args, "merge");
+    let mut files = vec![
+        "study.json".to_string(),
+        "report.md".into(),
+        "success-only-a-flight.gust_sigma_n.svg".into(),
+    ];
+    for arm in ["ideal-message", "fixed-allocation"] {
+        for level in ["0", "0.004"] {
+            files.push(format!(
+                "only-a-{arm}-flight.gust_sigma_n-{level}/trials.json"
+            ));
+        }
+    }
+    for f in &files {
+        assert_same(&single, &merged, f);
+    }
+    let study = read_json(&merged.join("study.json"));
+    assert_eq!(study.as_array().map(Vec::len), Some(4));
+    // Two shards only: refused, naming the missing one.
+    let out = waggle_tests::waggle()
+        .args(["study", "merge", s(&shards[0]), s(&shards[1]), "--out"])
+        .arg(dir.join("m2"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("3/3"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -68,6 +68,30 @@ impl RenderCacheArg {
     }
 }
 
+/// A study that job files can run: its name and its definition as written to `DIR/study.toml`.
+pub trait JobStudy {
+    fn job_name(&self) -> &str;
+    fn job_toml(&self) -> Result<String>;
+}
+
+impl JobStudy for StudyFile {
+    fn job_name(&self) -> &str {
+        &self.name
+    }
+    fn job_toml(&self) -> Result<String> {
+        toml::to_string(self).context("writing the study as TOML")
+    }
+}
+
+impl JobStudy for crate::harness::baselines::BaselineStudy {
+    fn job_name(&self) -> &str {
+        &self.name
+    }
+    fn job_toml(&self) -> Result<String> {
+        toml::to_string(self).context("writing the study as TOML")
+    }
+}
+
 /// `--slurm` / `--kubernetes IMAGE` and the resources of their tasks.
 #[derive(Debug, Clone, Args)]
 pub struct ClusterArgs {
@@ -114,7 +138,7 @@ impl ClusterArgs {
     /// Writes the job files of `study` into `out` (and submits them with `--submit`).
     pub fn write(
         &self,
-        study: &StudyFile,
+        study: &dyn JobStudy,
         out: &Path,
         shards: &ShardArgs,
         render: &super::RenderArg,
@@ -143,8 +167,8 @@ impl ClusterArgs {
             None => crate::waggle_binary()?,
         };
         let job = ClusterJob {
-            name: study.name.clone(),
-            study_toml: toml::to_string(study).context("writing the study as TOML")?,
+            name: study.job_name().to_owned(),
+            study_toml: study.job_toml()?,
             shards: n,
             partition: self.partition.clone(),
             time: self.time.clone(),
@@ -212,6 +236,12 @@ pub fn merge(args: &MergeArgs) -> Result<()> {
                 args.out.join("report.md").display()
             );
         }
+        Merged::Baselines(results) => println!(
+            "merged {} directories: {} case × arm points -> {}",
+            args.dirs.len(),
+            results.len(),
+            args.out.join("report.md").display()
+        ),
         Merged::Trials(t) => println!(
             "merged {} directories: {}/{} trials succeeded -> {}",
             args.dirs.len(),

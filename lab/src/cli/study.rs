@@ -9,7 +9,8 @@ use anyhow::{Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::harness::baselines::{BaselineStudy, run_baselines};
+use crate::harness::baselines::BaselineStudy;
+use crate::harness::baselines_run;
 use crate::harness::shard::Shard;
 use crate::harness::study::{Study, StudyFile, study_text};
 use crate::harness::study_merge::{MergeOptions, Merged, merge};
@@ -92,27 +93,21 @@ pub fn run(args: StudyArgs) -> Result<()> {
             run_link_study(&study, &args, &out, shard, jobs)
         }
         Study::Baselines(mut study) => {
-            if args.cluster.wanted() || args.shard.given() {
-                bail!(
-                    "{name} is a baselines study (whole missions): --shard and cluster job files \
-                     are for link studies only"
-                );
-            }
-            if args
-                .out
-                .as_ref()
-                .is_some_and(|o| o.join("report.md").exists())
-            {
-                bail!(
-                    "{} already holds a study report: choose another --out",
-                    out.display()
-                );
-            }
-            let _lock = RunLock::acquire(&out)?;
             if let Some(t) = args.trials {
                 study.trials = t;
             }
-            run_baseline_study(&study, &out, jobs, args.render.path)
+            if args.cluster.wanted() {
+                return args.cluster.write(
+                    &study,
+                    &out,
+                    &args.shard,
+                    &args.render,
+                    &args.render_cache,
+                );
+            }
+            let shard = args.shard.shard()?;
+            let _lock = RunLock::acquire(&out)?;
+            run_baseline_study(&study, &out, (args.render.path, jobs, shard))
         }
     }
 }
@@ -128,36 +123,66 @@ fn bar_for(trials: u64) -> ProgressBar {
     bar
 }
 
-/// Runs a baselines study under a progress bar; exit 1 when Ctrl-C interrupted it (the report
-/// is written either way).
+/// Runs a baselines study (or one shard of it) under a progress bar, resumably. A whole run then
+/// writes its results (partial ones when Ctrl-C interrupted it, exit 1); a shard leaves them to
+/// the merge.
 fn run_baseline_study(
     study: &BaselineStudy,
     out: &Path,
-    jobs: usize,
-    render: proto::RenderPath,
+    (render, jobs, shard): (proto::RenderPath, usize, Option<Shard>),
 ) -> Result<()> {
-    let points = study.cases.len() * study.arms.len();
     let stop = bus::on_stop_signal();
-    let bar = bar_for(points as u64 * study.trials);
+    let bar = bar_for(0);
     let started = std::time::Instant::now();
-    let progress = |k: usize, n: usize, done: u64, per: u64| {
-        bar.set_position(k as u64 * per + done);
-        bar.set_message(format!("case × arm {}/{n}", k + 1));
-    };
-    let results = run_baselines(study, out, render, jobs, &stop, progress)?;
+    let counts =
+        baselines_run::run_part(study, out, (render, jobs, shard), &stop, |done, part| {
+            bar.set_length(part);
+            bar.set_position(done);
+        })?;
     bar.finish_and_clear();
-    print!("{}", crate::harness::baselines::report(study, &results));
+    let what = shard.map_or_else(|| "study".to_owned(), |s| format!("shard {s} of the study"));
     println!(
-        "study {}: {} case × arm in {:.0} s wall ({jobs} jobs) -> {}",
+        "{what} {}: {} missions in this part: {} flown now, {} were recorded{}; {:.0} s wall \
+         ({jobs} jobs)",
         study.name,
-        results.len(),
+        counts.part,
+        counts.ran,
+        counts.recorded,
+        if counts.damaged > 0 {
+            format!(
+                ", {} damaged records set aside and flown again",
+                counts.damaged
+            )
+        } else {
+            String::new()
+        },
         started.elapsed().as_secs_f64(),
-        out.join("report.md").display()
     );
-    if stop.load(Ordering::SeqCst) {
+    let interrupted = stop.load(Ordering::SeqCst);
+    if let Some(shard) = shard {
+        println!(
+            "shard {shard} -> {} (merge every shard with `waggle study merge DIR… --out DIR`)",
+            out.display()
+        );
+        if interrupted {
+            bail!("interrupted: rerun the same command to resume the shard");
+        }
+        return Ok(());
+    }
+    let options = MergeOptions {
+        partial: interrupted,
+        mixed_hosts: false,
+    };
+    if let Merged::Baselines(results) = merge(&[out.to_path_buf()], out, options)? {
+        print!("{}", crate::harness::baselines::report(study, &results));
+    }
+    println!("-> {}", out.join("report.md").display());
+    if interrupted {
         bail!(
-            "interrupted: {} of {points} case × arm finished (report written)",
-            results.len()
+            "interrupted: {} of {} missions recorded (report written from them; rerun the same \
+             command to resume)",
+            counts.recorded + counts.ran,
+            counts.part
         );
     }
     Ok(())

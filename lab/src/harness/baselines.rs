@@ -20,19 +20,17 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 use perturb::Perturbation;
-use proto::RenderPath;
 use serde::{Deserialize, Serialize};
 
 use crate::harness::air::PointTracking;
 use crate::harness::figure::{FigurePoint, success_figure};
 use crate::harness::mission::MissionOptions;
 use crate::harness::mission_metrics::Policy;
-use crate::harness::mission_trials::{MissionTrialsOptions, MissionTrialsOut, run_mission_trials};
+use crate::harness::mission_trials::MissionTrialsOut;
+use crate::harness::records::{write_atomic, write_json};
 use crate::harness::vary::Vary;
 use proto::Receiver;
 use run_format::case::Case;
@@ -55,7 +53,7 @@ pub enum Arm {
 }
 
 impl Arm {
-    fn receiver_and_policy(self) -> (Receiver, Policy) {
+    pub(crate) fn receiver_and_policy(self) -> (Receiver, Policy) {
         match self {
             Arm::Rgb => (Receiver::Rgb, Policy::Waggle),
             Arm::Events => (Receiver::Events, Policy::Waggle),
@@ -64,7 +62,7 @@ impl Arm {
         }
     }
 
-    fn label(self) -> &'static str {
+    pub(crate) fn label(self) -> &'static str {
         match self {
             Arm::Rgb => "waggle-rgb",
             Arm::Events => "waggle-events",
@@ -177,7 +175,12 @@ fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
     (n > 0).then(|| sum / n as f64)
 }
 
-fn arm_result(case: &str, arm: Arm, level: Option<f64>, out: &MissionTrialsOut) -> ArmResult {
+pub(crate) fn arm_result(
+    case: &str,
+    arm: Arm,
+    level: Option<f64>,
+    out: &MissionTrialsOut,
+) -> ArmResult {
     let m = || out.per_trial.iter().map(|t| &t.metrics);
     let avg = |f: &dyn Fn(&crate::harness::mission_metrics::MissionMetrics) -> f64| {
         mean(m().map(f)).unwrap_or(f64::NAN)
@@ -223,87 +226,17 @@ fn arm_result(case: &str, arm: Arm, level: Option<f64>, out: &MissionTrialsOut) 
     }
 }
 
-/// Runs every case × arm into `out/<case>-<arm>/trials.json`, then `out/report.md` and
-/// `out/study.json`.
-pub fn run_baselines(
-    study: &BaselineStudy,
-    out: &Path,
-    render: RenderPath,
-    jobs: usize,
-    stop: &Arc<AtomicBool>,
-    progress: impl Fn(usize, usize, u64, u64) + Sync,
-) -> Result<Vec<ArmResult>> {
-    let perturbation = study.check()?;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let levels: Vec<Option<f64>> = match study.vary.first() {
-        Some(v) => v.levels.iter().map(|&l| Some(l)).collect(),
-        None => vec![None],
-    };
-    let points: Vec<(Option<f64>, String, Arm)> = levels
-        .iter()
-        .flat_map(|&l| {
-            study
-                .cases
-                .iter()
-                .flat_map(move |c| study.arms.iter().map(move |a| (l, c.clone(), *a)))
-        })
-        .collect();
-    let mut results = Vec::new();
-    for (k, (level, case_name, arm)) in points.iter().enumerate() {
-        if stop.load(Ordering::SeqCst) {
-            break;
-        }
-        let case = Case::load(case_name)?;
-        let (modality, policy) = arm.receiver_and_policy();
-        let opts = MissionTrialsOptions {
-            case,
-            modality,
-            policy,
-            trials: study.trials,
-            seed: study.seed,
-            perturbation: match (study.vary.first(), level) {
-                (Some(v), Some(l)) => {
-                    let mut p = perturbation.clone();
-                    p.set(&v.key, *l).context("vary")?;
-                    p
-                }
-                _ => perturbation.clone(),
-            },
-            jobs,
-            render,
-        };
-        let trials = run_mission_trials(&opts, stop, |done, _| {
-            progress(k, points.len(), done, study.trials);
-        })?;
-        let dir = out.join(match (study.vary.first(), level) {
-            (Some(v), Some(l)) => format!("{}-{}-{}-{l}", opts.case.name, arm.label(), v.key),
-            _ => format!("{}-{}", opts.case.name, arm.label()),
-        });
-        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-        std::fs::write(
-            dir.join("trials.json"),
-            serde_json::to_string_pretty(&trials)? + "\n",
-        )
-        .with_context(|| format!("writing {}", dir.display()))?;
-        if trials.tally.trials > 0 {
-            results.push(arm_result(&opts.case.name, *arm, *level, &trials));
-        }
-    }
-    std::fs::write(
-        out.join("study.json"),
-        serde_json::to_string_pretty(&results)? + "\n",
-    )
-    .with_context(|| format!("writing {}", out.join("study.json").display()))?;
-    std::fs::write(out.join("report.md"), report(study, &results))
-        .with_context(|| format!("writing {}", out.join("report.md").display()))?;
+/// `study.json`, `report.md` and one figure per case (with a varied term) of `results`.
+pub(crate) fn write_report(study: &BaselineStudy, results: &[ArmResult], out: &Path) -> Result<()> {
+    write_json(&out.join("study.json"), &results)?;
+    write_atomic(&out.join("report.md"), report(study, results).as_bytes())?;
     if let Some(vary) = study.vary.first() {
         for case in &study.cases {
             let path = out.join(figure_name(case, &vary.key));
-            std::fs::write(&path, figure(study, vary, case, &results)?)
-                .with_context(|| format!("writing {}", path.display()))?;
+            write_atomic(&path, figure(study, vary, case, results)?.as_bytes())?;
         }
     }
-    Ok(results)
+    Ok(())
 }
 
 /// The figure of `case` in a study varying `key`: `success-<case>-<key>.svg`.

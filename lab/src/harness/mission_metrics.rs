@@ -6,10 +6,10 @@ use std::collections::BTreeMap;
 
 use proto::{GestureConfig, Site, broadcast};
 use scheduler::{EventKind, Scheduler};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// How observers chose their tasks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Policy {
     /// Waggle: each observer decodes the performer's broadcast and allocates locally.
@@ -30,7 +30,7 @@ impl std::fmt::Display for Policy {
 }
 
 /// One observer's response to a withdrawal.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Reassignment {
     pub observer: String,
     /// The site withdrawn, which this observer served in the round before.
@@ -44,7 +44,7 @@ pub struct Reassignment {
 }
 
 /// A mission's outcome measures.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct MissionMetrics {
     pub policy: Policy,
     pub work_units: u32,
@@ -62,7 +62,7 @@ pub struct MissionMetrics {
     pub broadcast_s: f64,
     /// The performer's tracking of its reference, when wind or the cascade controller flew
     /// (absent in still air under ideal stabilisation, so those outputs are as before).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub performer_tracking: Option<crate::harness::air::Tracking>,
 }
 

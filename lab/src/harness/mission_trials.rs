@@ -11,11 +11,12 @@ use anyhow::{Result, bail};
 use perturb::Perturbation;
 use perturb::seed::trial_seed;
 use proto::RenderPath;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::harness::mission::{MissionOptions, MissionRun, fly_case_with};
 use crate::harness::mission_metrics::{MissionMetrics, Policy};
-use crate::harness::pool::{Outcome, Tally, run_pool};
+use crate::harness::pool::{Outcome, Tally, run_pool_on};
+use crate::harness::records::Recordable;
 use proto::Receiver;
 use run_format::case::Case;
 use run_format::run_dir::ObserverSummary;
@@ -34,7 +35,7 @@ pub struct MissionTrialsOptions {
 }
 
 /// One flown mission.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct MissionTrial {
     pub index: u64,
     pub seed: u64,
@@ -46,6 +47,12 @@ pub struct MissionTrial {
     pub observers: BTreeMap<String, ObserverSummary>,
     pub min_separation_m: f64,
     pub contact_steps: u64,
+}
+
+impl Recordable for MissionTrial {
+    fn record_index(&self) -> u64 {
+        self.index
+    }
 }
 
 impl Outcome for MissionTrial {
@@ -86,6 +93,21 @@ pub fn run_mission_trials(
     stop: &Arc<AtomicBool>,
     progress: impl Fn(u64, u64) + Sync,
 ) -> Result<MissionTrialsOut> {
+    let indices: Vec<u64> = (0..opts.trials).collect();
+    let per_trial = run_mission_trials_on(opts, &indices, stop, |_| Ok(()), progress)?;
+    Ok(mission_trials_out(opts, per_trial))
+}
+
+/// Flies the trials `indices` (up to `opts.jobs` at once), calling `on_record` as each ends
+/// (from the thread that flew it: where a record is written) and then `progress(done,
+/// successes)`. When `stop` is raised, flying trials are abandoned and no more start.
+pub fn run_mission_trials_on(
+    opts: &MissionTrialsOptions,
+    indices: &[u64],
+    stop: &Arc<AtomicBool>,
+    on_record: impl Fn(&MissionTrial) -> Result<()> + Sync,
+    progress: impl Fn(u64, u64) + Sync,
+) -> Result<Vec<MissionTrial>> {
     if opts.trials == 0 {
         bail!("--trials must be at least 1");
     }
@@ -94,8 +116,8 @@ pub fn run_mission_trials(
         ..MissionOptions::default()
     }
     .check()?;
-    let per_trial = run_pool(
-        opts.trials,
+    run_pool_on(
+        indices,
         opts.jobs,
         stop,
         |index| {
@@ -113,7 +135,7 @@ pub fn run_mission_trials(
             else {
                 return Ok(None);
             };
-            Ok(Some(MissionTrial {
+            let trial = MissionTrial {
                 index,
                 seed,
                 success: summary.pass,
@@ -123,12 +145,22 @@ pub fn run_mission_trials(
                 observers: summary.observers,
                 min_separation_m: summary.min_separation_m,
                 contact_steps: summary.contact_steps,
-            }))
+            };
+            on_record(&trial)?;
+            Ok(Some(trial))
         },
         progress,
-    )?;
+    )
+}
+
+/// What `trials.json` holds for `opts`' trials `per_trial` (sorted here by index).
+pub fn mission_trials_out(
+    opts: &MissionTrialsOptions,
+    mut per_trial: Vec<MissionTrial>,
+) -> MissionTrialsOut {
+    per_trial.sort_by_key(|t| t.index);
     let tally = Tally::of(&per_trial, opts.trials);
-    Ok(MissionTrialsOut {
+    MissionTrialsOut {
         criterion: mission_criterion(opts),
         case: opts.case.name.clone(),
         modality: opts.modality,
@@ -137,5 +169,5 @@ pub fn run_mission_trials(
         seed: opts.seed,
         tally,
         per_trial,
-    })
+    }
 }

@@ -8,6 +8,7 @@
 
 pub mod air;
 pub mod baselines;
+pub mod baselines_run;
 pub mod cluster;
 pub mod convert;
 pub mod decode;

@@ -114,25 +114,38 @@ fn renderer() -> String {
     s
 }
 
+/// A trial's outcome as a record holds it: a link trial ([`TrialRecord`]) or a whole mission
+/// ([`crate::harness::mission_trials::MissionTrial`]).
+pub trait Recordable: Serialize + serde::de::DeserializeOwned + Clone {
+    /// Its index in the run.
+    fn record_index(&self) -> u64;
+}
+
+impl Recordable for TrialRecord {
+    fn record_index(&self) -> u64 {
+        self.index
+    }
+}
+
 /// What a record file's checksum covers.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
-struct Body {
+struct Body<R> {
     format: String,
     point: String,
     index: u64,
     provenance: Provenance,
-    record: TrialRecord,
+    record: R,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct StoredTrial {
-    body: Body,
+struct StoredTrial<R> {
+    body: Body<R>,
     sha256: String,
 }
 
-fn checksum(body: &Body) -> Result<String> {
+fn checksum<R: Serialize>(body: &Body<R>) -> Result<String> {
     Ok(hex(&Sha256::digest(serde_json::to_vec(body)?)))
 }
 
@@ -179,11 +192,11 @@ pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
 }
 
 /// Records trial `record` of point `point` (its directory name) in `point_dir`.
-pub fn write_record(point_dir: &Path, point: &str, record: &TrialRecord) -> Result<()> {
+pub fn write_record<R: Recordable>(point_dir: &Path, point: &str, record: &R) -> Result<()> {
     let body = Body {
         format: RECORD_FORMAT.into(),
         point: point.into(),
-        index: record.index,
+        index: record.record_index(),
         provenance: Provenance::here()?.clone(),
         record: record.clone(),
     };
@@ -192,24 +205,37 @@ pub fn write_record(point_dir: &Path, point: &str, record: &TrialRecord) -> Resu
         body,
     };
     write_atomic(
-        &record_path(point_dir, record.index),
+        &record_path(point_dir, record.record_index()),
         &serde_json::to_vec(&stored)?,
     )
 }
 
 /// A point's recorded trials, read and checked.
-#[derive(Debug, Default)]
-pub struct RecordScan {
+#[derive(Debug)]
+pub struct RecordScan<R = TrialRecord> {
     /// Good records by index.
-    pub records: BTreeMap<u64, (TrialRecord, Provenance)>,
+    pub records: BTreeMap<u64, (R, Provenance)>,
     /// Files that are not a good record of this point: path and why.
     pub damaged: Vec<(PathBuf, String)>,
 }
 
+impl<R> Default for RecordScan<R> {
+    fn default() -> Self {
+        Self {
+            records: BTreeMap::new(),
+            damaged: Vec::new(),
+        }
+    }
+}
+
 /// Why the record at `path` is not trial `index` of `point`, or the record.
-fn read_record(path: &Path, point: &str, index: u64) -> Result<(TrialRecord, Provenance), String> {
+fn read_record<R: Recordable>(
+    path: &Path,
+    point: &str,
+    index: u64,
+) -> Result<(R, Provenance), String> {
     let bytes = std::fs::read(path).map_err(|e| format!("unreadable: {e}"))?;
-    let stored: StoredTrial =
+    let stored: StoredTrial<R> =
         serde_json::from_slice(&bytes).map_err(|e| format!("not a trial record: {e}"))?;
     let sum = checksum(&stored.body).map_err(|e| e.to_string())?;
     if sum != stored.sha256 {
@@ -219,7 +245,10 @@ fn read_record(path: &Path, point: &str, index: u64) -> Result<(TrialRecord, Pro
         ));
     }
     let b = stored.body;
-    if b.format != RECORD_FORMAT || b.point != point || b.index != index || b.record.index != index
+    if b.format != RECORD_FORMAT
+        || b.point != point
+        || b.index != index
+        || b.record.record_index() != index
     {
         return Err(format!(
             "holds trial {} of {:?} (format {}), not trial {index} of {point:?}",
@@ -231,7 +260,7 @@ fn read_record(path: &Path, point: &str, index: u64) -> Result<(TrialRecord, Pro
 
 /// Reads every record of `point` in `point_dir` (trials `0..requested`); anything else in the
 /// records directory that looks like a record is reported damaged.
-pub fn scan(point_dir: &Path, point: &str, requested: u64) -> Result<RecordScan> {
+pub fn scan<R: Recordable>(point_dir: &Path, point: &str, requested: u64) -> Result<RecordScan<R>> {
     let mut scan = RecordScan::default();
     let dir = point_dir.join(RECORDS_DIR);
     let entries = match std::fs::read_dir(&dir) {
@@ -291,7 +320,7 @@ mod tests {
         for i in 0..4 {
             write_record(&dir, "rgb-0", &record(i)).unwrap();
         }
-        let s = scan(&dir, "rgb-0", 4).unwrap();
+        let s = scan::<TrialRecord>(&dir, "rgb-0", 4).unwrap();
         assert_eq!(s.records.len(), 4);
         assert!(s.damaged.is_empty());
         assert_eq!(s.records[&3].0, record(3));
@@ -307,7 +336,7 @@ mod tests {
         let p2 = record_path(&dir, 2);
         std::fs::write(&p2, &std::fs::read(&p2).unwrap()[..40]).unwrap();
         write_record(&dir, "rgb-9", &record(0)).unwrap();
-        let s = scan(&dir, "rgb-0", 3).unwrap();
+        let s = scan::<TrialRecord>(&dir, "rgb-0", 3).unwrap();
         let why: Vec<&str> = s.damaged.iter().map(|(_, w)| w.as_str()).collect();
         assert_eq!(
             s.records.keys().copied().collect::<Vec<_>>(),
@@ -325,7 +354,7 @@ mod tests {
         for (p, _) in &s.damaged {
             set_aside(p).unwrap();
         }
-        assert!(scan(&dir, "rgb-0", 4).unwrap().damaged.is_empty());
+        assert!(scan::<TrialRecord>(&dir, "rgb-0", 4).unwrap().damaged.is_empty());
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -22,6 +22,9 @@ pub enum RunKind {
     Study,
     /// `waggle trials`: the records of one condition at the top.
     Trials,
+    /// `waggle study` of a baselines study: one subdirectory of mission records per case × arm
+    /// (× level).
+    Baselines,
 }
 
 /// `run.json`.

@@ -16,7 +16,7 @@ use proto::RenderPath;
 use serde::Serialize;
 
 use crate::harness::air::PointTracking;
-use crate::harness::records::{Provenance, scan, write_atomic, write_json};
+use crate::harness::records::{Provenance, Recordable, scan, write_atomic, write_json};
 use crate::harness::run_files::{RunCost, RunKind, RunManifest};
 use crate::harness::shard::Shard;
 use crate::harness::study::{Point, PointResult, StudyFile, figure_name};
@@ -38,12 +38,13 @@ pub struct MergeOptions {
 #[derive(Debug)]
 pub enum Merged {
     Study(Vec<PointResult>),
+    Baselines(Vec<crate::harness::baselines::ArmResult>),
     Trials(Box<TrialsOut>),
 }
 
 /// Who made a study's records (`provenance.json`).
 #[derive(Debug, Default, Serialize)]
-struct Makers {
+pub(crate) struct Makers {
     versions: BTreeSet<String>,
     cpus: BTreeSet<String>,
     renderers: BTreeSet<String>,
@@ -114,7 +115,6 @@ fn gather(
     makers: &mut Makers,
 ) -> Result<(Option<TrialsHeader>, Vec<TrialRecord>)> {
     let mut head: Option<TrialsHeader> = None;
-    let mut records: BTreeMap<u64, TrialRecord> = BTreeMap::new();
     for src in sources {
         let dir = src.join(rel);
         if let Some(h) = header(&dir) {
@@ -126,7 +126,22 @@ fn gather(
             }
             head = Some(h);
         }
-        let found = scan(&dir, rel, requested)?;
+    }
+    Ok((head, gather_records(sources, rel, requested, makers)?))
+}
+
+/// One point's records over every source, by index; refuses a damaged record and a trial
+/// recorded twice with different results.
+pub(crate) fn gather_records<R: Recordable + PartialEq>(
+    sources: &[PathBuf],
+    rel: &str,
+    requested: u64,
+    makers: &mut Makers,
+) -> Result<Vec<R>> {
+    let mut records: BTreeMap<u64, R> = BTreeMap::new();
+    for src in sources {
+        let dir = src.join(rel);
+        let found = scan::<R>(&dir, rel, requested)?;
         if let Some((path, why)) = found.damaged.first() {
             bail!(
                 "damaged record {}: {why} (rerun that directory's run to repair it)",
@@ -152,10 +167,10 @@ fn gather(
             }
         }
     }
-    Ok((head, records.into_values().collect()))
+    Ok(records.into_values().collect())
 }
 
-fn check_makers(makers: &Makers, options: MergeOptions) -> Result<()> {
+pub(crate) fn check_makers(makers: &Makers, options: MergeOptions) -> Result<()> {
     if makers.versions.len() > 1 {
         bail!(
             "the records were made by different waggle binaries ({}): results of different \
@@ -219,6 +234,16 @@ pub fn merge(sources: &[PathBuf], out: &Path, options: MergeOptions) -> Result<M
         Ok(())
     };
     match manifest.kind {
+        RunKind::Baselines => {
+            let study: crate::harness::baselines::BaselineStudy =
+                toml::from_str(&manifest.definition)
+                    .context("run.json: the study's definition does not parse")?;
+            let results =
+                crate::harness::baselines_run::write_results(&study, sources, out, options)
+                    .map_err(|e| anyhow::anyhow!("{e:#}{}", missing_shards(sources)))?;
+            write_json(&out.join("cost.json"), &cost)?;
+            Ok(Merged::Baselines(results))
+        }
         RunKind::Trials => {
             let (head, records) = gather(sources, ".", manifest.requested, &mut makers)?;
             incomplete("the trials", records.len())?;

@@ -1,0 +1,201 @@
+//! Running a baselines study (whole missions per case × arm × level) as a link study runs:
+//! resumably, in shards, merged. Every mission is recorded as it ends
+//! (`<point>/trials/NNNNNN.json`, [`crate::harness::records`]); a rerun flies only what is
+//! missing; `trials.json` of every point, `study.json`, `report.md` and the figures are always
+//! made from the records, in one process as in `waggle study merge`, so the merge of shards is
+//! the single run byte for byte.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+use anyhow::{Context, Result, bail};
+use proto::RenderPath;
+
+use crate::harness::baselines::{ArmResult, BaselineStudy, arm_result, write_report};
+use crate::harness::mission_trials::{
+    MissionTrial, MissionTrialsOptions, mission_trials_out, run_mission_trials_on,
+};
+use crate::harness::records::{Provenance, scan, set_aside, write_json, write_record};
+use crate::harness::run_files::{RunKind, RunManifest};
+use crate::harness::shard::{Shard, split};
+use crate::harness::study_merge::{Makers, MergeOptions, check_makers, gather_records};
+use crate::harness::study_run::RunCounts;
+use run_format::case::Case;
+
+/// One case × arm at one level of the study's varied term.
+pub struct BaselinePoint {
+    /// Its directory: `<case>-<arm>` or `<case>-<arm>-<key>-<level>`.
+    pub dir: String,
+    pub arm: crate::harness::baselines::Arm,
+    pub level: Option<f64>,
+    pub opts: MissionTrialsOptions,
+}
+
+/// The study's points, level by level, case by case, arm by arm (the order of its trials).
+///
+/// # Errors
+///
+/// A study that does not check, a case that does not load.
+pub fn points(
+    study: &BaselineStudy,
+    render: RenderPath,
+    jobs: usize,
+) -> Result<Vec<BaselinePoint>> {
+    let perturbation = study.check()?;
+    let levels: Vec<Option<f64>> = match study.vary.first() {
+        Some(v) => v.levels.iter().map(|&l| Some(l)).collect(),
+        None => vec![None],
+    };
+    let mut out = Vec::new();
+    for level in levels {
+        for case_name in &study.cases {
+            let case = Case::load(case_name)?;
+            for &arm in &study.arms {
+                let (modality, policy) = arm.receiver_and_policy();
+                let mut p = perturbation.clone();
+                if let (Some(v), Some(l)) = (study.vary.first(), level) {
+                    p.set(&v.key, l).context("vary")?;
+                }
+                let dir = match (study.vary.first(), level) {
+                    (Some(v), Some(l)) => format!("{}-{}-{}-{l}", case.name, arm.label(), v.key),
+                    _ => format!("{}-{}", case.name, arm.label()),
+                };
+                out.push(BaselinePoint {
+                    dir,
+                    arm,
+                    level,
+                    opts: MissionTrialsOptions {
+                        case: case.clone(),
+                        modality,
+                        policy,
+                        trials: study.trials,
+                        seed: study.seed,
+                        perturbation: p,
+                        jobs,
+                        render,
+                    },
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// `run.json` of a baselines run (the study as TOML).
+pub fn manifest(study: &BaselineStudy, shard: Option<Shard>) -> Result<RunManifest> {
+    Ok(RunManifest {
+        kind: RunKind::Baselines,
+        definition: toml::to_string(study).context("writing the study as TOML")?,
+        requested: study.trials,
+        shard: shard.map(|s| s.to_string()),
+    })
+}
+
+/// Flies the study's missions (all, or shard `shard`'s block) that `out` does not hold yet,
+/// recording each as it ends. `progress(done, part)` counts this part's missions, recorded ones
+/// included.
+pub fn run_part(
+    study: &BaselineStudy,
+    out: &Path,
+    (render, jobs, shard): (RenderPath, usize, Option<Shard>),
+    stop: &Arc<AtomicBool>,
+    progress: impl Fn(u64, u64) + Sync,
+) -> Result<RunCounts> {
+    let points = points(study, render, jobs)?;
+    manifest(study, shard)?.claim(out)?;
+    let total = points.len() as u64 * study.trials;
+    let range = shard.map_or(0..total, |s| s.range(total));
+    let parts = split(points.len(), study.trials, range);
+    let mut counts = RunCounts {
+        part: parts.iter().map(|(_, v)| v.len() as u64).sum(),
+        ..RunCounts::default()
+    };
+    let here = &Provenance::here()?.version;
+    let mut work = Vec::new();
+    for (p, indices) in parts {
+        let point = &points[p];
+        let dir = out.join(&point.dir);
+        let mut found = scan::<MissionTrial>(&dir, &point.dir, study.trials)?;
+        for (path, why) in &found.damaged {
+            eprintln!("damaged record {}: {why}; running it again", path.display());
+            set_aside(path)?;
+            counts.damaged += 1;
+        }
+        if let Some((i, (_, prov))) = found.records.iter().find(|(_, (_, p))| &p.version != here) {
+            bail!(
+                "{}: mission {i} was recorded by waggle {}, this is {here}: results of different \
+                 binaries are not mixed; rerun with that binary or into another --out",
+                dir.display(),
+                prov.version
+            );
+        }
+        found.damaged.clear();
+        let missing: Vec<u64> = indices
+            .into_iter()
+            .filter(|i| !found.records.contains_key(i))
+            .collect();
+        work.push((p, missing));
+    }
+    counts.recorded = counts.part - work.iter().map(|(_, m)| m.len() as u64).sum::<u64>();
+    let done = AtomicU64::new(counts.recorded);
+    progress(counts.recorded, counts.part);
+    for (p, missing) in work {
+        if stop.load(Ordering::SeqCst) || missing.is_empty() {
+            continue;
+        }
+        let point = &points[p];
+        let dir = out.join(&point.dir);
+        let flown = run_mission_trials_on(
+            &point.opts,
+            &missing,
+            stop,
+            |t| write_record(&dir, &point.dir, t),
+            |_, _| progress(done.fetch_add(1, Ordering::SeqCst) + 1, counts.part),
+        )
+        .with_context(|| format!("point {}", point.dir))?;
+        counts.ran += flown.len() as u64;
+    }
+    Ok(counts)
+}
+
+/// Writes every point's `trials.json`, `study.json`, `report.md`, the figures and
+/// `provenance.json` into `out` from the records in `sources` (one directory, or the shards of
+/// one run); returns the results.
+pub fn write_results(
+    study: &BaselineStudy,
+    sources: &[PathBuf],
+    out: &Path,
+    options: MergeOptions,
+) -> Result<Vec<ArmResult>> {
+    let points = points(study, RenderPath::default(), 1)?;
+    let mut makers = Makers::default();
+    let mut results = Vec::new();
+    for point in &points {
+        let records: Vec<MissionTrial> =
+            gather_records(sources, &point.dir, study.trials, &mut makers)?;
+        if !options.partial && records.len() as u64 != study.trials {
+            bail!(
+                "point {}: {} of {} missions recorded",
+                point.dir,
+                records.len(),
+                study.trials
+            );
+        }
+        if records.is_empty() {
+            continue; // an interrupted run that never reached this point
+        }
+        let trials = mission_trials_out(&point.opts, records);
+        write_json(&out.join(&point.dir).join("trials.json"), &trials)?;
+        results.push(arm_result(
+            &point.opts.case.name,
+            point.arm,
+            point.level,
+            &trials,
+        ));
+    }
+    check_makers(&makers, options)?;
+    write_report(study, &results, out)?;
+    write_json(&out.join("provenance.json"), &makers)?;
+    Ok(results)
+}
