@@ -547,3 +547,50 @@ fn a_baselines_study_in_shards_merges_to_the_single_run_byte_for_byte() {
     assert!(!out.status.success() && err.contains("3/3"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `waggle trials --case` (whole missions of one case) in two shards merges to the single run;
+/// a rerun flies nothing.
+#[test]
+fn case_trials_in_shards_merge_to_the_single_run() {
+    let dir = tmp("case-shards");
+    let base = [
+        "trials",
+        "--case",
+        "only-a",
+        "--modality",
+        "ideal",
+        "--trials",
+        "3",
+        "--seed",
+        "5",
+        "--perturb",
+        "flight.gust_sigma_n=0.004",
+    ];
+    let run = |extra: &[&str], out: &Path| {
+        let mut args = base.to_vec();
+        args.extend_from_slice(extra);
+        args.extend(["--out", s(out)]);
+        waggle(&args, &format!("waggle {args:?}"))
+    };
+    let single = dir.join("single");
+    run(&[], &single);
+    let again = run(&[], &single);
+    assert!(
+        String::from_utf8_lossy(&again.stdout).contains("0 missions flown, 3 were recorded"),
+        "{}",
+        String::from_utf8_lossy(&again.stdout)
+    );
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    run(&["--shard", "1/2"], &a);
+    run(&["--shard", "2/2"], &b);
+    assert_eq!(records(&a), ["000000.json"]);
+    assert_eq!(records(&b), ["000001.json", "000002.json"]);
+    let merged = dir.join("merged");
+    waggle(
+        &["study", "merge", s(&a), s(&b), "--out", s(&merged)],
+        "merge",
+    );
+    assert_same(&single, &merged, "trials.json");
+    assert_eq!(read_json(&merged.join("trials.json"))["trials"], 3);
+    let _ = std::fs::remove_dir_all(&dir);
+}

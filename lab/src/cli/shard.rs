@@ -242,6 +242,13 @@ pub fn merge(args: &MergeArgs) -> Result<()> {
             results.len(),
             args.out.join("report.md").display()
         ),
+        Merged::Missions(t) => println!(
+            "merged {} directories: {}/{} missions met the expected outcome -> {}",
+            args.dirs.len(),
+            t.tally.successes,
+            t.tally.trials,
+            args.out.join("trials.json").display()
+        ),
         Merged::Trials(t) => println!(
             "merged {} directories: {}/{} trials succeeded -> {}",
             args.dirs.len(),

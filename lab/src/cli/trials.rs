@@ -13,8 +13,12 @@ use proto::{Receiver, Rectification};
 
 use super::link::{parse_bits6, parse_viewpoint};
 use crate::harness::mission_metrics::Policy;
-use crate::harness::mission_trials::{MissionTrialsOptions, mission_criterion, run_mission_trials};
+use crate::harness::mission_trials::{
+    MissionTrial, MissionTrialsOptions, MissionsDefinition, mission_criterion,
+    run_mission_trials_on,
+};
 use crate::harness::pool::Tally;
+use crate::harness::records::{Provenance, scan, set_aside, write_record};
 use crate::harness::run_files::{PointCostSum, RunCost, RunKind, RunManifest, cpu_s};
 use crate::harness::study_merge::{MergeOptions, Merged, merge};
 use crate::harness::study_run::{FlightSource, header, recorded, run_point};
@@ -113,9 +117,6 @@ fn default_jobs() -> usize {
 
 pub fn run(args: TrialsArgs) -> Result<()> {
     let perturbation = args.perturb.perturbation()?;
-    if args.case.is_some() && args.shard.given() {
-        bail!("--shard is for --link trials; --case (whole missions) runs in one process");
-    }
     if args.case.is_some() {
         return run_case(args, perturbation);
     }
@@ -270,16 +271,6 @@ fn finished_shard(stop: &AtomicBool) -> Result<()> {
 
 /// Creates and locks `out` for a new run, refusing one that already holds results or that
 /// another waggle process is writing.
-fn fresh_out(out: &std::path::Path) -> Result<RunLock> {
-    if out.join("trials.json").exists() {
-        bail!(
-            "{} already holds trials.json: choose another --out or remove it",
-            out.display()
-        );
-    }
-    Ok(RunLock::acquire(out)?)
-}
-
 fn progress_bar(trials: u64, first: &str) -> ProgressBar {
     let bar = ProgressBar::new(trials);
     bar.set_style(
@@ -295,7 +286,8 @@ fn progress_bar(trials: u64, first: &str) -> ProgressBar {
 /// `--case`: whole missions.
 fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
     let name = args.case.as_deref().unwrap_or_default();
-    let case = Case::load(name)?;
+    let case_text = run_format::case::case_source(name)?;
+    let case = Case::from_text(&case_text, name)?;
     if !case.modalities.contains(&args.modality) && args.modality != Receiver::Ideal {
         bail!(
             "case {} does not apply to the {} modality (it lists {:?})",
@@ -304,7 +296,6 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
             case.modalities
         );
     }
-    let _lock = fresh_out(&args.out)?;
     let opts = MissionTrialsOptions {
         case,
         modality: args.modality,
@@ -315,29 +306,86 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
         jobs: args.jobs.unwrap_or_else(default_jobs).max(1),
         render: args.render.path,
     };
+    if opts.trials == 0 {
+        bail!("--trials must be at least 1");
+    }
+    let shard = args.shard.shard()?;
+    let _lock = RunLock::acquire(&args.out)?;
+    RunManifest {
+        kind: RunKind::Missions,
+        definition: MissionsDefinition::of(&opts, name, &case_text).to_text()?,
+        requested: opts.trials,
+        shard: shard.map(|s| s.to_string()),
+    }
+    .claim(&args.out)?;
     eprintln!("trials: {}", mission_criterion(&opts));
+    let range = shard.map_or(0..opts.trials, |s| s.range(opts.trials));
+    let mut found = scan::<MissionTrial>(&args.out, ".", opts.trials)?;
+    for (path, why) in &found.damaged {
+        eprintln!("damaged record {}: {why}; flying it again", path.display());
+        set_aside(path)?;
+    }
+    let here = &Provenance::here()?.version;
+    if let Some((i, (_, p))) = found.records.iter().find(|(_, (_, p))| &p.version != here) {
+        bail!(
+            "{}: mission {i} was recorded by waggle {}, this is {here}: results of different \
+             binaries are not mixed; rerun with that binary or into another --out",
+            args.out.display(),
+            p.version
+        );
+    }
+    found.damaged.clear();
+    let missing: Vec<u64> = range
+        .clone()
+        .filter(|i| !found.records.contains_key(i))
+        .collect();
+    let already = range.end - range.start - missing.len() as u64;
     let stop = bus::on_stop_signal();
-    let bar = progress_bar(opts.trials, "flying the first missions");
+    let bar = progress_bar(range.end - range.start, "flying the first missions");
+    bar.set_position(already);
     let started = std::time::Instant::now();
-    let out = run_mission_trials(&opts, &stop, |done, successes| {
-        bar.set_position(done);
-        bar.set_message(format!("{successes} passed"));
-    })?;
+    let flown = run_mission_trials_on(
+        &opts,
+        &missing,
+        &stop,
+        |t| write_record(&args.out, ".", t),
+        |done, successes| {
+            bar.set_position(already + done);
+            bar.set_message(format!("{successes} of this run's missions passed"));
+        },
+    )?;
     bar.finish_and_clear();
-    let path = args.out.join("trials.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&out)? + "\n")
-        .with_context(|| format!("writing {}", path.display()))?;
     println!(
-        "{} {} ({}): {}; {:.1} s wall ({} jobs) -> {}",
-        out.case,
-        out.modality,
-        out.policy,
-        outcome_line(&out.tally, "missions met the expected outcome"),
+        "this run: {} missions flown, {already} were recorded; {:.1} s wall ({} jobs)",
+        flown.len(),
         started.elapsed().as_secs_f64(),
-        opts.jobs,
-        path.display()
+        opts.jobs
     );
-    finished(&stop, &out.tally, &path)
+    if let Some(shard) = shard {
+        println!(
+            "shard {shard} -> {} (merge every shard with `waggle study merge DIR… --out DIR`)",
+            args.out.display()
+        );
+        return finished_shard(&stop);
+    }
+    let interrupted = stop.load(Ordering::SeqCst);
+    let options = MergeOptions {
+        partial: interrupted,
+        mixed_hosts: false,
+    };
+    let path = args.out.join("trials.json");
+    if let Merged::Missions(out) = merge(std::slice::from_ref(&args.out), &args.out, options)? {
+        println!(
+            "{} {} ({}): {} -> {}",
+            out.case,
+            out.modality,
+            out.policy,
+            outcome_line(&out.tally, "missions met the expected outcome"),
+            path.display()
+        );
+        return finished(&stop, &out.tally, &path);
+    }
+    Ok(())
 }
 
 /// `12/100 <what>, rate 0.120, 95 % CI [0.070, 0.198]` (and a word when interrupted).

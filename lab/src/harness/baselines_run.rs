@@ -13,13 +13,13 @@ use anyhow::{Context, Result, bail};
 use proto::RenderPath;
 
 use crate::harness::baselines::{ArmResult, BaselineStudy, arm_result, write_report};
+use crate::harness::merge_records::{Makers, MergeOptions, check_makers, gather_records};
 use crate::harness::mission_trials::{
     MissionTrial, MissionTrialsOptions, mission_trials_out, run_mission_trials_on,
 };
 use crate::harness::records::{Provenance, scan, set_aside, write_json, write_record};
 use crate::harness::run_files::{RunKind, RunManifest};
 use crate::harness::shard::{Shard, split};
-use crate::harness::study_merge::{Makers, MergeOptions, check_makers, gather_records};
 use crate::harness::study_run::RunCounts;
 use run_format::case::Case;
 

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use perturb::Perturbation;
 use perturb::seed::trial_seed;
 use proto::RenderPath;
@@ -87,17 +87,6 @@ pub fn mission_criterion(opts: &MissionTrialsOptions) -> String {
     )
 }
 
-/// Flies every trial (up to `opts.jobs` at once), calling `progress(done, successes)`.
-pub fn run_mission_trials(
-    opts: &MissionTrialsOptions,
-    stop: &Arc<AtomicBool>,
-    progress: impl Fn(u64, u64) + Sync,
-) -> Result<MissionTrialsOut> {
-    let indices: Vec<u64> = (0..opts.trials).collect();
-    let per_trial = run_mission_trials_on(opts, &indices, stop, |_| Ok(()), progress)?;
-    Ok(mission_trials_out(opts, per_trial))
-}
-
 /// Flies the trials `indices` (up to `opts.jobs` at once), calling `on_record` as each ends
 /// (from the thread that flew it: where a record is written) and then `progress(done,
 /// successes)`. When `stop` is raised, flying trials are abandoned and no more start.
@@ -169,5 +158,66 @@ pub fn mission_trials_out(
         seed: opts.seed,
         tally,
         per_trial,
+    }
+}
+
+/// What `run.json` holds for `waggle trials --case` (JSON): the case's text, so a merge on
+/// another machine rebuilds exactly the options it ran with.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MissionsDefinition {
+    /// The case as given (a built-in name or a path), and its text.
+    pub case: String,
+    pub case_text: String,
+    pub modality: Receiver,
+    pub policy: Policy,
+    pub seed: u64,
+    pub perturb: BTreeMap<String, f64>,
+}
+
+impl MissionsDefinition {
+    /// The definition of `opts`, whose case was given as `case` with text `case_text`.
+    pub fn of(opts: &MissionTrialsOptions, case: &str, case_text: &str) -> Self {
+        Self {
+            case: case.to_string(),
+            case_text: case_text.to_string(),
+            modality: opts.modality,
+            policy: opts.policy,
+            seed: opts.seed,
+            perturb: opts.perturbation.recorded(),
+        }
+    }
+
+    /// As `run.json`'s `definition`.
+    ///
+    /// # Errors
+    ///
+    /// Never in practice (JSON of plain fields).
+    pub fn to_text(&self) -> Result<String> {
+        Ok(serde_json::to_string(self)?)
+    }
+
+    /// The options it describes, `trials` per run (one job, the default render path: neither
+    /// changes a result).
+    ///
+    /// # Errors
+    ///
+    /// A definition that does not parse, a case or a term that does not load.
+    pub fn options(text: &str, trials: u64) -> Result<MissionTrialsOptions> {
+        let d: Self = serde_json::from_str(text).context("run.json: the definition")?;
+        let mut perturbation = Perturbation::default();
+        for (k, v) in &d.perturb {
+            perturbation.set(k, *v).context("run.json: perturb")?;
+        }
+        Ok(MissionTrialsOptions {
+            case: Case::from_text(&d.case_text, &d.case)?,
+            modality: d.modality,
+            policy: d.policy,
+            trials,
+            seed: d.seed,
+            perturbation,
+            jobs: 1,
+            render: RenderPath::default(),
+        })
     }
 }

@@ -14,6 +14,7 @@ pub mod convert;
 pub mod decode;
 pub mod figure;
 pub mod link;
+pub mod merge_records;
 pub mod mission;
 pub mod mission_metrics;
 pub mod mission_observer;

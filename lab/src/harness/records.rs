@@ -354,7 +354,12 @@ mod tests {
         for (p, _) in &s.damaged {
             set_aside(p).unwrap();
         }
-        assert!(scan::<TrialRecord>(&dir, "rgb-0", 4).unwrap().damaged.is_empty());
+        assert!(
+            scan::<TrialRecord>(&dir, "rgb-0", 4)
+                .unwrap()
+                .damaged
+                .is_empty()
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

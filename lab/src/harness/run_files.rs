@@ -25,6 +25,8 @@ pub enum RunKind {
     /// `waggle study` of a baselines study: one subdirectory of mission records per case × arm
     /// (× level).
     Baselines,
+    /// `waggle trials --case`: the mission records of one case at the top.
+    Missions,
 }
 
 /// `run.json`.

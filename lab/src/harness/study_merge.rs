@@ -8,15 +8,16 @@
 //! records of different binaries; unless asked to accept them, records of different CPU models
 //! or renderers and missing trials (named, with the shard that should hold them).
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use proto::RenderPath;
-use serde::Serialize;
 
 use crate::harness::air::PointTracking;
-use crate::harness::records::{Provenance, Recordable, scan, write_atomic, write_json};
+pub use crate::harness::merge_records::MergeOptions;
+use crate::harness::merge_records::{Makers, check_makers, gather_records};
+use crate::harness::records::{write_atomic, write_json};
 use crate::harness::run_files::{RunCost, RunKind, RunManifest};
 use crate::harness::shard::Shard;
 use crate::harness::study::{Point, PointResult, StudyFile, figure_name};
@@ -24,30 +25,13 @@ use crate::harness::study_report::{cost_md, figure, marginals, report};
 use crate::harness::study_run::header;
 use crate::harness::trials::{ObserverTrial, TrialRecord, TrialsHeader, TrialsOut};
 
-/// What a merge accepts beyond a complete run of one binary on one kind of host.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct MergeOptions {
-    /// Write results from the trials recorded so far (an interrupted run); otherwise every trial
-    /// must be recorded.
-    pub partial: bool,
-    /// Accept records made on different CPU models or renderers.
-    pub mixed_hosts: bool,
-}
-
 /// What a merge made.
 #[derive(Debug)]
 pub enum Merged {
     Study(Vec<PointResult>),
     Baselines(Vec<crate::harness::baselines::ArmResult>),
+    Missions(Box<crate::harness::mission_trials::MissionTrialsOut>),
     Trials(Box<TrialsOut>),
-}
-
-/// Who made a study's records (`provenance.json`).
-#[derive(Debug, Default, Serialize)]
-pub(crate) struct Makers {
-    versions: BTreeSet<String>,
-    cpus: BTreeSet<String>,
-    renderers: BTreeSet<String>,
 }
 
 /// The directories' common manifest, checked: one run, each shard once.
@@ -130,76 +114,6 @@ fn gather(
     Ok((head, gather_records(sources, rel, requested, makers)?))
 }
 
-/// One point's records over every source, by index; refuses a damaged record and a trial
-/// recorded twice with different results.
-pub(crate) fn gather_records<R: Recordable + PartialEq>(
-    sources: &[PathBuf],
-    rel: &str,
-    requested: u64,
-    makers: &mut Makers,
-) -> Result<Vec<R>> {
-    let mut records: BTreeMap<u64, R> = BTreeMap::new();
-    for src in sources {
-        let dir = src.join(rel);
-        let found = scan::<R>(&dir, rel, requested)?;
-        if let Some((path, why)) = found.damaged.first() {
-            bail!(
-                "damaged record {}: {why} (rerun that directory's run to repair it)",
-                path.display()
-            );
-        }
-        for (i, (r, p)) in found.records {
-            let Provenance {
-                version,
-                cpu,
-                renderer,
-            } = p;
-            makers.versions.insert(version);
-            makers.cpus.insert(cpu);
-            makers.renderers.insert(renderer);
-            if let Some(was) = records.insert(i, r.clone())
-                && was != r
-            {
-                bail!(
-                    "trial {i} of {rel} is recorded twice with different results ({})",
-                    dir.display()
-                );
-            }
-        }
-    }
-    Ok(records.into_values().collect())
-}
-
-pub(crate) fn check_makers(makers: &Makers, options: MergeOptions) -> Result<()> {
-    if makers.versions.len() > 1 {
-        bail!(
-            "the records were made by different waggle binaries ({}): results of different \
-             versions are not merged",
-            makers
-                .versions
-                .iter()
-                .cloned()
-                .collect::<Vec<_>>()
-                .join(" | ")
-        );
-    }
-    if !options.mixed_hosts && (makers.cpus.len() > 1 || makers.renderers.len() > 1) {
-        bail!(
-            "the records were made on different CPU models ({}) or renderers ({}); rendering may \
-             differ between them, so the result may not equal a run on one machine kind \
-             (--allow-mixed-hosts merges anyway)",
-            makers.cpus.iter().cloned().collect::<Vec<_>>().join(" | "),
-            makers
-                .renderers
-                .iter()
-                .cloned()
-                .collect::<Vec<_>>()
-                .join(" | ")
-        );
-    }
-    Ok(())
-}
-
 /// The run's costs: every source's `run-cost.json`, summed.
 fn costs(sources: &[PathBuf]) -> Result<RunCost> {
     let mut total = RunCost::default();
@@ -243,6 +157,21 @@ pub fn merge(sources: &[PathBuf], out: &Path, options: MergeOptions) -> Result<M
                     .map_err(|e| anyhow::anyhow!("{e:#}{}", missing_shards(sources)))?;
             write_json(&out.join("cost.json"), &cost)?;
             Ok(Merged::Baselines(results))
+        }
+        RunKind::Missions => {
+            use crate::harness::mission_trials::{
+                MissionTrial, MissionsDefinition, mission_trials_out,
+            };
+            let opts = MissionsDefinition::options(&manifest.definition, manifest.requested)?;
+            let records: Vec<MissionTrial> =
+                gather_records(sources, ".", manifest.requested, &mut makers)?;
+            incomplete("the missions", records.len())?;
+            check_makers(&makers, options)?;
+            let trials = mission_trials_out(&opts, records);
+            write_json(&out.join("trials.json"), &trials)?;
+            write_json(&out.join("cost.json"), &cost)?;
+            write_json(&out.join("provenance.json"), &makers)?;
+            Ok(Merged::Missions(Box::new(trials)))
         }
         RunKind::Trials => {
             let (head, records) = gather(sources, ".", manifest.requested, &mut makers)?;
