@@ -69,44 +69,31 @@ pub fn run(args: StudyArgs) -> Result<()> {
     let (Some(name), Some(out)) = (args.study.clone(), args.out.clone()) else {
         bail!("give a study and --out DIR (or `waggle study merge DIR… --out DIR`)");
     };
-    let study = Study::load(&name)?;
+    let mut study = Study::load(&name)?;
+    if let Some(t) = args.trials {
+        match &mut study {
+            Study::Link(s) => s.trials = t,
+            Study::Baselines(s) => s.trials = t,
+        }
+    }
+    if args.cluster.wanted() {
+        let job: &dyn super::shard::JobStudy = match &study {
+            Study::Link(s) => s,
+            Study::Baselines(s) => s,
+        };
+        return args
+            .cluster
+            .write(job, &out, &args.shard, &args.render, &args.render_cache);
+    }
     let jobs = args
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get))
         .max(1);
+    let shard = args.shard.shard()?;
+    let _lock = RunLock::acquire(&out)?;
     match study {
-        Study::Link(mut study) => {
-            if let Some(t) = args.trials {
-                study.trials = t;
-            }
-            if args.cluster.wanted() {
-                return args.cluster.write(
-                    &study,
-                    &out,
-                    &args.shard,
-                    &args.render,
-                    &args.render_cache,
-                );
-            }
-            let shard = args.shard.shard()?;
-            let _lock = RunLock::acquire(&out)?;
-            run_link_study(&study, &args, &out, shard, jobs)
-        }
-        Study::Baselines(mut study) => {
-            if let Some(t) = args.trials {
-                study.trials = t;
-            }
-            if args.cluster.wanted() {
-                return args.cluster.write(
-                    &study,
-                    &out,
-                    &args.shard,
-                    &args.render,
-                    &args.render_cache,
-                );
-            }
-            let shard = args.shard.shard()?;
-            let _lock = RunLock::acquire(&out)?;
+        Study::Link(study) => run_link_study(&study, &args, &out, shard, jobs),
+        Study::Baselines(study) => {
             run_baseline_study(&study, &out, (args.render.path, jobs, shard))
         }
     }

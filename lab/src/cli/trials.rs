@@ -18,10 +18,10 @@ use crate::harness::mission_trials::{
     run_mission_trials_on,
 };
 use crate::harness::pool::Tally;
-use crate::harness::records::{Provenance, scan, set_aside, write_record};
+use crate::harness::records::{recorded, write_record};
 use crate::harness::run_files::{PointCostSum, RunCost, RunKind, RunManifest, cpu_s};
 use crate::harness::study_merge::{MergeOptions, Merged, merge};
-use crate::harness::study_run::{FlightSource, header, recorded, run_point};
+use crate::harness::study_run::{FlightSource, header, run_point};
 use crate::harness::trials::{TrialsOptions, criterion, definition};
 use run_format::case::Case;
 use run_format::run_dir::lock::RunLock;
@@ -158,7 +158,8 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     .claim(&args.out)?;
     eprintln!("trials: {}", criterion(&opts));
     let range = shard.map_or(0..opts.trials, |s| s.range(opts.trials));
-    let (found, damaged) = recorded(&args.out, ".", opts.trials)?;
+    let (found, damaged) =
+        recorded::<crate::harness::trials_out::TrialRecord>(&args.out, ".", opts.trials)?;
     let missing: Vec<u64> = range
         .clone()
         .filter(|i| !found.records.contains_key(i))
@@ -320,21 +321,7 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
     .claim(&args.out)?;
     eprintln!("trials: {}", mission_criterion(&opts));
     let range = shard.map_or(0..opts.trials, |s| s.range(opts.trials));
-    let mut found = scan::<MissionTrial>(&args.out, ".", opts.trials)?;
-    for (path, why) in &found.damaged {
-        eprintln!("damaged record {}: {why}; flying it again", path.display());
-        set_aside(path)?;
-    }
-    let here = &Provenance::here()?.version;
-    if let Some((i, (_, p))) = found.records.iter().find(|(_, (_, p))| &p.version != here) {
-        bail!(
-            "{}: mission {i} was recorded by waggle {}, this is {here}: results of different \
-             binaries are not mixed; rerun with that binary or into another --out",
-            args.out.display(),
-            p.version
-        );
-    }
-    found.damaged.clear();
+    let (found, _) = recorded::<MissionTrial>(&args.out, ".", opts.trials)?;
     let missing: Vec<u64> = range
         .clone()
         .filter(|i| !found.records.contains_key(i))

@@ -17,7 +17,7 @@ use crate::harness::merge_records::{Makers, MergeOptions, check_makers, gather_r
 use crate::harness::mission_trials::{
     MissionTrial, MissionTrialsOptions, mission_trials_out, run_mission_trials_on,
 };
-use crate::harness::records::{Provenance, scan, set_aside, write_json, write_record};
+use crate::harness::records::{recorded, write_json, write_record};
 use crate::harness::run_files::{RunKind, RunManifest};
 use crate::harness::shard::{Shard, split};
 use crate::harness::study_run::RunCounts;
@@ -111,26 +111,12 @@ pub fn run_part(
         part: parts.iter().map(|(_, v)| v.len() as u64).sum(),
         ..RunCounts::default()
     };
-    let here = &Provenance::here()?.version;
     let mut work = Vec::new();
     for (p, indices) in parts {
         let point = &points[p];
         let dir = out.join(&point.dir);
-        let mut found = scan::<MissionTrial>(&dir, &point.dir, study.trials)?;
-        for (path, why) in &found.damaged {
-            eprintln!("damaged record {}: {why}; running it again", path.display());
-            set_aside(path)?;
-            counts.damaged += 1;
-        }
-        if let Some((i, (_, prov))) = found.records.iter().find(|(_, (_, p))| &p.version != here) {
-            bail!(
-                "{}: mission {i} was recorded by waggle {}, this is {here}: results of different \
-                 binaries are not mixed; rerun with that binary or into another --out",
-                dir.display(),
-                prov.version
-            );
-        }
-        found.damaged.clear();
+        let (found, damaged) = recorded::<MissionTrial>(&dir, &point.dir, study.trials)?;
+        counts.damaged += damaged;
         let missing: Vec<u64> = indices
             .into_iter()
             .filter(|i| !found.records.contains_key(i))

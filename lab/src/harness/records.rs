@@ -13,7 +13,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
@@ -290,6 +290,32 @@ pub fn scan<R: Recordable>(point_dir: &Path, point: &str, requested: u64) -> Res
     }
     scan.damaged.sort();
     Ok(scan)
+}
+
+/// Reads a point's recorded trials, setting damaged ones aside (they are rerun), and refuses
+/// records made by another binary.
+pub fn recorded<R: Recordable>(
+    dir: &Path,
+    point: &str,
+    requested: u64,
+) -> Result<(RecordScan<R>, u64)> {
+    let mut found = scan::<R>(dir, point, requested)?;
+    for (path, why) in &found.damaged {
+        eprintln!("damaged record {}: {why}; running it again", path.display());
+        set_aside(path)?;
+    }
+    let here = &Provenance::here()?.version;
+    if let Some((i, (_, p))) = found.records.iter().find(|(_, (_, p))| &p.version != here) {
+        bail!(
+            "{}: trial {i} was recorded by waggle {}, this is {here}: results of different \
+             binaries are not mixed; rerun with that binary or into another --out",
+            dir.display(),
+            p.version
+        );
+    }
+    let damaged = found.damaged.len() as u64;
+    found.damaged.clear();
+    Ok((found, damaged))
 }
 
 /// Moves a damaged record out of the way (`NNNNNN.json.damaged`), keeping it for inspection.

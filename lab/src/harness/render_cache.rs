@@ -81,6 +81,20 @@ struct TrackMeta {
     updates: Vec<(u64, FrameChange, usize)>,
 }
 
+impl TrackMeta {
+    fn of(t: &RenderTrack) -> Self {
+        Self {
+            frame_len: t.frame_len,
+            width: t.width,
+            updates: t
+                .updates
+                .iter()
+                .map(|u| (u.stamp_ns, u.change, u.pixels.len()))
+                .collect(),
+        }
+    }
+}
+
 impl RenderCache {
     /// The cache in `dir` (created if absent).
     ///
@@ -235,19 +249,7 @@ fn encode(flight: &RenderedFlight, key: &str) -> Result<Vec<u8>> {
         sim_ns: flight.sim_ns,
         performer_max_tracking_error_m: flight.performer_max_tracking_error_m,
         contact_steps: flight.contact_steps,
-        tracks: flight
-            .tracks
-            .iter()
-            .map(|t| TrackMeta {
-                frame_len: t.frame_len,
-                width: t.width,
-                updates: t
-                    .updates
-                    .iter()
-                    .map(|u| (u.stamp_ns, u.change, u.pixels.len()))
-                    .collect(),
-            })
-            .collect(),
+        tracks: flight.tracks.iter().map(TrackMeta::of).collect(),
     };
     let meta = serde_json::to_vec(&meta).context("writing a render cache entry's metadata")?;
     let pixels: usize = flight.stored_bytes();
@@ -538,18 +540,6 @@ mod tests {
         }
     }
 
-    fn meta_of(t: &RenderTrack) -> TrackMeta {
-        TrackMeta {
-            frame_len: t.frame_len,
-            width: t.width,
-            updates: t
-                .updates
-                .iter()
-                .map(|u| (u.stamp_ns, u.change, u.pixels.len()))
-                .collect(),
-        }
-    }
-
     #[test]
     fn renders_that_do_not_fit_their_frame_are_refused() {
         let rect = |x, y, width, height| proto::PixelRect {
@@ -568,7 +558,7 @@ mod tests {
                 (FrameChange::Within(rect(1, 1, 3, 1)), vec![7; 9]),
             ],
         );
-        let m = meta_of(&good);
+        let m = TrackMeta::of(&good);
         for (k, &(_, c, len)) in m.updates.iter().enumerate() {
             check_update(&m, k, c, len).unwrap();
         }

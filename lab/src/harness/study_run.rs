@@ -11,7 +11,8 @@ use anyhow::{Context, Result, bail};
 use proto::RenderPath;
 use sim::sensor::EVENT_RENDER_PERIOD_NS;
 
-use crate::harness::records::{HEADER_FILE, Provenance, RecordScan, scan, set_aside, write_json};
+pub use crate::harness::records::recorded;
+use crate::harness::records::{HEADER_FILE, write_json};
 use crate::harness::records::{read_json, write_record};
 use crate::harness::render_cache::{Fetched, RenderCache, fly_through};
 use crate::harness::rendered_flight::RenderedFlight;
@@ -44,28 +45,6 @@ pub fn study_manifest(study: &StudyFile, shard: Option<Shard>) -> Result<RunMani
         requested: study.trials,
         shard: shard.map(|s| s.to_string()),
     })
-}
-
-/// Reads a point's recorded trials, setting damaged ones aside (they are rerun), and refuses
-/// records made by another binary.
-pub fn recorded(dir: &Path, point: &str, requested: u64) -> Result<(RecordScan, u64)> {
-    let mut found = scan(dir, point, requested)?;
-    for (path, why) in &found.damaged {
-        eprintln!("damaged record {}: {why}; running it again", path.display());
-        set_aside(path)?;
-    }
-    let here = &Provenance::here()?.version;
-    if let Some((i, (_, p))) = found.records.iter().find(|(_, (_, p))| &p.version != here) {
-        bail!(
-            "{}: trial {i} was recorded by waggle {}, this is {here}: results of different \
-             binaries are not mixed; rerun with that binary or into another --out",
-            dir.display(),
-            p.version
-        );
-    }
-    let damaged = found.damaged.len() as u64;
-    found.damaged.clear();
-    Ok((found, damaged))
 }
 
 /// The header of the point in `dir`, if recorded and readable.
@@ -164,7 +143,8 @@ pub fn run_study_part(
     for (p, indices) in &parts {
         let point = &points[*p];
         let dir = out.join(&point.dir);
-        let (found, damaged) = recorded(&dir, &point.dir, study.trials)?;
+        let (found, damaged) =
+            recorded::<crate::harness::trials_out::TrialRecord>(&dir, &point.dir, study.trials)?;
         counts.damaged += damaged;
         let missing: Vec<u64> = indices
             .iter()
