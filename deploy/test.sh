@@ -5,7 +5,8 @@
 #   deploy/test.sh            default suite (≈ 26 min on 2 cores, build included; run as root:
 #                             the multi-host tests make network namespaces)
 #   deploy/test.sh --full     also the long `#[ignore]`d tests: whole missions as processes with
-#                             sensors, the frozen-behaviour runs of nominal-3 and dropout-o2, a
+#                             sensors, the frozen-behaviour runs of nominal-3 and dropout-o2 (and
+#                             of only-a on the reference `--render full` path), a
 #                             study in shards killed and resumed, and a study as a job array on a
 #                             real Slurm (tests/tests/slurm.rs: installs slurm-wlm and munge once,
 #                             starts its own slurmctld, slurmd and munged from a generated
