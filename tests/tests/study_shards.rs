@@ -537,6 +537,8 @@ fn a_baselines_study_in_shards_merges_to_the_single_run_byte_for_byte() {
     }
     let study = read_json(&merged.join("study.json"));
     assert_eq!(study.as_array().map(Vec::len), Some(4));
+    // cost.json sums every run of every shard: 8 missions, and the one flown again.
+    assert_eq!(read_json(&merged.join("cost.json"))["trials_run"], 9);
     // Two shards only: refused, naming the missing one.
     let out = waggle_tests::waggle()
         .args(["study", "merge", s(&shards[0]), s(&shards[1]), "--out"])
@@ -592,5 +594,6 @@ fn case_trials_in_shards_merge_to_the_single_run() {
     );
     assert_same(&single, &merged, "trials.json");
     assert_eq!(read_json(&merged.join("trials.json"))["trials"], 3);
+    assert_eq!(read_json(&merged.join("cost.json"))["trials_run"], 3);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -330,7 +330,7 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
     let stop = bus::on_stop_signal();
     let bar = progress_bar(range.end - range.start, "flying the first missions");
     bar.set_position(already);
-    let started = std::time::Instant::now();
+    let (started, cpu_before) = (std::time::Instant::now(), cpu_s());
     let flown = run_mission_trials_on(
         &opts,
         &missing,
@@ -342,6 +342,14 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
         },
     )?;
     bar.finish_and_clear();
+    RunCost {
+        runs: 1,
+        wall_s: started.elapsed().as_secs_f64(),
+        cpu_s: cpu_s() - cpu_before,
+        trials_run: flown.len() as u64,
+        ..RunCost::default()
+    }
+    .add_to(&args.out)?;
     println!(
         "this run: {} missions flown, {already} were recorded; {:.1} s wall ({} jobs)",
         flown.len(),

@@ -18,7 +18,7 @@ use crate::harness::mission_trials::{
     MissionTrial, MissionTrialsOptions, mission_trials_out, run_mission_trials_on,
 };
 use crate::harness::records::{recorded, write_json, write_record};
-use crate::harness::run_files::{RunKind, RunManifest};
+use crate::harness::run_files::{RunCost, RunKind, RunManifest, cpu_s};
 use crate::harness::shard::{Shard, split};
 use crate::harness::study_run::RunCounts;
 use run_format::case::Case;
@@ -102,6 +102,7 @@ pub fn run_part(
     stop: &Arc<AtomicBool>,
     progress: impl Fn(u64, u64) + Sync,
 ) -> Result<RunCounts> {
+    let (started, cpu_before) = (std::time::Instant::now(), cpu_s());
     let points = points(study, render, jobs)?;
     manifest(study, shard)?.claim(out)?;
     let total = points.len() as u64 * study.trials;
@@ -142,6 +143,16 @@ pub fn run_part(
         .with_context(|| format!("point {}", point.dir))?;
         counts.ran += flown.len() as u64;
     }
+    // What this run cost, summed into the study's cost.json (by the merge, over shards and
+    // resumed runs too).
+    RunCost {
+        runs: 1,
+        wall_s: started.elapsed().as_secs_f64(),
+        cpu_s: cpu_s() - cpu_before,
+        trials_run: counts.ran,
+        ..RunCost::default()
+    }
+    .add_to(out)?;
     Ok(counts)
 }
 
