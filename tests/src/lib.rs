@@ -152,6 +152,44 @@ pub fn venv_python() -> PathBuf {
     python
 }
 
+/// The venv's Python once it can import `modules` (a Python import list, e.g. `"zenoh.ext,
+/// rosbags"`); runs `deploy/setup.sh` first when it cannot (a venv of an older setup).
+///
+/// # Panics
+///
+/// If the venv still lacks them after setup.
+pub fn venv_python_with(modules: &str) -> PathBuf {
+    let python = workspace_root().join("tests/js/.venv/bin/python");
+    let ready = || {
+        Command::new(&python)
+            .args(["-c", &format!("import {modules}")])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if !ready() {
+        succeed(
+            Command::new("bash").arg(workspace_root().join("deploy/setup.sh")),
+            "bash deploy/setup.sh (the Python test clients in tests/js/.venv)",
+        );
+    }
+    assert!(ready(), "tests/js/.venv cannot import {modules}");
+    python
+}
+
+/// A loopback TCP port free at the time of asking.
+///
+/// # Panics
+///
+/// If the system has none to give.
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .expect("a free loopback port")
+        .port()
+}
+
 /// The official Python `mcap` reader (`tests/js/read_mcap.py` in the venv `deploy/setup.sh`
 /// makes) on `file`: its JSON report and whether it read the whole file.
 ///

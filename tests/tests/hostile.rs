@@ -216,7 +216,7 @@ fn run_beside_rogue(
     keys: impl FnOnce(&str) -> Vec<String> + Send,
     payloads: impl Fn(u64) -> Vec<Vec<u8>> + Send + Sync,
 ) -> Disturbed {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let endpoint = format!("tcp/127.0.0.1:{}", waggle_tests::free_port());
     run_beside_rogue_at(&endpoint, name, extra, rogue, keys, payloads)
 }
 
@@ -325,14 +325,6 @@ fn forged_blackout(observer: &str) -> Vec<u8> {
         from_ns: 0,
         until_ns: None,
     })
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 /// Waits for `child`, killing it and failing after `limit` (a hang must not stall CI).

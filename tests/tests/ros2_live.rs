@@ -30,33 +30,9 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// The venv's Python (made by `deploy/setup.sh` when it lacks Zenoh or rosbags).
+/// The venv's Python with Eclipse Zenoh's client and rosbags.
 fn python() -> PathBuf {
-    let python = workspace_root().join("tests/js/.venv/bin/python");
-    let ready = || {
-        Command::new(&python)
-            .args(["-c", "import zenoh.ext, rosbags"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .status()
-            .is_ok_and(|s| s.success())
-    };
-    if !ready() {
-        succeed(
-            Command::new("bash").arg(workspace_root().join("deploy/setup.sh")),
-            "bash deploy/setup.sh (the Python clients in tests/js/.venv)",
-        );
-    }
-    assert!(ready(), "tests/js/.venv lacks eclipse-zenoh / rosbags");
-    python
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
+    waggle_tests::venv_python_with("zenoh.ext, rosbags")
 }
 
 fn short_case(dir: &Path) -> PathBuf {
@@ -73,7 +49,7 @@ fn short_case(dir: &Path) -> PathBuf {
 
 /// Runs the case with the live view into `dir/run` while check_live.py listens; its report.
 fn run_watched(dir: &Path, modality: &str) -> Value {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let endpoint = format!("tcp/127.0.0.1:{}", waggle_tests::free_port());
     let live_json = dir.join("live.json");
     let mut listener = Command::new(python())
         .arg(workspace_root().join("tools/ros2/check_live.py"))

@@ -13,18 +13,11 @@ use std::time::{Duration, Instant};
 use serde_json::Value;
 use waggle_tests::{assert_recording_validates, node_client, waggle_with_nodes};
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .expect("a free loopback port")
-        .port()
-}
-
 #[test]
 fn a_live_client_receives_every_view_channel_and_the_recording_validates() {
     let dir: PathBuf = std::env::temp_dir().join(format!("waggle-view-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let port = free_port();
+    let port = waggle_tests::free_port();
     let mut run = waggle_with_nodes()
         .args(["run", "only-a", "--modality", "events", "--quiet", "--live"])
         .arg(port.to_string())

@@ -19,7 +19,7 @@ use crate::harness::mission_trials::{
 };
 use crate::harness::records::{recorded, write_json, write_record};
 use crate::harness::run_files::{RunCost, RunKind, RunManifest, cpu_s};
-use crate::harness::shard::{Shard, split};
+use crate::harness::shard::{Shard, part_of};
 use crate::harness::study_run::RunCounts;
 use run_format::case::Case;
 
@@ -105,11 +105,9 @@ pub fn run_part(
     let (started, cpu_before) = (std::time::Instant::now(), cpu_s());
     let points = points(study, render, jobs)?;
     manifest(study, shard)?.claim(out)?;
-    let total = points.len() as u64 * study.trials;
-    let range = shard.map_or(0..total, |s| s.range(total));
-    let parts = split(points.len(), study.trials, range);
+    let (parts, part) = part_of(points.len(), study.trials, shard);
     let mut counts = RunCounts {
-        part: parts.iter().map(|(_, v)| v.len() as u64).sum(),
+        part,
         ..RunCounts::default()
     };
     let mut work = Vec::new();

@@ -101,6 +101,20 @@ impl FromStr for Shard {
     }
 }
 
+/// The trials of `points` × `per_point` that `shard` (all when none) runs, per point, and how
+/// many they are.
+pub fn part_of(
+    points: usize,
+    per_point: u64,
+    shard: Option<Shard>,
+) -> (Vec<(usize, Vec<u64>)>, u64) {
+    let total = points as u64 * per_point;
+    let range = shard.map_or(0..total, |s| s.range(total));
+    let parts = split(points, per_point, range);
+    let n = parts.iter().map(|(_, v)| v.len() as u64).sum();
+    (parts, n)
+}
+
 /// The trials `0..per_point` of each of `points` points that fall in `range` of the global order
 /// (point-major): for each point with any, its index and its trial indices.
 pub fn split(points: usize, per_point: u64, range: Range<u64>) -> Vec<(usize, Vec<u64>)> {

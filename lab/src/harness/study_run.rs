@@ -17,7 +17,7 @@ use crate::harness::records::{read_json, write_record};
 use crate::harness::render_cache::{Fetched, RenderCache, fly_through};
 use crate::harness::rendered_flight::RenderedFlight;
 use crate::harness::run_files::{PointCostSum, RunCost, RunKind, RunManifest, cpu_s};
-use crate::harness::shard::{Shard, split};
+use crate::harness::shard::{Shard, part_of};
 use crate::harness::study::{Point, StudyFile};
 use crate::harness::trials::{TrialsHeader, TrialsOptions, TrialsRun, run_trials};
 
@@ -131,11 +131,9 @@ pub fn run_study_part(
     let cpu_before = cpu_s();
     let points = study.points(render, jobs)?;
     study_manifest(study, shard)?.claim(out)?;
-    let total = points.len() as u64 * study.trials;
-    let range = shard.map_or(0..total, |s| s.range(total));
-    let parts = split(points.len(), study.trials, range);
+    let (parts, part) = part_of(points.len(), study.trials, shard);
     let mut counts = RunCounts {
-        part: parts.iter().map(|(_, v)| v.len() as u64).sum(),
+        part,
         ..RunCounts::default()
     };
     // What each point still needs: its missing trials, and its header when not recorded.
