@@ -17,7 +17,7 @@ pub mod wire;
 
 pub use logic::{
     allocation, alphabet, decoder, frame, gesture, min_jerk, payload, provenance, rectify, scene,
-    schedule, segmenter, task,
+    schedule, segmenter, stabilise, task,
 };
 pub use wire::{
     camera, clock, codec, end_reason, fault, keys, modality, observer, rejects, sched, sensor,
@@ -58,6 +58,7 @@ pub use sensor::{
     EventPacket, FrameChange, PacketDropped, PixelRect, Polarity, RgbFrame, RgbReassembler,
     RgbUpdate, Unassembled,
 };
+pub use stabilise::EgoRotation;
 pub use task::{TaskError, TaskState};
 pub use token::{Action, Token};
 pub use track::{ObserverTrack, TrackSample};

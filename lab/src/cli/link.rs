@@ -184,7 +184,8 @@ fn fly_link_with_sensors(opts: &LinkOptions, p: &Perturbation, seed: u64) -> Res
         let mut camera = EventCamera::new(config).context("event camera")?;
         let (mut tokens, mut frames) = (Vec::new(), Vec::new());
         let mut events = Vec::new();
-        flight.tracks[i].replay(|t, rgb, change| {
+        flight.tracks[i].replay(|t, rgb, change, ego| {
+            perception.set_ego_rotation(ego);
             for packet in camera.push_frame_change(t, rgb, change)? {
                 if opts.events_raw.is_some() {
                     crate::harness::raw::packet_events(&packet, &mut events);

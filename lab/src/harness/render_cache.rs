@@ -173,6 +173,12 @@ impl RenderCache {
         }
         self.remove_temporaries(&key)?;
         let flight = fly_rendered(spec)?;
+        // Shared flights keep their cameras still; one that turns an airframe is flown per
+        // trial and never reaches the cache, whose entries hold no attitude.
+        ensure!(
+            !flight.tracks.iter().any(RenderTrack::turned),
+            "this flight turns an observer's airframe: the render cache keeps still cameras only"
+        );
         let bytes = encode(&flight, &key)?;
         let tmp = self.dir.join(format!("{key}.tmp-{}", std::process::id()));
         write_synced(&tmp, &bytes)?;
@@ -324,6 +330,7 @@ fn decode(bytes: &[u8], key: &str, spec: &FlightSpec) -> Result<RenderedFlight> 
                 stamp_ns,
                 change,
                 pixels: body[at..end].to_vec(),
+                ego: None,
             });
             at = end;
         }
@@ -535,6 +542,7 @@ mod tests {
                     stamp_ns: k as u64 * 10,
                     change: *c,
                     pixels: p.clone(),
+                    ego: None,
                 })
                 .collect(),
         }

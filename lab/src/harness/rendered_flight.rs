@@ -17,7 +17,8 @@ use anyhow::{Context, Result};
 use evaluation::IdealReceiver;
 use proto::scene::{Formation, distance_m};
 use proto::{
-    FrameChange, Modality, PixelRect, Rectification, RenderPath, Schedule, SegmenterConfig,
+    EgoRotation, FrameChange, Modality, PixelRect, Rectification, RenderPath, Schedule,
+    SegmenterConfig,
 };
 use rand_distr::{Distribution, Normal};
 use sim::render::CameraRenderer;
@@ -59,16 +60,18 @@ pub struct Gusts {
 }
 
 /// One camera's stored render: its stamp and what changed since the previous one.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Update {
     pub(crate) stamp_ns: u64,
     pub(crate) change: FrameChange,
     /// The changed pixels: the rectangle's rows (`Within`), the whole frame (`All`), or none.
     pub(crate) pixels: Vec<u8>,
+    /// How far the observer's airframe had turned from home when this was drawn.
+    pub(crate) ego: Option<EgoRotation>,
 }
 
 /// Every render of one camera.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct RenderTrack {
     pub(crate) frame_len: usize,
     pub(crate) width: usize,
@@ -90,7 +93,14 @@ pub struct RenderedFlight {
 
 impl RenderTrack {
     /// Keeps a render ([`fly_streamed`] hands a camera's first render over as `All`).
-    fn push(&mut self, stamp_ns: u64, rgb: &[u8], change: FrameChange, width: usize) {
+    fn push(
+        &mut self,
+        stamp_ns: u64,
+        rgb: &[u8],
+        change: FrameChange,
+        width: usize,
+        ego: Option<EgoRotation>,
+    ) {
         debug_assert!(!self.updates.is_empty() || change == FrameChange::All);
         let pixels = match change {
             FrameChange::Nothing => Vec::new(),
@@ -109,7 +119,13 @@ impl RenderTrack {
             stamp_ns,
             change,
             pixels,
+            ego,
         });
+    }
+
+    /// Whether any render was drawn from a turned airframe.
+    pub(crate) fn turned(&self) -> bool {
+        self.updates.iter().any(|u| u.ego.is_some())
     }
 
     /// Bytes held.
@@ -117,10 +133,11 @@ impl RenderTrack {
         self.updates.iter().map(|u| u.pixels.len()).sum()
     }
 
-    /// Replays the renders in order: `visit(stamp_ns, whole frame, change since previous)`.
+    /// Replays the renders in order: `visit(stamp_ns, whole frame, change since previous, how
+    /// far the airframe had turned)`.
     pub fn replay(
         &self,
-        mut visit: impl FnMut(u64, &[u8], FrameChange) -> Result<bool>,
+        mut visit: impl FnMut(u64, &[u8], FrameChange, Option<EgoRotation>) -> Result<bool>,
     ) -> Result<()> {
         let mut frame = vec![0u8; self.frame_len];
         for u in &self.updates {
@@ -135,7 +152,7 @@ impl RenderTrack {
                     }
                 }
             }
-            if !visit(u.stamp_ns, &frame, u.change)? {
+            if !visit(u.stamp_ns, &frame, u.change, u.ego)? {
                 break;
             }
         }
@@ -168,8 +185,8 @@ pub struct Flown {
 pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
     let width = usize::from(proto::scene::IMAGE_WIDTH_PX);
     let mut tracks = vec![RenderTrack::default(); spec.formation.len()];
-    let flown = fly_streamed(&spec, |i, t, rgb, change| {
-        tracks[i].push(t, rgb, change, width);
+    let flown = fly_streamed(&spec, |i, t, rgb, change, ego| {
+        tracks[i].push(t, rgb, change, width, ego);
         Ok(true)
     })?
     .context("a render cache never stops its flight")?;
@@ -185,14 +202,19 @@ pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
 
 /// Flies `spec` once, rendering every observer's camera at `render_period_ns` and handing each
 /// render to `visit(observer, stamp_ns, whole frame, change since that camera's previous
-/// render)` as it is made, observers in order at each instant — what
-/// [`RenderTrack::replay`] gives for the same flight (a camera's first render is `All`).
-/// Nothing is kept. `None` when `visit` returns `false` (the flight stops there).
+/// render, how far its airframe has turned from home)` as it is made, observers in order at
+/// each instant — what [`RenderTrack::replay`] gives for the same flight (a camera's first
+/// render is `All`). The turn is the attitude the render was drawn at (`None`: not turned, to
+/// the last bit). Nothing is kept. `None` when `visit` returns `false` (the flight stops there).
 pub fn fly_streamed(
     spec: &FlightSpec,
-    mut visit: impl FnMut(usize, u64, &[u8], FrameChange) -> Result<bool>,
+    mut visit: impl FnMut(usize, u64, &[u8], FrameChange, Option<EgoRotation>) -> Result<bool>,
 ) -> Result<Option<Flown>> {
     let mut world = World::with_formation(&spec.formation).context("building the scene")?;
+    // Observer i is drone i + 1; its home attitude is the one the scene was built with.
+    let home_attitudes: Vec<[f64; 4]> = (0..spec.formation.len())
+        .map(|i| world.body_pose(i + 1).1)
+        .collect();
     if let Some((p, seed)) = &spec.air {
         crate::harness::air::set_air(&mut world, p, *seed)?;
     }
@@ -240,6 +262,7 @@ pub fn fly_streamed(
             *next_ns = t + g.period_ns;
         }
         for (i, seen) in seen.iter_mut().enumerate() {
+            let ego = EgoRotation::between(home_attitudes[i], world.body_pose(i + 1).1);
             let frame = renderer.render_change(&mut world, i)?;
             let change = if *seen {
                 frame.change
@@ -247,7 +270,7 @@ pub fn fly_streamed(
                 FrameChange::All
             };
             *seen = true;
-            if !visit(i, t, frame.rgb, change)? {
+            if !visit(i, t, frame.rgb, change, ego)? {
                 return Ok(None);
             }
         }

@@ -187,11 +187,12 @@ pub fn observe_cached(
     for (i, placement) in flight.spec.formation.placements().iter().enumerate() {
         let mut observer = Observer::new(placement, i, opts, seed)?;
         let mut finished = true;
-        flight.tracks[i].replay(|t, rgb, change| {
+        flight.tracks[i].replay(|t, rgb, change, ego| {
             if stop.load(Ordering::Relaxed) {
                 finished = false;
                 return Ok(false);
             }
+            observer.perception.set_ego_rotation(ego);
             observer.render(t, rgb, change)?;
             Ok(true)
         })?;
@@ -220,10 +221,12 @@ pub fn observe_flying(
         .enumerate()
         .map(|(i, placement)| Observer::new(placement, i, opts, seed))
         .collect::<Result<Vec<_>>>()?;
-    let flown = fly_streamed(spec, |i, t, rgb, change| {
+    let flown = fly_streamed(spec, |i, t, rgb, change, ego| {
         if stop.load(Ordering::Relaxed) {
             return Ok(false);
         }
+        // The observer's attitude estimate: its receiver undoes the airframe's turn.
+        observers[i].perception.set_ego_rotation(ego);
         observers[i].render(t, rgb, change)?;
         Ok(true)
     })?;

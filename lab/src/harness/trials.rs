@@ -502,6 +502,9 @@ mod tests {
                 .unwrap()
                 .unwrap();
             let cache = fly_rendered(spec).unwrap();
+            // Under the cascade the observers lean: every camera hands over its airframe's
+            // turn, which its receiver undoes (`proto::stabilise`).
+            assert!(cache.tracks.iter().all(|t| t.turned()), "{modality}");
             let cached = observe_cached(&cache, &opts.sensing(), 11, &stop)
                 .unwrap()
                 .unwrap();

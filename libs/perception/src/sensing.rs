@@ -167,6 +167,17 @@ impl Perception {
         }
     }
 
+    /// How far the observer's airframe has turned from its home attitude, from the next input
+    /// on: its attitude estimate, which the receiver undoes on the target's track
+    /// ([`proto::stabilise`]). `None`: not turned.
+    pub fn set_ego_rotation(&mut self, ego: Option<proto::EgoRotation>) {
+        match self {
+            Self::Events(r) => r.set_ego_rotation(ego),
+            Self::Rgb(r) => r.set_ego_rotation(ego),
+            Self::Tracked(d) => d.set_ego_rotation(ego),
+        }
+    }
+
     /// A new round or reception window: forget target, partial frame and stream continuity.
     pub fn reset(&mut self) {
         match self {

@@ -43,6 +43,12 @@ impl Decoder {
         Ok(self.parse(tokens))
     }
 
+    /// How far the observer's airframe has turned from its home attitude, undone from the next
+    /// sample on ([`Segmenter::set_ego_rotation`]).
+    pub fn set_ego_rotation(&mut self, ego: Option<crate::stabilise::EgoRotation>) {
+        self.segmenter.set_ego_rotation(ego);
+    }
+
     /// Reports missing input or a fault at `stamp_ns`; drops any incomplete frame.
     pub fn interrupt(&mut self, stamp_ns: u64) -> Result<DecodeStep, SegmenterError> {
         let token = self.segmenter.interrupt(stamp_ns)?;

@@ -10,7 +10,8 @@
 //! - the group's side: [`task`] state, offer cache and [`allocation`] policy, the
 //!   [`provenance`] audit;
 //! - geometry: the shared [`scene`] layout and pinhole camera model, and the viewpoint
-//!   [`rectify`] map applied before template matching.
+//!   [`rectify`] map applied before template matching, and the [`stabilise`] map that undoes
+//!   the observer's own airframe turning.
 
 pub mod allocation;
 pub mod alphabet;
@@ -24,4 +25,5 @@ pub mod rectify;
 pub mod scene;
 pub mod schedule;
 pub mod segmenter;
+pub mod stabilise;
 pub mod task;

@@ -42,6 +42,9 @@ pub struct SegmenterConfig {
     /// Viewpoint rectification applied to every sample's point before anything else (`None`:
     /// the raw image trajectory).
     pub rectifier: Option<crate::rectify::Rectifier>,
+    /// The camera at its home attitude, for undoing the airframe's turns
+    /// ([`Segmenter::set_ego_rotation`]); `None`: the camera is not known and no turn is undone.
+    pub home_camera: Option<crate::scene::ObserverCamera>,
 }
 
 impl SegmenterConfig {
@@ -54,6 +57,7 @@ impl SegmenterConfig {
             max_motion_ns: 30_000_000_000,
             match_settings: MatchSettings::rgb(),
             rectifier: None,
+            home_camera: None,
         }
     }
 
@@ -74,6 +78,7 @@ impl SegmenterConfig {
     ) -> Self {
         Self {
             rectifier: crate::rectify::Rectifier::new(camera, mode),
+            home_camera: Some(camera),
             ..self
         }
     }
@@ -217,6 +222,9 @@ pub struct Segmenter {
     /// where the target now is, so the rest timer does not depend on where, inside the radius,
     /// a lagging tracker happened to cross its edge.
     recent: std::collections::VecDeque<(u64, [f64; 2])>,
+    /// How far the observer's airframe has turned from its home attitude, undone on every
+    /// sample's point before rectification (`None`: not turned, or not known).
+    ego: Option<crate::stabilise::EgoRotation>,
 }
 
 impl Segmenter {
@@ -238,12 +246,23 @@ impl Segmenter {
             motion_start_ns: None,
             path_px: Vec::new(),
             recent: std::collections::VecDeque::new(),
+            ego: None,
         }
     }
 
     /// Forgets everything, including the last stamp, without emitting a token (round reset).
+    /// The airframe's attitude is a fact of the sensor, not of the decoding: it is kept.
     pub fn reset(&mut self) {
+        let ego = self.ego;
         *self = Self::fresh(self.config);
+        self.ego = ego;
+    }
+
+    /// How far the observer's airframe has turned from its home attitude from the next sample
+    /// on (`None`: not turned). Needs the home camera ([`SegmenterConfig::rectified`]); without
+    /// it the rotation is ignored.
+    pub fn set_ego_rotation(&mut self, ego: Option<crate::stabilise::EgoRotation>) {
+        self.ego = ego;
     }
 
     pub fn config(&self) -> &SegmenterConfig {
@@ -276,6 +295,10 @@ impl Segmenter {
         {
             return Err(SegmenterError::NonFinitePoint { point_px: p });
         }
+        let sample = match (&self.ego, &self.config.home_camera) {
+            (Some(ego), Some(home)) => crate::stabilise::stabilised_sample(home, ego, sample),
+            _ => sample,
+        };
         let sample = self.config.rectifier.map_or(sample, |r| r.sample(sample));
         let mut out = Vec::new();
         let stamp_ns = sample.stamp_ns;

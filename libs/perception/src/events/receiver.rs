@@ -367,6 +367,13 @@ impl EventReceiver {
         out
     }
 
+    /// How far the observer's airframe has turned from its home attitude (its attitude
+    /// estimate), undone on the target's track from the next sample on
+    /// ([`proto::stabilise`]).
+    pub fn set_ego_rotation(&mut self, ego: Option<proto::EgoRotation>) {
+        self.decoder.set_ego_rotation(ego);
+    }
+
     /// Starts afresh (a round reset or a new reception window): target, acquisition, segmenter
     /// and incomplete frame are forgotten without a token, and the next packet starts a new
     /// stream. History and counters are kept.

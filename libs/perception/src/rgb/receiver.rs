@@ -326,6 +326,13 @@ impl RgbReceiver {
         out
     }
 
+    /// How far the observer's airframe has turned from its home attitude (its attitude
+    /// estimate), undone on the target's track from the next sample on
+    /// ([`proto::stabilise`]).
+    pub fn set_ego_rotation(&mut self, ego: Option<proto::EgoRotation>) {
+        self.decoder.set_ego_rotation(ego);
+    }
+
     /// A new round or reception window: forgets target, partial frame and stream continuity
     /// (the history of tokens, frames and trajectories is kept).
     pub fn reset(&mut self) {
