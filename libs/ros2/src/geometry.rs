@@ -122,24 +122,7 @@ mod tests {
 
     /// Rotates `v` by the unit quaternion `q`.
     fn rotate(q: &QuaternionMsg, v: [f64; 3]) -> [f64; 3] {
-        let (w, x, y, z) = (q.w, q.x, q.y, q.z);
-        let m = [
-            [
-                1.0 - 2.0 * (y * y + z * z),
-                2.0 * (x * y - w * z),
-                2.0 * (x * z + w * y),
-            ],
-            [
-                2.0 * (x * y + w * z),
-                1.0 - 2.0 * (x * x + z * z),
-                2.0 * (y * z - w * x),
-            ],
-            [
-                2.0 * (x * z - w * y),
-                2.0 * (y * z + w * x),
-                1.0 - 2.0 * (x * x + y * y),
-            ],
-        ];
+        let m = proto::stabilise::matrix([q.w, q.x, q.y, q.z]);
         std::array::from_fn(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2])
     }
 

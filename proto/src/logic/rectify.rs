@@ -121,20 +121,7 @@ impl Rectifier {
     /// The sample as the virtual camera would have given it (a point that cannot be mapped is
     /// an unreliable sample without a point).
     pub fn sample(&self, sample: Sample) -> Sample {
-        match sample.point_px {
-            None => sample,
-            Some(p) => match self.map_px(p) {
-                Some(q) => Sample {
-                    point_px: Some(q),
-                    ..sample
-                },
-                None => Sample {
-                    point_px: None,
-                    reliable: false,
-                    ..sample
-                },
-            },
-        }
+        sample.mapped(|p| self.map_px(p))
     }
 }
 

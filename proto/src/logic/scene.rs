@@ -332,7 +332,12 @@ impl ObserverCamera {
     /// Projects a world point into pixel coordinates (x right, y down, origin top-left corner
     /// of the top-left pixel). Returns `None` for points behind the camera.
     pub fn project_px(&self, world_m: [f64; 3]) -> Option<[f64; 2]> {
-        let [forward, left, up] = self.camera_from_world(world_m);
+        Self::image_px(self.camera_from_world(world_m))
+    }
+
+    /// The pixel a camera-frame direction (forward, left, up) images to; `None` behind the
+    /// camera.
+    pub fn image_px([forward, left, up]: [f64; 3]) -> Option<[f64; 2]> {
         if forward <= 1e-9 {
             return None;
         }

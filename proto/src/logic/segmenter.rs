@@ -127,6 +127,23 @@ impl Sample {
         }
     }
 
+    /// The sample with its point moved by `map`; a point `map` cannot place makes it an
+    /// unreliable sample without a point.
+    pub fn mapped(self, map: impl FnOnce([f64; 2]) -> Option<[f64; 2]>) -> Self {
+        match self.point_px.map(map) {
+            None => self,
+            Some(Some(q)) => Self {
+                point_px: Some(q),
+                ..self
+            },
+            Some(None) => Self {
+                point_px: None,
+                reliable: false,
+                ..self
+            },
+        }
+    }
+
     /// No usable measurement at this step.
     pub fn lost(stamp_ns: u64) -> Self {
         Self {

@@ -64,8 +64,8 @@ impl EgoRotation {
     }
 }
 
-/// The rotation matrix of a unit quaternion (w, x, y, z).
-fn matrix([w, x, y, z]: [f64; 4]) -> [[f64; 3]; 3] {
+/// The rotation matrix of a unit quaternion (w, x, y, z), row-major.
+pub fn matrix([w, x, y, z]: [f64; 4]) -> [[f64; 3]; 3] {
     [
         [
             1.0 - 2.0 * (y * y + z * z),
@@ -95,11 +95,7 @@ pub fn stabilised_px(home: &ObserverCamera, ego: &EgoRotation, p: [f64; 2]) -> O
     );
     let ray_camera = [1.0, (cx - p[0]) / f, (cy - p[1]) / f];
     let ray_world = ego.apply(home.world_from_camera_dir(ray_camera));
-    let [forward, left, up] = home.camera_from_world_dir(ray_world);
-    if forward <= 1e-9 {
-        return None;
-    }
-    Some([cx - f * left / forward, cy - f * up / forward])
+    ObserverCamera::image_px(home.camera_from_world_dir(ray_world))
 }
 
 /// Where a world point appears in `home`'s camera turned by `ego` (the inverse of
@@ -110,34 +106,13 @@ pub fn turned_px(home: &ObserverCamera, ego: &EgoRotation, world_m: [f64; 3]) ->
         world_m[1] - home.world_pos_m[1],
         world_m[2] - home.world_pos_m[2],
     ];
-    let [forward, left, up] = home.camera_from_world_dir(ego.apply_transposed(d));
-    if forward <= 1e-9 {
-        return None;
-    }
-    let f = focal_px();
-    Some([
-        f64::from(IMAGE_WIDTH_PX) / 2.0 - f * left / forward,
-        f64::from(IMAGE_HEIGHT_PX) / 2.0 - f * up / forward,
-    ])
+    ObserverCamera::image_px(home.camera_from_world_dir(ego.apply_transposed(d)))
 }
 
 /// The sample as `home`'s unturned camera would have given it (a point that cannot be mapped
 /// is an unreliable sample without a point).
 pub fn stabilised_sample(home: &ObserverCamera, ego: &EgoRotation, sample: Sample) -> Sample {
-    match sample.point_px {
-        None => sample,
-        Some(p) => match stabilised_px(home, ego, p) {
-            Some(q) => Sample {
-                point_px: Some(q),
-                ..sample
-            },
-            None => Sample {
-                point_px: None,
-                reliable: false,
-                ..sample
-            },
-        },
-    }
+    sample.mapped(|p| stabilised_px(home, ego, p))
 }
 
 #[cfg(test)]
