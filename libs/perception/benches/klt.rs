@@ -327,7 +327,7 @@ fn benches(c: &mut Criterion) {
         b.iter(|| {
             flip = !flip;
             klt.advance(if flip { w.next } else { w.prev });
-            klt.track(&points, &mut out);
+            klt.track(&points, None, &mut out);
             black_box(out.len())
         })
     });

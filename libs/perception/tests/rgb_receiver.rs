@@ -82,7 +82,7 @@ fn klt_recovers_known_subpixel_translations() {
         klt.advance(&first);
         klt.advance(&moved);
         let mut out = Vec::new();
-        klt.track(&points, &mut out);
+        klt.track(&points, None, &mut out);
         let mut d: Vec<[f64; 2]> = points
             .iter()
             .zip(&out)
@@ -102,6 +102,65 @@ fn klt_recovers_known_subpixel_translations() {
             );
         }
     }
+}
+
+/// A camera that turned between two frames moves everything in the image, here by 52 px: more
+/// than the pyramid reaches from where the points were, easy from where the turn predicts them
+/// (the prediction off by 2 px, the target's own motion).
+#[test]
+fn klt_seeded_with_the_cameras_turn_tracks_beyond_its_reach() {
+    let scene = Scene::new(Backdrop::Wall);
+    let base = HOVER_PX;
+    let first = grey(&scene.render(Some(base)));
+    let (dx, dy) = (52i64, -20i64);
+    let moved = GrayImage::from_fn(first.width(), first.height(), |x, y| {
+        let (sx, sy) = (i64::from(x) - dx, i64::from(y) - dy);
+        if sx >= 0 && sy >= 0 && sx < i64::from(first.width()) && sy < i64::from(first.height()) {
+            *first.get_pixel(sx as u32, sy as u32)
+        } else {
+            image::Luma([0])
+        }
+    });
+    let region = Region::around(base, [32.0, 12.0], 640, 480).unwrap();
+    let points: Vec<[f32; 2]> = FeatureDetector::new()
+        .detect(&first, region, &[], 40, &FeatureConfig::paper())
+        .iter()
+        .map(|f| f.point_px)
+        .collect();
+    let correct = |out: &[Option<[f32; 2]>]| {
+        points
+            .iter()
+            .zip(out)
+            .filter(|(p, n)| {
+                n.is_some_and(|n| {
+                    (f64::from(n[0] - p[0]) - dx as f64).abs() < 0.1
+                        && (f64::from(n[1] - p[1]) - dy as f64).abs() < 0.1
+                })
+            })
+            .count()
+    };
+    let mut klt = Klt::new(KltConfig::paper()).unwrap();
+    klt.advance(&first);
+    klt.advance(&moved);
+    let mut out = Vec::new();
+    klt.track(&points, None, &mut out);
+    let unseeded = correct(&out);
+    let predicted: Vec<[f32; 2]> = points
+        .iter()
+        .map(|p| [p[0] + dx as f32 - 2.0, p[1] + dy as f32 + 1.5])
+        .collect();
+    klt.track(&points, Some(&predicted), &mut out);
+    let seeded = correct(&out);
+    assert!(
+        seeded * 10 >= points.len() * 9,
+        "seeded: {seeded} of {}",
+        points.len()
+    );
+    assert!(
+        unseeded * 2 < points.len(),
+        "unseeded: {unseeded} of {}",
+        points.len()
+    );
 }
 
 #[test]

@@ -109,6 +109,31 @@ pub fn turned_px(home: &ObserverCamera, ego: &EgoRotation, world_m: [f64; 3]) ->
     ObserverCamera::image_px(home.camera_from_world_dir(ego.apply_transposed(d)))
 }
 
+/// Where a static point seen at pixel `p` by `home`'s camera turned by `from` appears once the
+/// camera is turned by `to` (`None`: not turned): the image motion the airframe's own turn
+/// causes, an inertial-aided tracker's prediction (Hwangbo, Kim and Kanade, "Inertial-aided KLT
+/// feature tracking for a moving camera", IROS 2009). `None` for a ray behind the camera.
+pub fn predicted_px(
+    home: &ObserverCamera,
+    from: Option<&EgoRotation>,
+    to: Option<&EgoRotation>,
+    p: [f64; 2],
+) -> Option<[f64; 2]> {
+    let q = match from {
+        Some(e) => stabilised_px(home, e, p)?,
+        None => p,
+    };
+    let Some(to) = to else { return Some(q) };
+    let f = focal_px();
+    let (cx, cy) = (
+        f64::from(IMAGE_WIDTH_PX) / 2.0,
+        f64::from(IMAGE_HEIGHT_PX) / 2.0,
+    );
+    let ray_camera = [1.0, (cx - q[0]) / f, (cy - q[1]) / f];
+    let ray_world = to.apply_transposed(home.world_from_camera_dir(ray_camera));
+    ObserverCamera::image_px(home.camera_from_world_dir(ray_world))
+}
+
 /// The sample as `home`'s unturned camera would have given it (a point that cannot be mapped
 /// is an unreliable sample without a point).
 pub fn stabilised_sample(home: &ObserverCamera, ego: &EgoRotation, sample: Sample) -> Sample {
@@ -212,6 +237,31 @@ mod tests {
         };
         assert_eq!(run(true), vec![Token::Null]);
         assert!(!run(false).contains(&Token::Null));
+    }
+
+    #[test]
+    fn a_static_point_is_predicted_where_the_turned_camera_sees_it() {
+        let placement = Placement::viewpoint(30.0, 5.0, 1.6);
+        let cam = placement.camera();
+        let home_q = about([0.0, 0.0, 1.0], placement.yaw_rad);
+        let turn = |axis, a| EgoRotation::between(home_q, product(about(axis, a), home_q));
+        let (a, b) = (turn([1.0, 0.0, 0.0], 0.02), turn([0.2, 1.0, 0.0], -0.015));
+        let h = PERFORMER_HOVER_M;
+        for world in [
+            h,
+            [h[0] + 0.1, h[1], h[2] - 0.05],
+            [h[0] - 2.0, h[1] + 6.0, 0.5],
+        ] {
+            let seen = |e: &Option<EgoRotation>| match e {
+                Some(e) => turned_px(&cam, e, world).unwrap(),
+                None => cam.project_px(world).unwrap(),
+            };
+            for (from, to) in [(&a, &b), (&None, &a), (&b, &None), (&None, &None)] {
+                let p = predicted_px(&cam, from.as_ref(), to.as_ref(), seen(from)).unwrap();
+                let want = seen(to);
+                assert!((p[0] - want[0]).abs() < 1e-6 && (p[1] - want[1]).abs() < 1e-6);
+            }
+        }
     }
 
     #[test]

@@ -78,6 +78,7 @@ pub struct Klt {
     config: KltConfig,
     ctx: TrackerContext,
     points: Vec<(f32, f32)>,
+    predicted: Vec<(f32, f32)>,
 }
 
 impl std::fmt::Debug for Klt {
@@ -95,6 +96,7 @@ impl Clone for Klt {
             config: self.config,
             ctx: TrackerContext::new(),
             points: Vec::new(),
+            predicted: Vec::new(),
         }
     }
 }
@@ -106,6 +108,7 @@ impl Klt {
             config,
             ctx: TrackerContext::new(),
             points: Vec::new(),
+            predicted: Vec::new(),
         })
     }
 
@@ -123,18 +126,33 @@ impl Klt {
     /// pixel) into the current frame. `out[i]` is the new position of point `i`, or `None` when
     /// it left the image, found no texture, did not converge or failed the forward–backward
     /// round trip.
-    pub fn track(&mut self, points: &[[f32; 2]], out: &mut Vec<Option<[f32; 2]>>) {
+    /// `predicted[i]`, when given, is where the search for point `i` starts (e.g. where the
+    /// camera's own turn moved it); otherwise it starts where the point was.
+    pub fn track(
+        &mut self,
+        points: &[[f32; 2]],
+        predicted: Option<&[[f32; 2]]>,
+        out: &mut Vec<Option<[f32; 2]>>,
+    ) {
         out.clear();
         self.points.clear();
         self.points.extend(points.iter().map(|p| (p[0], p[1])));
+        self.predicted.clear();
+        if let Some(predicted) = predicted {
+            self.predicted
+                .extend(predicted.iter().map(|p| (p[0], p[1])));
+        }
         let params = TrackParams {
             window_size: self.config.window_px,
             max_iterations: self.config.max_iterations,
             min_eigen_threshold: self.config.min_eigen,
         };
-        let results = self
-            .ctx
-            .track_fb(&self.points, None, params, self.config.fb_threshold_px);
+        let results = self.ctx.track_fb(
+            &self.points,
+            predicted.map(|_| self.predicted.as_slice()),
+            params,
+            self.config.fb_threshold_px,
+        );
         out.extend(results.iter().map(|r| {
             (r.status == TrackStatus::Tracked && r.pos.0.is_finite() && r.pos.1.is_finite())
                 .then_some([r.pos.0, r.pos.1])

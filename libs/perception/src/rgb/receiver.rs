@@ -170,6 +170,9 @@ pub struct RgbReceiver {
     interruptions: BTreeMap<RgbInterruptCause, u64>,
     segmenter_errors: u64,
     frames_seen: u64,
+    /// How far the airframe has turned from home now, and at the previous frame.
+    ego: Option<proto::EgoRotation>,
+    ego_at_last_frame: Option<proto::EgoRotation>,
 }
 
 impl RgbReceiver {
@@ -190,6 +193,8 @@ impl RgbReceiver {
             interruptions: BTreeMap::new(),
             segmenter_errors: 0,
             frames_seen: 0,
+            ego: None,
+            ego_at_last_frame: None,
         })
     }
 
@@ -330,6 +335,7 @@ impl RgbReceiver {
     /// estimate), undone on the target's track from the next sample on
     /// ([`proto::stabilise`]).
     pub fn set_ego_rotation(&mut self, ego: Option<proto::EgoRotation>) {
+        self.ego = ego;
         self.decoder.set_ego_rotation(ego);
     }
 
@@ -367,7 +373,23 @@ impl RgbReceiver {
             u32::from(frame.height),
             &mut self.luma,
         );
-        let track = self.tracker.step(&self.luma);
+        // The airframe's turn since the previous frame moves every pixel: each feature's
+        // search starts where that turn put it.
+        let turned = self.ego != self.ego_at_last_frame;
+        let track = match (&self.config.segmenter.home_camera, turned) {
+            (Some(home), true) => {
+                let (from, to) = (self.ego_at_last_frame, self.ego);
+                let predict = move |p: [f32; 2]| {
+                    // Pixel centres here, pixel corners in the camera model.
+                    let q = [f64::from(p[0]) + 0.5, f64::from(p[1]) + 0.5];
+                    proto::stabilise::predicted_px(home, from.as_ref(), to.as_ref(), q)
+                        .map_or(p, |r| [(r[0] - 0.5) as f32, (r[1] - 0.5) as f32])
+                };
+                self.tracker.step_predicted(&self.luma, Some(&predict))
+            }
+            _ => self.tracker.step(&self.luma),
+        };
+        self.ego_at_last_frame = self.ego;
         self.last_point_px = track.point_px;
         track
     }

@@ -8,8 +8,11 @@
 //!   frame; the robust (component-wise median) displacement of the survivors moves the
 //!   trajectory point. Features disagreeing with the median by more than `inlier_radius_px` —
 //!   static background corners the target passes, occlusion artefacts — are dropped, so the
-//!   feature set follows the target alone. The camera is stationary: the integrated
-//!   displacement *is* the target's image-plane trajectory (no ego-motion compensation).
+//!   feature set follows the target alone. The integrated displacement is the target's
+//!   image-plane trajectory as the camera saw it; a camera that turns (an observer leaning in
+//!   wind) is undone on the trajectory by the segmenter (`proto::stabilise`), and its turn
+//!   since the previous frame seeds each feature's search ([`TargetTracker::step_predicted`]),
+//!   so the search range is spent on the target's own motion.
 //! - **Re-detection**: when fewer than `refill_below` features survive, and at least every
 //!   `redetect_period_frames` frames, new ones are detected inside the target box, away from
 //!   the survivors. The same detection re-measures the
@@ -264,9 +267,20 @@ impl TargetTracker {
 
     /// Consumes the next frame of the stream.
     pub fn step(&mut self, frame: &GrayImage) -> TrackStep {
+        self.step_predicted(frame, None)
+    }
+
+    /// Consumes the next frame of a camera that moved since the previous one: `predict` maps a
+    /// previous-frame pixel to where the camera's own motion put it, and each feature's search
+    /// starts there (the target's own motion is still what tracking measures).
+    pub fn step_predicted(
+        &mut self,
+        frame: &GrayImage,
+        predict: Option<&dyn Fn([f32; 2]) -> [f32; 2]>,
+    ) -> TrackStep {
         self.klt.advance(frame);
         if self.tracking {
-            self.track(frame)
+            self.track(frame, predict)
         } else {
             self.acquire(frame)
         }
@@ -315,8 +329,15 @@ impl TargetTracker {
         }
     }
 
-    fn track(&mut self, frame: &GrayImage) -> TrackStep {
-        self.klt.track(&self.features, &mut self.tracked);
+    fn track(
+        &mut self,
+        frame: &GrayImage,
+        predict: Option<&dyn Fn([f32; 2]) -> [f32; 2]>,
+    ) -> TrackStep {
+        let predicted: Option<Vec<[f32; 2]>> =
+            predict.map(|f| self.features.iter().map(|&p| f(p)).collect());
+        self.klt
+            .track(&self.features, predicted.as_deref(), &mut self.tracked);
         let moved: Vec<([f32; 2], [f32; 2])> = self
             .features
             .iter()

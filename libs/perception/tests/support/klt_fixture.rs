@@ -245,7 +245,7 @@ pub fn compare(clips: &[Clip], golden: &Golden, set: PointSet) -> Comparison {
             // The receiver's path: the wrapper, forward pass plus round trip.
             klt.advance(prev);
             klt.advance(next);
-            klt.track(input, &mut ours_fb);
+            klt.track(input, None, &mut ours_fb);
             // The forward pass alone, straight from the crate with the same settings.
             ctx.prepare(prev, next, config.pyramid_levels);
             let pts: Vec<(f32, f32)> = input.iter().map(|p| (p[0], p[1])).collect();
