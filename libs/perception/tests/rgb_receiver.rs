@@ -53,17 +53,22 @@ fn labels(tokens: &[SegmentToken]) -> Vec<Token> {
     tokens.iter().map(|t| t.token).collect()
 }
 
+/// Shi–Tomasi features on the drone drawn at `base`.
+fn drone_features(frame: &GrayImage, base: [f64; 2]) -> Vec<[f32; 2]> {
+    let region = Region::around(base, [32.0, 12.0], 640, 480).unwrap();
+    FeatureDetector::new()
+        .detect(frame, region, &[], 40, &FeatureConfig::paper())
+        .iter()
+        .map(|f| f.point_px)
+        .collect()
+}
+
 #[test]
 fn klt_recovers_known_subpixel_translations() {
     let scene = Scene::new(Backdrop::Wall);
     let base = [HOVER_PX[0] + 0.13, HOVER_PX[1] + 0.29];
     let first = grey(&scene.render(Some(base)));
-    let region = Region::around(base, [32.0, 12.0], 640, 480).unwrap();
-    let points: Vec<[f32; 2]> = FeatureDetector::new()
-        .detect(&first, region, &[], 40, &FeatureConfig::paper())
-        .iter()
-        .map(|f| f.point_px)
-        .collect();
+    let points = drone_features(&first, base);
     assert!(
         points.len() >= 10,
         "only {} features on the drone",
@@ -121,12 +126,7 @@ fn klt_seeded_with_the_cameras_turn_tracks_beyond_its_reach() {
             image::Luma([0])
         }
     });
-    let region = Region::around(base, [32.0, 12.0], 640, 480).unwrap();
-    let points: Vec<[f32; 2]> = FeatureDetector::new()
-        .detect(&first, region, &[], 40, &FeatureConfig::paper())
-        .iter()
-        .map(|f| f.point_px)
-        .collect();
+    let points = drone_features(&first, base);
     let correct = |out: &[Option<[f32; 2]>]| {
         points
             .iter()

@@ -335,6 +335,17 @@ impl ObserverCamera {
         Self::image_px(self.camera_from_world(world_m))
     }
 
+    /// The camera-frame direction (forward, left, up) pixel `p` images, at unit forward
+    /// distance ([`Self::image_px`] undone).
+    pub fn ray_of_px(p: [f64; 2]) -> [f64; 3] {
+        let f = focal_px();
+        [
+            1.0,
+            (f64::from(IMAGE_WIDTH_PX) / 2.0 - p[0]) / f,
+            (f64::from(IMAGE_HEIGHT_PX) / 2.0 - p[1]) / f,
+        ]
+    }
+
     /// The pixel a camera-frame direction (forward, left, up) images to; `None` behind the
     /// camera.
     pub fn image_px([forward, left, up]: [f64; 3]) -> Option<[f64; 2]> {

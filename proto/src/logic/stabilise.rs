@@ -15,7 +15,7 @@
 //! estimate, and a few millimetres at 1.3–2 m move the target by about a pixel. The camera's
 //! 4 cm lever arm ahead of the body turns a 0.5° tilt into 0.35 mm, ignored too.
 
-use crate::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, ObserverCamera, focal_px};
+use crate::scene::ObserverCamera;
 use crate::segmenter::Sample;
 
 /// How far the airframe has turned from its home attitude: the rotation, in world axes, that
@@ -88,13 +88,7 @@ pub fn matrix([w, x, y, z]: [f64; 4]) -> [[f64; 3]; 3] {
 /// Where pixel `p` of `home`'s camera turned by `ego` lands in `home`'s camera; `None` for a
 /// ray behind it.
 pub fn stabilised_px(home: &ObserverCamera, ego: &EgoRotation, p: [f64; 2]) -> Option<[f64; 2]> {
-    let f = focal_px();
-    let (cx, cy) = (
-        f64::from(IMAGE_WIDTH_PX) / 2.0,
-        f64::from(IMAGE_HEIGHT_PX) / 2.0,
-    );
-    let ray_camera = [1.0, (cx - p[0]) / f, (cy - p[1]) / f];
-    let ray_world = ego.apply(home.world_from_camera_dir(ray_camera));
+    let ray_world = ego.apply(home.world_from_camera_dir(ObserverCamera::ray_of_px(p)));
     ObserverCamera::image_px(home.camera_from_world_dir(ray_world))
 }
 
@@ -124,13 +118,7 @@ pub fn predicted_px(
         None => p,
     };
     let Some(to) = to else { return Some(q) };
-    let f = focal_px();
-    let (cx, cy) = (
-        f64::from(IMAGE_WIDTH_PX) / 2.0,
-        f64::from(IMAGE_HEIGHT_PX) / 2.0,
-    );
-    let ray_camera = [1.0, (cx - q[0]) / f, (cy - q[1]) / f];
-    let ray_world = to.apply_transposed(home.world_from_camera_dir(ray_camera));
+    let ray_world = to.apply_transposed(home.world_from_camera_dir(ObserverCamera::ray_of_px(q)));
     ObserverCamera::image_px(home.camera_from_world_dir(ray_world))
 }
 
