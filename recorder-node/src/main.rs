@@ -214,6 +214,8 @@ fn session_writer(args: &Args) -> Result<SessionWriter<BufWriter<File>>> {
         case_name: args.own.case_name.clone(),
         case_toml,
         modality: args.own.modality.map(|m| m.as_str().to_string()),
+        sensor_args: args.own.sensor.to_args(),
+        events_from_input: args.own.events_from_input,
     };
     let options = RecorderOptions {
         chunk_bytes: args.own.chunk_kib.saturating_mul(1024),
@@ -225,6 +227,7 @@ fn session_writer(args: &Args) -> Result<SessionWriter<BufWriter<File>>> {
             args.own.rgb_every.max(1)
         },
         zstd_level: 0,
+        events_from_input: args.own.events_from_input,
     };
     if let Some(dir) = args
         .output

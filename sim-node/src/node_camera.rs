@@ -15,14 +15,16 @@ use anyhow::{Context, Result};
 use bus::{Bus, Inbound, NodeArgs, Process, Rejects};
 use node_args::CameraArgs;
 use proto::Modality;
+use proto::camera::digest;
 use proto::clock::EVENT_RENDER_PERIOD_NS;
+use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX};
 use proto::{
     CameraReport, Fault, FaultKind, FrameChange, ObserverId, PacketDropped, PixelRect,
     RejectReason, RgbFrame, RgbUpdate, Role, SimState,
 };
 use sim::lockstep::mirror;
 use sim::render::{CameraRenderer, RenderCounts, RenderPath};
-use sim::sensor::{ObserverSensor, SensorOutput};
+use sim::sensor::{ObserverSensor, SensorInput, SensorOutput};
 use sim::world::World;
 
 /// `sim-node camera`'s command line: the camera's own arguments (the contract the composer
@@ -33,22 +35,6 @@ pub struct CameraCli {
     camera: CameraArgs,
     #[command(flatten)]
     node: NodeArgs,
-}
-
-/// Folds `bytes` into the running digest `h` (8-byte words, multiply–rotate): cheap enough for
-/// every RGB frame, and any changed byte changes it. Two runs without faults must end with the
-/// same digest (docs/DESIGN.md §3: byte-identical sensor payloads).
-pub fn digest(mut h: u64, bytes: &[u8]) -> u64 {
-    const K: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut chunks = bytes.chunks_exact(8);
-    for c in &mut chunks {
-        let w = u64::from_le_bytes(c.try_into().expect("8-byte chunk"));
-        h = (h ^ w).wrapping_mul(K).rotate_left(29);
-    }
-    for &b in chunks.remainder() {
-        h = (h ^ u64::from(b)).wrapping_mul(K).rotate_left(29);
-    }
-    (h ^ bytes.len() as u64).wrapping_mul(K)
 }
 
 /// The camera's account of its run, for the launcher (`camera/<o>/report`); the same figures
@@ -86,10 +72,16 @@ fn camera_report(
 
 /// The wire form of RGB frame `f` (the reconstruction contract of [`RgbUpdate`]): only
 /// its changed rectangle when it differs from the frame published just before
-/// (`last_published`) by `change`, else the whole frame. Records `f` as the last published.
-fn rgb_wire(f: &RgbFrame, change: FrameChange, last_published: &mut Option<u64>) -> Vec<u8> {
+/// (`last_published`) by `change`, else the whole frame, and the whole frame at least every
+/// `key_every` frames. Records `f` as the last published.
+fn rgb_wire(
+    f: &RgbFrame,
+    change: FrameChange,
+    last_published: &mut Option<u64>,
+    key_every: u64,
+) -> Vec<u8> {
     let follows = last_published.is_some_and(|prev| prev + 1 == f.seq);
-    let keyframe_due = f.seq.is_multiple_of(RgbUpdate::KEY_EVERY);
+    let keyframe_due = f.seq.is_multiple_of(key_every);
     let update = match change {
         FrameChange::Within(rect) if follows && !keyframe_due => {
             RgbUpdate::delta(f, f.seq - 1, rect)
@@ -108,6 +100,36 @@ fn rgb_wire(f: &RgbFrame, change: FrameChange, last_published: &mut Option<u64>)
     };
     *last_published = Some(f.seq);
     proto::encode(&update)
+}
+
+/// A key frame of an event sensor's input at least this often (renders): the input stream
+/// only feeds a recorder on a reliable link, so key frames are for a cut recording to resume
+/// from, not for loss; every 5 s at 100 Hz.
+const INPUT_KEY_EVERY: u64 = 500;
+
+/// Publishes what an event sensor is fed (`--publish-input`), as RGB updates numbered from 0.
+struct InputOutbox {
+    key: String,
+    next_seq: u64,
+    last_seq: Option<u64>,
+}
+
+impl InputOutbox {
+    fn send(&mut self, bus: &mut Bus, input: SensorInput<'_>) -> Result<()> {
+        let frame = RgbFrame {
+            seq: self.next_seq,
+            stamp_ns: input.stamp_ns,
+            width: IMAGE_WIDTH_PX,
+            height: IMAGE_HEIGHT_PX,
+            valid: true,
+            continuous: true,
+            rgb: input.rgb.to_vec(),
+        };
+        self.next_seq += 1;
+        let wire = rgb_wire(&frame, input.change, &mut self.last_seq, INPUT_KEY_EVERY);
+        bus.put_bytes(&self.key, wire)?;
+        Ok(())
+    }
 }
 
 /// True when a throttle dropping `per_mille` ‰ drops packet `seq` (a fixed hash of the
@@ -162,12 +184,35 @@ impl Outbox {
         self.digest = digest(self.digest, &bytes);
         self.published += 1;
         let wire = match output {
-            SensorOutput::Rgb(f) => rgb_wire(f, change, &mut self.last_rgb_seq),
+            SensorOutput::Rgb(f) => {
+                rgb_wire(f, change, &mut self.last_rgb_seq, RgbUpdate::KEY_EVERY)
+            }
             SensorOutput::Events(_) => bytes,
         };
         bus.put_bytes(&self.out_key, wire)?;
         Ok(())
     }
+}
+
+/// Renders and senses once; with `inputs`, publishes what the sensor was fed as well.
+fn capture(
+    sensor: &mut ObserverSensor,
+    world: &mut World,
+    renderer: &mut CameraRenderer,
+    inputs: Option<&mut InputOutbox>,
+    bus: &mut Bus,
+) -> Result<Vec<SensorOutput>> {
+    let Some(inputs) = inputs else {
+        return Ok(sensor.capture(world, renderer)?);
+    };
+    let mut sent = Ok(());
+    let outputs = sensor.capture_observed(world, renderer, &mut |input| {
+        if sent.is_ok() {
+            sent = inputs.send(bus, input);
+        }
+    })?;
+    sent.context("publishing the sensor's input")?;
+    Ok(outputs)
 }
 
 /// The 0-based index of `observer` among the session's `observers`.
@@ -304,6 +349,12 @@ pub fn run(cli: CameraCli) -> Result<()> {
         digest: 0,
         last_rgb_seq: None,
     };
+    // Only an event camera has an input other than its output.
+    let mut input_outbox = (args.publish_input && kind == Modality::Events).then(|| InputOutbox {
+        key: keys.camera_input(&args.observer),
+        next_seq: 0,
+        last_seq: None,
+    });
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
     let mut black = false;
     let mut throttle: Option<(u16, u32)> = None;
@@ -345,7 +396,9 @@ pub fn run(cli: CameraCli) -> Result<()> {
                     tracing::warn!(observer = %args.observer, t_s = t as f64 * 1e-9, ?want_throttle, "throttle fault");
                     throttle = want_throttle;
                 }
-                for output in sensor.capture(&mut world, &mut renderer)? {
+                let inputs = input_outbox.as_mut();
+                let outputs = capture(&mut sensor, &mut world, &mut renderer, inputs, &mut bus)?;
+                for output in outputs {
                     outbox.send(&mut bus, &output, throttle, sensor.rgb_change())?;
                 }
             }
@@ -376,7 +429,7 @@ pub fn run(cli: CameraCli) -> Result<()> {
 
 #[cfg(test)]
 mod tests {
-    use super::{digest, rgb_wire, throttle_drops};
+    use super::{rgb_wire, throttle_drops};
     use proto::{FrameChange, PixelRect, RgbFrame, RgbReassembler, RgbUpdate};
 
     #[test]
@@ -410,27 +463,13 @@ mod tests {
                 s if s % 2 == 0 => top,
                 _ => FrameChange::Nothing,
             };
-            let wire = rgb_wire(&f, change, &mut last);
+            let wire = rgb_wire(&f, change, &mut last, RgbUpdate::KEY_EVERY);
             let update: RgbUpdate = proto::decode(&wire).unwrap();
             kinds.push((seq, update.base_seq.is_none()));
             assert_eq!(rx.apply(update).unwrap(), f, "frame {seq}");
         }
         let keys: Vec<u64> = kinds.iter().filter(|k| k.1).map(|k| k.0).collect();
         assert_eq!(keys, vec![0, 10, 25, 31, 50]);
-    }
-
-    #[test]
-    fn the_digest_sees_every_byte_and_the_length() {
-        let a = vec![7u8; 1001];
-        let base = digest(0, &a);
-        assert_eq!(base, digest(0, &a.clone()));
-        for i in [0, 500, 999, 1000] {
-            let mut b = a.clone();
-            b[i] ^= 1;
-            assert_ne!(digest(0, &b), base, "byte {i}");
-        }
-        assert_ne!(digest(0, &a[..1000]), base);
-        assert_ne!(digest(digest(0, &a), &a), base);
     }
 
     #[test]

@@ -87,6 +87,8 @@ fn frame(observer: &str, seq: u64, round: u32, bits: &str, final_null_ns: u64) -
 fn constructed(decided_ns: u64) -> Vec<u8> {
     let keys = Keys::new("constructed").unwrap();
     let info = SessionInfo {
+        sensor_args: Vec::new(),
+        events_from_input: false,
         session: "constructed".into(),
         observers: 3,
         case_name: Some("nominal-3".into()),

@@ -8,6 +8,7 @@ use clap::Args;
 use proto::Modality;
 
 use crate::case::Case;
+use crate::compose::build::EventRecording;
 use crate::eval::summary::print_summary;
 use crate::fault::{BlackSpec, ExtraFaults, KillSpec, ThrottleSpec};
 use crate::launch::{RunOptions, run_case, run_modality};
@@ -78,6 +79,12 @@ pub struct SessionArgs {
     /// raw channel holds every frame losslessly either way).
     #[arg(long)]
     pub record_all_rgb: bool,
+    /// What the recording keeps of the event cameras: `packets` (every packet), `input` (what
+    /// each sensor was fed — its renders — from which `waggle replay` regenerates the packets
+    /// bit for bit with the recorded sensor model and seed), or `auto`: the input when the
+    /// sensors have a noise model, the packets otherwise.
+    #[arg(long, value_enum, default_value_t)]
+    pub record_events: EventRecording,
 }
 
 impl SessionArgs {
@@ -108,6 +115,7 @@ impl SessionArgs {
             quiet: false,
             no_record: self.no_record,
             record_all_rgb: self.record_all_rgb,
+            record_events: self.record_events,
             endpoints: Endpoints::default(),
             render: self.render.path,
             live: None,

@@ -18,6 +18,35 @@ pub const DEFAULT_HOST: &str = "local";
 /// The router's listener when none is given: loopback, a free port chosen by `waggle up`.
 pub const LOOPBACK_ROUTER: &str = "tcp/127.0.0.1:0";
 
+/// What a recording keeps of the event cameras (`--record-events`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum EventRecording {
+    /// Their input when the sensors have a noise model (`--sensor-preset`/`--perturb`), their
+    /// packets otherwise.
+    #[default]
+    Auto,
+    /// Every packet, as published.
+    Packets,
+    /// What each sensor was fed (its renders, `camera/<o>/input`); `waggle replay` regenerates
+    /// the packets bit for bit with the recorded sensor model and seed. A noisy sensor's
+    /// packets hold ≈ 8 bytes per event, ≈ 10⁸ events per camera-minute under `v2e-noisy`;
+    /// its renders change only where something moves.
+    Input,
+}
+
+impl EventRecording {
+    /// True when a recording of a session with `modality` cameras and `sensor` keeps the
+    /// input.
+    pub fn keeps_input(self, modality: Modality, sensor: &SensorArgs) -> bool {
+        modality == Modality::Events
+            && match self {
+                EventRecording::Auto => !sensor.is_none(),
+                EventRecording::Packets => false,
+                EventRecording::Input => true,
+            }
+    }
+}
+
 /// What a session is made of (the options of `waggle compose` and `waggle run`).
 #[derive(Debug, Clone)]
 pub struct ComposeOptions {
@@ -40,6 +69,8 @@ pub struct ComposeOptions {
     pub record: bool,
     /// Record a view image of every RGB frame.
     pub record_all_rgb: bool,
+    /// What the recording keeps of the event cameras.
+    pub record_events: EventRecording,
     pub render: RenderPath,
     /// The event cameras' sensor model (none: the paper's ideal sensors, no argument).
     pub sensor: SensorArgs,
@@ -117,6 +148,11 @@ impl NodeArgs<'_> {
     /// recorder — the order `waggle up` starts them in.
     fn nodes(&self) -> Vec<Node> {
         let modality = self.opts.modality;
+        let keep_input = self.opts.record
+            && self
+                .opts
+                .record_events
+                .keeps_input(modality, &self.opts.sensor);
         let mut out = vec![
             node(Process::singleton(Role::Sim), NodeCommand::Sim),
             node(
@@ -138,6 +174,7 @@ impl NodeArgs<'_> {
                     .collect(),
                 render: self.opts.render,
                 sensor: self.opts.sensor.clone(),
+                publish_input: keep_input,
             };
             out.push(node(
                 Process::new(Role::Camera, o.as_str()),
@@ -162,6 +199,8 @@ impl NodeArgs<'_> {
         if self.opts.record {
             let mut recorder = RecorderArgs::new(&self.case.name, modality);
             recorder.all_rgb = self.opts.record_all_rgb;
+            recorder.events_from_input = keep_input;
+            recorder.sensor = self.opts.sensor.clone();
             out.push(node(
                 Process::singleton(Role::Recorder),
                 NodeCommand::Recorder(recorder),

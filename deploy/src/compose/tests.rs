@@ -25,6 +25,7 @@ fn options(case: &str, placements: &[&str], router: &[&str]) -> (Case, ComposeOp
         plain_tcp: true,
         record: true,
         record_all_rgb: false,
+        record_events: Default::default(),
         render: proto::RenderPath::Damage,
         sensor: node_args::SensorArgs::default(),
         router_listen: router.iter().map(|s| s.to_string()).collect(),
@@ -219,13 +220,18 @@ fn a_sensor_model_rides_on_every_camera_and_round_trips_through_the_file() {
             n.args
         );
     }
-    // Only the cameras carry it.
-    for n in composed
-        .nodes
-        .iter()
-        .filter(|n| n.role.role != Role::Camera)
-    {
-        assert!(!n.args.iter().any(|a| a == "--sensor-preset"), "{}", n.role);
+    // Only the cameras carry it, and the recorder, which keeps their input for the replay
+    // to regenerate the packets from.
+    for n in &composed.nodes {
+        let carries = n.args.iter().any(|a| a == "--sensor-preset");
+        let keeps_input = match n.role.role {
+            Role::Camera => n.args.iter().any(|a| a == "--publish-input"),
+            Role::Recorder => n.args.iter().any(|a| a == "--events-from-input"),
+            _ => false,
+        };
+        let camera_or_recorder = matches!(n.role.role, Role::Camera | Role::Recorder);
+        assert_eq!(carries, camera_or_recorder, "{}", n.role);
+        assert_eq!(keeps_input, camera_or_recorder, "{}", n.role);
     }
     let back: Compose = toml::from_str(&composed.to_toml().unwrap()).unwrap();
     assert_eq!(back, composed);
@@ -453,4 +459,42 @@ fn bad_sites_are_refused_naming_what_is_wrong() {
     only_loopback.router.listen = vec!["quic/127.0.0.1:7447".into()];
     only_loopback.sites = vec![site("b", &["quic/10.1.0.2:1"], &[])];
     assert!(check_err(&only_loopback).contains("reach"));
+}
+
+#[test]
+fn the_recording_keeps_the_event_sensors_input_only_when_asked_or_noisy() {
+    use super::build::EventRecording;
+    let keeps = |record: bool, how: EventRecording, modality: Modality, noisy_sensor: bool| {
+        let (c, mut o) = options("only-a", &[], &[]);
+        o.record = record;
+        o.record_events = how;
+        o.modality = modality;
+        if noisy_sensor {
+            o.sensor = noisy();
+        }
+        let composed = compose(&c, &o).unwrap();
+        let flags: Vec<(Role, bool)> = composed
+            .nodes
+            .iter()
+            .filter(|n| matches!(n.role.role, Role::Camera | Role::Recorder))
+            .map(|n| {
+                let flag = n
+                    .args
+                    .iter()
+                    .any(|a| a == "--publish-input" || a == "--events-from-input");
+                (n.role.role, flag)
+            })
+            .collect();
+        let all = flags.iter().all(|f| f.1);
+        assert!(all || flags.iter().all(|f| !f.1), "{flags:?}");
+        all
+    };
+    use EventRecording::{Auto, Input, Packets};
+    assert!(keeps(true, Auto, Modality::Events, true));
+    assert!(!keeps(true, Auto, Modality::Events, false));
+    assert!(keeps(true, Input, Modality::Events, false));
+    assert!(!keeps(true, Packets, Modality::Events, true));
+    assert!(!keeps(true, Input, Modality::Rgb, false));
+    // Nobody records: nothing to publish it for.
+    assert!(!keeps(false, Input, Modality::Events, true));
 }

@@ -17,13 +17,13 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use proto::{
-    Broadcast, Decision, FrameEvent, MissionReport, ObserverId, Offer, SimContacts, TICK_NS,
+    Broadcast, Decision, FrameEvent, Key, MissionReport, ObserverId, Offer, SimContacts, TICK_NS,
 };
 use proto::{GestureConfig, broadcast};
 use recording::Decoded;
 
 use crate::case::Case;
-use crate::eval::recording::{Item, Scan, scan, topic_observer};
+use crate::eval::recording::{Item, Scan, scan, topic_key, topic_observer};
 use crate::eval::summary::{
     check_expected, end_reason_text, ns_s, provenance_violations, receiver_text,
 };
@@ -56,6 +56,10 @@ impl Gathered {
                 if p.is_empty() {
                     *self.empty_packets.entry(o).or_default() += 1;
                 }
+                return;
+            }
+            // An event camera's recorded input is not a packet it published.
+            Decoded::RgbUpdate(_) if matches!(topic_key(item.topic), Some(Key::CameraInput(_))) => {
                 return;
             }
             Decoded::RgbFrame(_) | Decoded::RgbUpdate(_) => {
@@ -194,6 +198,16 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
     })?;
     let case = scanned.case()?;
     let info = &scanned.info;
+    // A recording of the event cameras' input counts their packets from the recorder's account
+    // of what it received.
+    if info.events_from_input
+        && let Some(received) = crate::eval::regenerate::received(&scanned.outcome.metadata)?
+    {
+        for (o, r) in received {
+            g.packets.insert(o.clone(), r.packets);
+            g.events.insert(o, r.events);
+        }
+    }
     let n = match (info.observers, &case) {
         (0, Some(c)) => c.observers,
         (n, _) => n,

@@ -2,7 +2,9 @@
 //!
 //! Loads no MuJoCo scene. For each observer it feeds a fresh [`ObserverRuntime`] — the very
 //! code path `observer-node` runs — with that observer's recorded raw sensor input (event
-//! packets, or the RGB camera's key frames and changed rectangles, rebuilt into whole frames)
+//! packets, or the RGB camera's key frames and changed rectangles, rebuilt into whole frames;
+//! a recording of a noisy session keeps the event sensors' input instead, and the packets are
+//! regenerated from it, [`crate::eval::regenerate`], and must equal the ones received live)
 //! and the recorded session controls (reception windows, round resets, mission end), tick by
 //! tick in the observer process's order: the controls of tick k−1, then packet k, or "missing"
 //! when the recording holds no packet k (a later packet of that camera exists, or the recording
@@ -29,7 +31,8 @@ use proto::{
 use recording::Decoded;
 use serde::Serialize;
 
-use crate::eval::recording::{resolve, scan, topic_observer};
+use crate::eval::recording::{Item, resolve, scan, topic_key, topic_observer};
+use crate::eval::regenerate::{Regenerated, Regenerator, received};
 use crate::eval::summary::ns_s;
 
 /// One observer's replay against its live decodes.
@@ -55,6 +58,9 @@ pub struct ObserverReplay {
     pub unassembled: u64,
     /// The last tick compared (`None`: the whole run).
     pub covered_through_tick: Option<u64>,
+    /// The recording kept the camera's input: its packets regenerated, against the ones the
+    /// recorder received.
+    pub regenerated: Option<Regenerated>,
 }
 
 /// What `waggle replay --json` prints.
@@ -174,13 +180,134 @@ impl Live {
     }
 }
 
+/// Everything a replay gathers while it reads the recording.
+struct Replay {
+    replayers: BTreeMap<ObserverId, Replayer>,
+    live: BTreeMap<ObserverId, Live>,
+    sessions_all: BTreeMap<u64, Vec<SessionControl>>,
+    last_clock: Option<u64>,
+    whole_rgb_frames: u64,
+    /// Observers of the session (the scene's most when unknown).
+    n: usize,
+    modality: Modality,
+    /// The event packets' source when the recording kept the sensors' input.
+    regenerator: Option<Regenerator>,
+}
+
+impl Replay {
+    fn replayer(&mut self, o: &ObserverId) -> Result<&mut Replayer> {
+        replayer(
+            &mut self.replayers,
+            o,
+            self.n,
+            self.modality,
+            &self.sessions_all,
+        )
+    }
+
+    /// Takes one recorded message and advances every receiver as far as it allows.
+    fn take(&mut self, item: Item<'_>) -> Result<()> {
+        let observer = || {
+            topic_observer(item.topic)
+                .with_context(|| format!("no observer in topic {}", item.topic))
+        };
+        match item.msg {
+            Decoded::Clock(c) => self.last_clock = self.last_clock.max(Some(c.tick)),
+            Decoded::SessionTick(s) => {
+                for r in self.replayers.values_mut() {
+                    r.core.session(s.tick, s.controls.clone());
+                }
+                self.sessions_all.insert(s.tick, s.controls);
+            }
+            Decoded::RgbUpdate(u) if is_input(item.topic) => {
+                if let Some(regen) = self.regenerator.as_mut() {
+                    let o = observer()?;
+                    let released = regen.input(&o, u)?;
+                    let r = self.replayer(&o)?;
+                    for p in released {
+                        r.packet(p);
+                    }
+                }
+            }
+            Decoded::EventPacket(p) if self.modality == Modality::Events => {
+                self.replayer(&observer()?)?.packet(p);
+            }
+            Decoded::RgbUpdate(u) if self.modality == Modality::Rgb => {
+                self.replayer(&observer()?)?.rgb_update(u);
+            }
+            // The camera's word that it dropped a packet decides that tick as it did live,
+            // without waiting for the next packet or the end of the recording.
+            // A notice naming another observer than its topic was refused live; so here.
+            Decoded::PacketDropped(d)
+                if topic_observer(item.topic).as_ref() == Some(&d.observer) =>
+            {
+                if let Some(regen) = self.regenerator.as_mut() {
+                    regen.dropped(&d.observer, d.seq)?;
+                }
+                self.replayer(&d.observer)?.core.dropped(d.tick);
+            }
+            Decoded::RgbFrame(_) => self.whole_rgb_frames += 1,
+            msg => self.take_live(msg),
+        }
+        for r in self.replayers.values_mut() {
+            r.advance(self.last_clock, false)?;
+        }
+        Ok(())
+    }
+
+    /// Keeps what the observers published live.
+    fn take_live(&mut self, msg: Decoded) {
+        match msg {
+            Decoded::FrameEvent(f) => self
+                .live
+                .entry(f.observer.clone())
+                .or_default()
+                .frames
+                .push(f),
+            Decoded::TokenEvent(t) => self
+                .live
+                .entry(t.observer.clone())
+                .or_default()
+                .tokens
+                .push(t),
+            Decoded::Decision(d) => self
+                .live
+                .entry(d.observer.clone())
+                .or_default()
+                .decisions
+                .push(d),
+            Decoded::ObserverStatus(s) => {
+                self.live
+                    .entry(s.observer.clone())
+                    .or_default()
+                    .inputs
+                    .insert(s.tick, s.input);
+            }
+            _ => {}
+        }
+    }
+
+    /// The recording has ended: the regenerated packets still held go to their receivers, and
+    /// each camera's packets made are set against those received.
+    fn finish_regeneration(
+        &mut self,
+        metadata: &BTreeMap<String, BTreeMap<String, String>>,
+    ) -> Result<BTreeMap<String, Regenerated>> {
+        let Some(mut regen) = self.regenerator.take() else {
+            return Ok(BTreeMap::new());
+        };
+        for (o, packets) in regen.finish() {
+            let r = self.replayer(&o)?;
+            for p in packets {
+                r.packet(p);
+            }
+        }
+        Ok(regen.compare(received(metadata)?.as_ref()))
+    }
+}
+
 /// Replays the recording at `path` and compares with its live decodes.
 pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
-    let mut replayers: BTreeMap<ObserverId, Replayer> = BTreeMap::new();
-    let mut live: BTreeMap<ObserverId, Live> = BTreeMap::new();
-    let mut sessions_all: BTreeMap<u64, Vec<SessionControl>> = BTreeMap::new();
-    let mut last_clock: Option<u64> = None;
-    let mut whole_rgb_frames = 0u64;
     let info = recording::leading_metadata(&resolve(path), recording::SESSION_METADATA)?
         .map(|m| recording::SessionInfo::from_metadata(&m));
     let observers = info.as_ref().map(|i| i.observers).filter(|n| *n > 0);
@@ -189,59 +316,23 @@ pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
         Some("rgb") => Modality::Rgb,
         _ => Modality::Events,
     };
-    let n = observers.unwrap_or(proto::scene::MAX_OBSERVERS);
-    let scanned = scan(path, |item| {
-        match item.msg {
-            Decoded::Clock(c) => last_clock = last_clock.max(Some(c.tick)),
-            Decoded::SessionTick(s) => {
-                for r in replayers.values_mut() {
-                    r.core.session(s.tick, s.controls.clone());
-                }
-                sessions_all.insert(s.tick, s.controls);
-            }
-            Decoded::EventPacket(p) if modality == Modality::Events => {
-                let o = topic_observer(item.topic)
-                    .with_context(|| format!("no observer in topic {}", item.topic))?;
-                replayer(&mut replayers, &o, n, modality, &sessions_all)?.packet(p);
-            }
-            Decoded::RgbUpdate(u) if modality == Modality::Rgb => {
-                let o = topic_observer(item.topic)
-                    .with_context(|| format!("no observer in topic {}", item.topic))?;
-                replayer(&mut replayers, &o, n, modality, &sessions_all)?.rgb_update(u);
-            }
-            // The camera's word that it dropped a packet decides that tick as it did live,
-            // without waiting for the next packet or the end of the recording.
-            // A notice naming another observer than its topic was refused live; so here.
-            Decoded::PacketDropped(d)
-                if topic_observer(item.topic).as_ref() == Some(&d.observer) =>
-            {
-                replayer(&mut replayers, &d.observer, n, modality, &sessions_all)?
-                    .core
-                    .dropped(d.tick);
-            }
-            Decoded::RgbFrame(_) => whole_rgb_frames += 1,
-            Decoded::FrameEvent(f) => live.entry(f.observer.clone()).or_default().frames.push(f),
-            Decoded::TokenEvent(t) => live.entry(t.observer.clone()).or_default().tokens.push(t),
-            Decoded::Decision(d) => live
-                .entry(d.observer.clone())
-                .or_default()
-                .decisions
-                .push(d),
-            Decoded::ObserverStatus(s) => {
-                live.entry(s.observer.clone())
-                    .or_default()
-                    .inputs
-                    .insert(s.tick, s.input);
-            }
-            _ => {}
-        }
-        for r in replayers.values_mut() {
-            r.advance(last_clock, false)?;
-        }
-        Ok(())
-    })?;
-    if replayers.is_empty() {
-        if whole_rgb_frames > 0 {
+    let mut replay = Replay {
+        replayers: BTreeMap::new(),
+        live: BTreeMap::new(),
+        sessions_all: BTreeMap::new(),
+        last_clock: None,
+        whole_rgb_frames: 0,
+        n: observers.unwrap_or(proto::scene::MAX_OBSERVERS),
+        modality,
+        regenerator: match (&info, modality) {
+            (Some(info), Modality::Events) => Regenerator::of(info)?,
+            _ => None,
+        },
+    };
+    let scanned = scan(path, |item| replay.take(item))?;
+    let regenerated = replay.finish_regeneration(&scanned.outcome.metadata)?;
+    if replay.replayers.is_empty() {
+        if replay.whole_rgb_frames > 0 {
             bail!(
                 "this RGB recording holds one whole frame in 25 (made before every RGB update was \
                  recorded): the RGB receivers cannot be replayed from it; record it again"
@@ -271,9 +362,9 @@ pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
         .outcome
         .first_damage_ns
         .map(|t| (t / TICK_NS).saturating_sub(1));
-    for (id, r) in &mut replayers {
-        r.advance(last_clock, true)?;
-        let l = live.remove(id).unwrap_or_default();
+    for (id, r) in &mut replay.replayers {
+        r.advance(replay.last_clock, true)?;
+        let l = replay.live.remove(id).unwrap_or_default();
         // Where the recording covers this observer: its input and its live outputs both
         // survive, and nothing before is damaged.
         let horizon = partial.then(|| {
@@ -283,8 +374,17 @@ pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
                 .min()
                 .unwrap_or(0)
         });
-        let o = compare(r, l, horizon);
-        if !o.mismatches.is_empty()
+        let mut o = compare(r, l, horizon);
+        o.regenerated = regenerated.get(id.as_str()).cloned();
+        // A cut or damaged recording is judged by its decodes up to where it covers the run:
+        // the regeneration cannot follow a lost render, and a cut one holds no account of what
+        // was received.
+        let regeneration_differs = !partial
+            && o.regenerated.as_ref().is_some_and(|g| {
+                g.unassembled > 0 || g.received.is_some_and(|received| received != g.made)
+            });
+        if regeneration_differs
+            || !o.mismatches.is_empty()
             || !o.tokens_identical
             || !o.decisions_identical
             || !o.input_disagreements.is_empty()
@@ -294,6 +394,11 @@ pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
         report.observers.insert(id.to_string(), o);
     }
     Ok(report)
+}
+
+/// True for an event camera's input channel (`/camera/<o>/input`).
+fn is_input(topic: &str) -> bool {
+    matches!(topic_key(topic), Some(proto::Key::CameraInput(_)))
 }
 
 fn replayer<'a>(
@@ -429,6 +534,27 @@ pub fn print_replay(report: &ReplayReport) {
             r.events,
             r.ticks_replayed
         );
+        if let Some(g) = &r.regenerated {
+            println!(
+                "  packets regenerated from the recorded sensor input: {} ({} events), {}",
+                g.made.packets,
+                g.made.events,
+                match g.received {
+                    _ if g.unassembled > 0 => format!(
+                        "{} inputs built on renders the recording lacks: NOT the packets received",
+                        g.unassembled
+                    ),
+                    Some(received) if received == g.made => {
+                        "bit for bit the packets the recorder received".to_string()
+                    }
+                    Some(received) => format!(
+                        "DIFFER from the {} packets ({} events) the recorder received",
+                        received.packets, received.events
+                    ),
+                    None => "the recording holds no account of the packets received".to_string(),
+                }
+            );
+        }
         if let Some(t) = r.covered_through_tick {
             println!(
                 "  compared through tick {t} (sim {:.2} s)",

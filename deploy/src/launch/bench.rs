@@ -147,6 +147,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                     quiet: opts.quiet,
                     no_record: true,
                     record_all_rgb: false,
+                    record_events: Default::default(),
                     endpoints: Endpoints::default(),
                     render,
                     live: None,

@@ -35,7 +35,8 @@ use proto::{Modality, RenderPath};
 
 pub use crate::case::run_modality;
 use crate::case::{Case, case_source};
-use crate::compose::{self, build::ComposeOptions};
+use crate::compose;
+use crate::compose::build::{ComposeOptions, EventRecording};
 use crate::fault::ExtraFaults;
 use crate::run_dir::lock::RunLock;
 use crate::run_dir::{LOG_DIR, RunSummary};
@@ -70,6 +71,8 @@ pub struct RunOptions {
     pub no_record: bool,
     /// Record every RGB frame (by default one in 25).
     pub record_all_rgb: bool,
+    /// What the recording keeps of the event cameras.
+    pub record_events: EventRecording,
     /// The launcher's own endpoints (default: listen on a free loopback port).
     pub endpoints: Endpoints,
     /// How the cameras render (both paths publish identical bytes).
@@ -151,6 +154,7 @@ impl RunOptions {
             plain_tcp: self.plain_tcp,
             record: !self.no_record,
             record_all_rgb: self.record_all_rgb,
+            record_events: self.record_events,
             render: self.render,
             sensor: self.sensor.clone(),
             router_listen: self.endpoints.listen.clone(),

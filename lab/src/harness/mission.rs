@@ -146,7 +146,7 @@ impl Mission {
             }
         };
         let observers = (0..n)
-            .map(|i| MissionObserver::new(case, modality, i, opts))
+            .map(|i| MissionObserver::new(case, modality, i, opts, world.body_pose(i + 1).1))
             .collect::<Result<Vec<_>>>()?;
         let alive = observers.iter().map(|o| o.id.clone()).collect();
         let offer_sites = &scheduler.config().offer_sites;

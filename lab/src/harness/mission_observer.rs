@@ -47,13 +47,22 @@ pub struct MissionObserver {
     link: (LinkNoise, ChaCha8Rng),
     /// Why the packet of the tick being sensed did not arrive, if it did not.
     gap: Option<MissingReason>,
+    /// Its airframe's attitude at home (as the scene was built): its receiver undoes the turn
+    /// from it that each packet was made with, as in link trials.
+    home_wxyz: [f64; 4],
     /// What it published, as `observers.json` holds it.
     pub record: ObserverRecord,
 }
 
 impl MissionObserver {
     /// Observer `i` of `case` on `modality`'s receiver, its sensor perturbed as `opts` says.
-    pub fn new(case: &Case, modality: Receiver, i: usize, opts: &MissionOptions) -> Result<Self> {
+    pub fn new(
+        case: &Case,
+        modality: Receiver,
+        i: usize,
+        opts: &MissionOptions,
+        home_wxyz: [f64; 4],
+    ) -> Result<Self> {
         let n = case.observers;
         let name = observer_name(i);
         let id = ObserverId::new(name.clone())?;
@@ -98,6 +107,7 @@ impl MissionObserver {
             source,
             black,
             gap: None,
+            home_wxyz,
             record: ObserverRecord::default(),
         })
     }
@@ -153,6 +163,11 @@ impl MissionObserver {
                 return Ok(());
             }
         };
+        // The attitude estimate of the render that made these outputs (the true attitude: IMU
+        // error is not modelled). Bitwise equal to home on a still airframe: nothing to undo.
+        let ego = state
+            .drone(&self.name)
+            .and_then(|d| proto::EgoRotation::between(self.home_wxyz, d.quat_wxyz));
         for output in outputs {
             let packet: SensorPacket = match output {
                 SensorOutput::Rgb(mut f) => {
@@ -164,7 +179,8 @@ impl MissionObserver {
                 SensorOutput::Events(p) => p.into(),
             };
             if self.link.0.keeps(&mut self.link.1) {
-                self.core.packet(packet);
+                let (tick, _) = self.core.packet(packet);
+                self.core.attitude(tick, ego);
             } else {
                 self.gap = Some(MissingReason::Lost);
             }

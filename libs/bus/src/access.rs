@@ -57,6 +57,7 @@ pub fn access_of(keys: &Keys, p: &Process) -> RoleAccess {
                     keys.sensor_events(&o),
                     keys.sensor_rgb(&o),
                     keys.sensor_dropped(&o),
+                    keys.camera_input(&o),
                     keys.camera_report(&o),
                 ],
                 vec![keys.sim_state(), keys.fault(&o)],
@@ -273,6 +274,9 @@ mod tests {
             assert!(!may(&a.publish, &keys.fault(&observer("O1"))), "{}", a.user);
         }
         assert!(may(&get("launcher").publish, &keys.fault(&observer("O1"))));
+        let camera = get("camera-O1");
+        assert!(may(&camera.publish, &keys.camera_input(&observer("O1"))));
+        assert!(!may(&camera.publish, &keys.camera_input(&observer("O2"))));
         let host = get("launcher-b");
         assert!(host.publish.iter().all(|k| k.contains("rejects")));
         assert!(may(&host.subscribe, &keys.clock()));

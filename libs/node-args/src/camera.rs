@@ -35,6 +35,11 @@ pub struct CameraArgs {
     pub render: RenderPath,
     #[command(flatten)]
     pub sensor: SensorArgs,
+    /// Also publish what the event sensor is fed (`camera/<o>/input`: its renders as RGB
+    /// updates), for a recorder that keeps them instead of the packets and regenerates the
+    /// packets on replay (the recording of a noisy sensor stays small).
+    #[arg(long)]
+    pub publish_input: bool,
 }
 
 impl CameraArgs {
@@ -46,6 +51,7 @@ impl CameraArgs {
             .value("--render", self.render)
             .flag("--black", self.black)
             .opt("--dropout-ns", self.dropout_ns)
+            .flag("--publish-input", self.publish_input)
             .done();
         for t in &self.throttle {
             a.extend(["--throttle".to_string(), t.to_string()]);

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use proto::Modality;
 
-use crate::ArgList;
+use crate::{ArgList, SensorArgs};
 
 /// The recorder of a session, as composed.
 #[derive(Debug, Clone, PartialEq, clap::Args)]
@@ -37,6 +37,14 @@ pub struct RecorderArgs {
     /// After `MissionEnd`, stop once nothing arrived for this long, ms.
     #[arg(long, default_value_t = 1000)]
     pub linger_ms: u64,
+    /// Keep the event cameras' input (`camera/<o>/input`, published by cameras given
+    /// `--publish-input`) instead of their packets; replay regenerates the packets with the
+    /// sensor model below, stored in the metadata.
+    #[arg(long)]
+    pub events_from_input: bool,
+    /// The event cameras' sensor model, stored in the metadata.
+    #[command(flatten)]
+    pub sensor: SensorArgs,
 }
 
 impl RecorderArgs {
@@ -51,6 +59,8 @@ impl RecorderArgs {
             chunk_kib: 4096,
             flush_ms: 1000,
             linger_ms: 1000,
+            events_from_input: false,
+            sensor: SensorArgs::default(),
         }
     }
 
@@ -65,7 +75,11 @@ impl RecorderArgs {
             .value("--chunk-kib", self.chunk_kib)
             .value("--flush-ms", self.flush_ms)
             .value("--linger-ms", self.linger_ms)
+            .flag("--events-from-input", self.events_from_input)
             .done()
+            .into_iter()
+            .chain(self.sensor.to_args())
+            .collect()
     }
 }
 

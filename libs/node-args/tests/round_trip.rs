@@ -69,11 +69,19 @@ fn command() -> impl Strategy<Value = NodeCommand> {
             any::<bool>(),
             proptest::option::of(any::<u64>()),
             prop_oneof![Just(RenderPath::Damage), Just(RenderPath::Full)],
-            sensor(),
+            (sensor(), any::<bool>()),
             proptest::collection::vec((any::<u64>(), 0u16..=1000, any::<u32>()), 0..3),
         )
             .prop_map(
-                |(observer, modality, black, dropout_ns, render, sensor, throttle)| {
+                |(
+                    observer,
+                    modality,
+                    black,
+                    dropout_ns,
+                    render,
+                    (sensor, publish_input),
+                    throttle,
+                )| {
                     NodeCommand::Camera(CameraArgs {
                         observer,
                         modality,
@@ -89,6 +97,7 @@ fn command() -> impl Strategy<Value = NodeCommand> {
                             .collect(),
                         render,
                         sensor,
+                        publish_input,
                     })
                 },
             ),
@@ -106,6 +115,7 @@ fn command() -> impl Strategy<Value = NodeCommand> {
             1u64..100,
             any::<bool>(),
             (1u64..1 << 20, any::<u32>(), any::<u32>()),
+            (any::<bool>(), sensor()),
         )
             .prop_map(
                 |(
@@ -115,6 +125,7 @@ fn command() -> impl Strategy<Value = NodeCommand> {
                     rgb_every,
                     all_rgb,
                     (chunk, flush, linger),
+                    (events_from_input, sensor),
                 )| {
                     NodeCommand::Recorder(RecorderArgs {
                         case_name,
@@ -125,6 +136,8 @@ fn command() -> impl Strategy<Value = NodeCommand> {
                         chunk_kib: chunk,
                         flush_ms: flush.into(),
                         linger_ms: linger.into(),
+                        events_from_input,
+                        sensor,
                     })
                 }
             ),

@@ -12,7 +12,9 @@
 use crate::runtime::{ObserverRuntime, TickReport};
 use crate::sensing::PerceptionError;
 use crate::tick::{MissingReason, SensorPacket, Step, TickAssembler, TickInput, Waiting};
-use proto::{ObserverId, SessionControl};
+use std::collections::BTreeMap;
+
+use proto::{EgoRotation, ObserverId, SessionControl};
 
 /// One processed tick: what it was processed with and what the observer publishes for it.
 #[derive(Debug, Clone, PartialEq)]
@@ -27,6 +29,11 @@ pub struct Processed {
 pub struct ObserverCore {
     runtime: ObserverRuntime,
     assembler: TickAssembler,
+    /// The airframe's turn from home when each tick's packet was made, until that tick is
+    /// processed ([`ObserverCore::attitude`]).
+    attitudes: BTreeMap<u64, Option<EgoRotation>>,
+    /// The turn perception undoes now.
+    ego: Option<EgoRotation>,
 }
 
 impl ObserverCore {
@@ -34,6 +41,8 @@ impl ObserverCore {
         Self {
             runtime,
             assembler: TickAssembler::new(),
+            attitudes: BTreeMap::new(),
+            ego: None,
         }
     }
 
@@ -82,6 +91,20 @@ impl ObserverCore {
         self.assembler.packet(packet)
     }
 
+    /// The observer's airframe had turned by `ego` from its home attitude when the packet of
+    /// `tick` was made (its attitude estimate): perception undoes that turn on the tick's
+    /// packet and keeps it until told another. Ticks without one keep the last.
+    pub fn attitude(&mut self, tick: u64, ego: Option<EgoRotation>) {
+        if tick >= self.assembler.next_tick() {
+            self.attitudes.insert(tick, ego);
+        }
+    }
+
+    /// The turn from home perception undoes now (`None`: none, or never told).
+    pub fn ego_rotation(&self) -> Option<EgoRotation> {
+        self.ego
+    }
+
     /// Processes up to the next tick that what has arrived allows, applying the session controls
     /// on the way; `None` when it must wait for more input or the mission ended. `judge` decides
     /// whether a packet that has not arrived (and no later one has) is missing.
@@ -94,6 +117,14 @@ impl ObserverCore {
                 None => return Ok(None),
                 Some(Step::Session { controls, .. }) => self.runtime.apply_session(&controls),
                 Some(Step::Tick { tick, input }) => {
+                    let later = self.attitudes.split_off(&tick);
+                    // Only older ticks' turns were told: the latest of them holds.
+                    let older = self.attitudes.values().next_back().copied();
+                    self.attitudes = later;
+                    if let Some(ego) = self.attitudes.remove(&tick).or(older) {
+                        self.ego = ego;
+                        self.runtime.set_ego_rotation(ego);
+                    }
                     let report = self.runtime.step(tick, input.data())?;
                     return Ok(Some(Processed {
                         tick,
@@ -172,5 +203,42 @@ mod tests {
         let p = c.next(|_| Some(MissingReason::Lost)).unwrap().unwrap();
         assert_eq!((p.tick, p.input.missing()), (1, Some(MissingReason::Lost)));
         assert_eq!(p.report.status.input, proto::InputState::Missing);
+    }
+
+    #[test]
+    fn each_tick_is_processed_with_the_turn_its_packet_was_made_with() {
+        let turn = |deg: f64| {
+            let h = deg.to_radians() / 2.0;
+            EgoRotation::between([1.0, 0.0, 0.0, 0.0], [h.cos(), h.sin(), 0.0, 0.0])
+        };
+        let mut c = core();
+        c.clocks_through(4);
+        for t in 0..5 {
+            c.session(t, Vec::new());
+        }
+        for t in 1..=4 {
+            c.packet(packet(t));
+        }
+        c.attitude(1, turn(2.0));
+        c.attitude(3, turn(-1.0));
+        c.attitude(4, None);
+        let mut seen = Vec::new();
+        while let Some(p) = c.next(|_| None).unwrap() {
+            seen.push((p.tick, c.ego_rotation()));
+        }
+        assert_eq!(
+            seen,
+            [
+                (0, None),
+                (1, turn(2.0)),
+                // Tick 2 was told nothing: the turn of tick 1 holds.
+                (2, turn(2.0)),
+                (3, turn(-1.0)),
+                (4, None),
+            ]
+        );
+        // A turn told for a tick already processed changes nothing.
+        c.attitude(2, turn(5.0));
+        assert_eq!(c.ego_rotation(), None);
     }
 }

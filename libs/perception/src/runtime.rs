@@ -126,6 +126,12 @@ impl ObserverRuntime {
         }
     }
 
+    /// How far the observer's airframe has turned from its home attitude (its attitude
+    /// estimate), undone by perception from the next packet on ([`proto::stabilise`]).
+    pub fn set_ego_rotation(&mut self, ego: Option<proto::EgoRotation>) {
+        self.perception.set_ego_rotation(ego);
+    }
+
     /// Consumes tick `tick`'s data and returns what to publish.
     pub fn step(&mut self, tick: u64, data: TickData<'_>) -> Result<TickReport, PerceptionError> {
         let now_ns = tick.saturating_mul(TICK_NS);

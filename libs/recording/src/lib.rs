@@ -22,12 +22,13 @@ pub use reader::{
 };
 pub use topics::{Decoded, MessageKind, RAW_ENCODING, Topic, classify, decode};
 pub use writer::{
-    RECORDER_METADATA, RecordError, RecordStats, Recorded, RecorderOptions, SCENE_TOPIC,
-    SESSION_METADATA, SessionInfo, SessionWriter, ViewTap,
+    EVENTS_NOT_RECORDED, RECORDER_METADATA, RecordError, RecordStats, Recorded, RecorderOptions,
+    SCENE_TOPIC, SESSION_METADATA, SessionInfo, SessionWriter, UnrecordedPackets, ViewTap,
 };
 
 #[cfg(test)]
 mod tests {
+    use std::collections::BTreeMap;
     use std::io::Cursor;
 
     use proto::{ClockTick, EventPacket, Keys, ObserverId, Polarity, TICK_NS};
@@ -60,6 +61,8 @@ mod tests {
         let keys = Keys::new("t").unwrap();
         let o1 = ObserverId::new("O1").unwrap();
         let info = SessionInfo {
+            sensor_args: Vec::new(),
+            events_from_input: false,
             session: "t".into(),
             observers: 1,
             case_name: Some("nominal-3".into()),
@@ -150,6 +153,69 @@ mod tests {
         assert!(images.iter().all(|m| m.1 == promised));
         assert!(got.iter().any(|m| m.0 == "/unknown/what/is/this"));
         assert_eq!(got.iter().filter(|m| m.0 == "/clock").count(), 31);
+    }
+
+    #[test]
+    fn a_recording_of_the_input_keeps_no_packet_but_their_digest_and_the_sensor() {
+        let keys = Keys::new("i").unwrap();
+        let o1 = ObserverId::new("O1").unwrap();
+        let sensor_args: Vec<String> = ["--sensor-preset", "v2e-noisy", "--seed", "9"]
+            .map(String::from)
+            .into();
+        let info = SessionInfo {
+            session: "i".into(),
+            observers: 1,
+            modality: Some("events".into()),
+            sensor_args: sensor_args.clone(),
+            events_from_input: true,
+            ..SessionInfo::default()
+        };
+        let options = RecorderOptions {
+            event_view_period_ns: Some(200_000_000),
+            events_from_input: true,
+            ..RecorderOptions::default()
+        };
+        let mut w = SessionWriter::new(Cursor::new(Vec::new()), &info, options).unwrap();
+        let mut digest = 0;
+        let mut events = 0;
+        for k in 1..=20u64 {
+            let frame = proto::RgbFrame {
+                seq: k - 1,
+                stamp_ns: k * TICK_NS,
+                width: 2,
+                height: 1,
+                valid: true,
+                continuous: true,
+                rgb: vec![k as u8; 6],
+            };
+            let input = proto::encode(&proto::RgbUpdate::key(&frame));
+            w.record(&keys.camera_input(&o1), &input).unwrap();
+            let p = packet(k, (k as usize) * 10);
+            events += p.len() as u64;
+            let bytes = proto::encode(&p);
+            digest = proto::camera::digest(digest, &bytes);
+            w.record(&keys.sensor_events(&o1), &bytes).unwrap();
+        }
+        let bytes = w.finish(Default::default()).unwrap().into_inner();
+        let (out, got) = read_bytes(&bytes);
+        assert!(out.complete);
+        assert!(!got.iter().any(|m| m.0 == "/sensor/O1/events"));
+        assert_eq!(got.iter().filter(|m| m.0 == "/camera/O1/input").count(), 20);
+        // The packets still make the event view; the input makes no RGB view.
+        assert!(got.iter().any(|m| m.0 == "/view/O1/events"));
+        assert!(!got.iter().any(|m| m.0 == "/view/O1/rgb"));
+        let back = SessionInfo::from_metadata(&out.metadata[SESSION_METADATA]);
+        assert_eq!(back, info);
+        let kept: BTreeMap<String, UnrecordedPackets> =
+            serde_json::from_str(&out.metadata[RECORDER_METADATA][EVENTS_NOT_RECORDED]).unwrap();
+        assert_eq!(
+            kept["O1"],
+            UnrecordedPackets {
+                packets: 20,
+                events,
+                digest
+            }
+        );
     }
 
     #[test]

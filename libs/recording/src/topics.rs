@@ -106,6 +106,8 @@ pub struct Topic {
     pub kind: MessageKind,
     /// The observer the key belongs to (`sensor/<o>/…`, `observer/<o>/…`, `fault/<o>`).
     pub observer: Option<ObserverId>,
+    /// The key itself, parsed.
+    pub key: Key,
 }
 
 impl MessageKind {
@@ -121,6 +123,8 @@ impl MessageKind {
             // before every update was recorded hold whole frames, `MessageKind::RgbFrame`).
             Key::SensorRgb(_) => MessageKind::RgbUpdate,
             Key::SensorDropped(_) => MessageKind::PacketDropped,
+            // An event camera's renders, as the RGB camera sends its frames.
+            Key::CameraInput(_) => MessageKind::RgbUpdate,
             Key::ObserverTokens(_) => MessageKind::TokenEvent,
             Key::ObserverFrames(_) => MessageKind::FrameEvent,
             Key::ObserverDecision(_) => MessageKind::Decision,
@@ -150,6 +154,7 @@ pub fn classify(prefix: &str, key: &str) -> Option<Topic> {
         topic: format!("/{rest}"),
         kind: MessageKind::of_key(&parsed)?,
         observer: parsed.observer().cloned(),
+        key: parsed,
     })
 }
 

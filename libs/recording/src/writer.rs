@@ -20,7 +20,7 @@ use std::io::{Seek, Write};
 use mcap::records::Metadata;
 use mcap::{Compression, WriteOptions, Writer};
 use proto::scene::observer_name;
-use proto::{ObserverId, SessionEvent, TICK_NS};
+use proto::{Key, ObserverId, SessionEvent, TICK_NS};
 
 use crate::foxglove::{self, LogLevel, Scene, VIEW_ENCODING, ViewKind, ViewMessage};
 use crate::topics::{Decoded, MessageKind, RAW_ENCODING, classify, decode};
@@ -30,6 +30,8 @@ use crate::views::{EventView, log_line};
 pub const SESSION_METADATA: &str = "waggle.session";
 /// Name of the metadata record the recorder writes when it finishes.
 pub const RECORDER_METADATA: &str = "waggle.recorder";
+/// The `waggle.recorder` metadata key of [`RecordStats::events_not_recorded`] (JSON).
+pub const EVENTS_NOT_RECORDED: &str = "events_not_recorded";
 /// Topic of the log view.
 pub const LOG_TOPIC: &str = "/view/log";
 /// Topic of the pose view.
@@ -67,6 +69,11 @@ pub struct RecorderOptions {
     pub rgb_every: u64,
     /// zstd level (0 = zstd's default).
     pub zstd_level: u32,
+    /// Keep the event cameras' input (`camera/<o>/input`) and not their packets: the replay
+    /// regenerates the packets with the sensor model and seed of the session metadata. The
+    /// packets still feed the event view, and each camera's are folded into a digest (the
+    /// `waggle.recorder` metadata's `events_not_recorded`) for the replay to match.
+    pub events_from_input: bool,
 }
 
 impl Default for RecorderOptions {
@@ -76,6 +83,7 @@ impl Default for RecorderOptions {
             event_view_period_ns: Some(500_000_000),
             rgb_every: 25,
             zstd_level: 0,
+            events_from_input: false,
         }
     }
 }
@@ -91,7 +99,17 @@ pub struct SessionInfo {
     pub case_toml: Option<String>,
     /// `rgb` or `events`, if known.
     pub modality: Option<String>,
+    /// The event cameras' sensor model as camera arguments (`--sensor-preset NAME --perturb
+    /// events.K=V --seed S`; empty: the paper's ideal sensor).
+    pub sensor_args: Vec<String>,
+    /// The recording keeps the event cameras' input instead of their packets
+    /// ([`RecorderOptions::events_from_input`]).
+    pub events_from_input: bool,
 }
+
+/// The `waggle.session` metadata value of [`SessionInfo::events_from_input`]'s key
+/// `event_packets`.
+const EVENT_PACKETS_FROM_INPUT: &str = "regenerated from camera/<o>/input";
 
 impl SessionInfo {
     pub fn to_metadata(&self) -> BTreeMap<String, String> {
@@ -108,6 +126,15 @@ impl SessionInfo {
                 m.insert(k.into(), v.clone());
             }
         }
+        if !self.sensor_args.is_empty() {
+            m.insert(
+                "sensor_args".into(),
+                serde_json::to_string(&self.sensor_args).unwrap_or_default(),
+            );
+        }
+        if self.events_from_input {
+            m.insert("event_packets".into(), EVENT_PACKETS_FROM_INPUT.into());
+        }
         m
     }
 
@@ -118,6 +145,12 @@ impl SessionInfo {
             case_name: m.get("case").cloned(),
             case_toml: m.get("case_toml").cloned(),
             modality: m.get("modality").cloned(),
+            sensor_args: m
+                .get("sensor_args")
+                .and_then(|a| serde_json::from_str(a).ok())
+                .unwrap_or_default(),
+            events_from_input: m.get("event_packets").map(String::as_str)
+                == Some(EVENT_PACKETS_FROM_INPUT),
         }
     }
 }
@@ -139,6 +172,19 @@ pub struct RecordStats {
     /// per observer.
     pub rgb_unassembled: BTreeMap<String, u64>,
     pub view_images: u64,
+    /// Event packets received but not recorded ([`RecorderOptions::events_from_input`]), per
+    /// observer.
+    pub events_not_recorded: BTreeMap<String, UnrecordedPackets>,
+}
+
+/// One event camera's packets a recorder received and did not keep (it keeps their input):
+/// what the replay must regenerate.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct UnrecordedPackets {
+    pub packets: u64,
+    pub events: u64,
+    /// [`proto::camera::digest`] of their encodings, in the order received.
+    pub digest: u64,
 }
 
 /// What became of one received message.
@@ -416,10 +462,27 @@ impl<W: Write + Seek> SessionWriter<W> {
         if let Decoded::Clock(c) = &decoded {
             self.sim_time_ns = self.sim_time_ns.max(c.sim_time_ns);
         }
-        let id = self.raw_channel(&topic.topic, topic.kind, key)?;
-        self.put(id, time_ns, payload)?;
-        *self.stats.messages.entry(topic.topic.clone()).or_insert(0) += 1;
-        self.views(&decoded, topic.observer.as_ref(), time_ns)?;
+        match (&decoded, &topic.key) {
+            (Decoded::EventPacket(p), Key::SensorEvents(o)) if self.options.events_from_input => {
+                let kept = self
+                    .stats
+                    .events_not_recorded
+                    .entry(o.to_string())
+                    .or_default();
+                kept.packets += 1;
+                kept.events += p.len() as u64;
+                kept.digest = proto::camera::digest(kept.digest, payload);
+            }
+            _ => {
+                let id = self.raw_channel(&topic.topic, topic.kind, key)?;
+                self.put(id, time_ns, payload)?;
+                *self.stats.messages.entry(topic.topic.clone()).or_insert(0) += 1;
+            }
+        }
+        // An event camera's input has no view of its own: its packets make the event view.
+        if !matches!(topic.key, Key::CameraInput(_)) {
+            self.views(&decoded, topic.observer.as_ref(), time_ns)?;
+        }
         let mission_end = matches!(&decoded, Decoded::SessionTick(s)
             if s.controls.iter().any(|c| c.event == SessionEvent::MissionEnd));
         Ok(Recorded::Message {
@@ -512,6 +575,12 @@ impl<W: Write + Seek> SessionWriter<W> {
         m.insert("payload_bytes".into(), self.stats.payload_bytes.to_string());
         m.insert("view_images".into(), self.stats.view_images.to_string());
         m.insert("last_sim_time_ns".into(), self.sim_time_ns.to_string());
+        if self.options.events_from_input {
+            m.insert(
+                EVENTS_NOT_RECORDED.into(),
+                serde_json::to_string(&self.stats.events_not_recorded).unwrap_or_default(),
+            );
+        }
         self.mcap.write_metadata(&Metadata {
             name: RECORDER_METADATA.into(),
             metadata: m,

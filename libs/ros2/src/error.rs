@@ -34,6 +34,13 @@ pub enum Ros2Error {
     #[error("the recording {path} is incomplete: {reason}")]
     Incomplete { path: String, reason: String },
     #[error(
+        "the recording {path} keeps the event cameras' input, not their packets (`waggle run \
+         --record-events input`, the default with a sensor noise model): the bag would hold no \
+         events. `waggle replay` regenerates them; to export, record the session with \
+         `--record-events packets`"
+    )]
+    EventsNotRecorded { path: String },
+    #[error(
         "the recording {path}: message {index} (topic {topic}, log time {log_time_ns} ns) does \
          not decode: {reason}"
     )]

@@ -202,6 +202,12 @@ fn export_into(
     options: &ExportOptions,
 ) -> Result<ExportReport, Ros2Error> {
     let shown = recording.display().to_string();
+    let info = leading_metadata(recording, SESSION_METADATA)?
+        .map(|m| SessionInfo::from_metadata(&m))
+        .unwrap_or_default();
+    if info.events_from_input {
+        return Err(Ros2Error::EventsNotRecorded { path: shown });
+    }
     let pitch_rad = pitches(recording)?;
     let mut x = Exporter {
         converter: RosConverter::new(&shown, *options, pitch_rad),

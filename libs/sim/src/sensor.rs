@@ -33,6 +33,17 @@ pub enum SensorError {
     Events(#[from] event_camera::CameraError),
 }
 
+/// What an event sensor was fed at one render instant: the render (or the black frame of the
+/// black-input fault) and how it differs from the frame fed before it. Fed again, in order, to a
+/// sensor of the same model and seed, these make the same packets (a recording keeps them
+/// instead of the packets when noise makes the packets large).
+#[derive(Debug, Clone, Copy)]
+pub struct SensorInput<'a> {
+    pub stamp_ns: u64,
+    pub rgb: &'a [u8],
+    pub change: FrameChange,
+}
+
 /// One observer's sensor.
 pub struct ObserverSensor {
     observer: usize,
@@ -48,7 +59,11 @@ enum State {
         /// How the last frame delivered differs from the one before it.
         change: FrameChange,
     },
-    Events(Box<EventCamera>),
+    Events {
+        camera: Box<EventCamera>,
+        /// Whether the last frame fed was the black-input frame (`None` before the first).
+        last_black: Option<bool>,
+    },
 }
 
 impl ObserverSensor {
@@ -75,7 +90,10 @@ impl ObserverSensor {
                 let mut config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX);
                 config.black_input = black;
                 let config = config.with_model(model);
-                State::Events(Box::new(EventCamera::new(config)?))
+                State::Events {
+                    camera: Box::new(EventCamera::new(config)?),
+                    last_black: None,
+                }
             }
         };
         Ok(Self {
@@ -88,7 +106,7 @@ impl ObserverSensor {
     /// Switches the black-input fault on or off for subsequent captures (an injected fault).
     pub fn set_black(&mut self, black: bool) {
         self.black = black;
-        if let State::Events(camera) = &mut self.state {
+        if let State::Events { camera, .. } = &mut self.state {
             camera.set_black_input(black);
         }
     }
@@ -98,7 +116,7 @@ impl ObserverSensor {
     pub fn rgb_change(&self) -> FrameChange {
         match self.state {
             State::Rgb { change, .. } => change,
-            State::Events(_) => FrameChange::All,
+            State::Events { .. } => FrameChange::All,
         }
     }
 
@@ -106,7 +124,7 @@ impl ObserverSensor {
     pub fn render_period_ns(&self) -> u64 {
         match self.state {
             State::Rgb { .. } => RGB_PERIOD_NS,
-            State::Events(_) => EVENT_RENDER_PERIOD_NS,
+            State::Events { .. } => EVENT_RENDER_PERIOD_NS,
         }
     }
 
@@ -116,6 +134,17 @@ impl ObserverSensor {
         &mut self,
         world: &mut World,
         renderer: &mut CameraRenderer,
+    ) -> Result<Vec<SensorOutput>, SensorError> {
+        self.capture_observed(world, renderer, &mut |_| {})
+    }
+
+    /// [`Self::capture`], handing an event sensor's input to `on_input` before converting it
+    /// (an RGB sensor's frame is its output: nothing is handed).
+    pub fn capture_observed(
+        &mut self,
+        world: &mut World,
+        renderer: &mut CameraRenderer,
+        on_input: &mut dyn FnMut(SensorInput<'_>),
     ) -> Result<Vec<SensorOutput>, SensorError> {
         let stamp_ns = world.time_ns();
         match &mut self.state {
@@ -155,16 +184,39 @@ impl ObserverSensor {
                 *next_seq += 1;
                 Ok(vec![SensorOutput::Rgb(frame)])
             }
-            State::Events(camera) => {
+            State::Events { camera, last_black } => {
                 // The camera substitutes black frames itself; skip the render it would discard.
                 let packets = if self.black {
                     let black =
                         vec![0; usize::from(IMAGE_WIDTH_PX) * usize::from(IMAGE_HEIGHT_PX) * 3];
+                    let change = if *last_black == Some(true) {
+                        FrameChange::Nothing
+                    } else {
+                        FrameChange::All
+                    };
+                    on_input(SensorInput {
+                        stamp_ns,
+                        rgb: &black,
+                        change,
+                    });
                     camera.push_frame(stamp_ns, &black)?
                 } else {
                     let frame = renderer.render_change(world, self.observer)?;
+                    // The render's change is relative to this camera's previous render, which
+                    // is the previous frame fed unless that one was black.
+                    let change = if *last_black == Some(false) {
+                        frame.change
+                    } else {
+                        FrameChange::All
+                    };
+                    on_input(SensorInput {
+                        stamp_ns,
+                        rgb: frame.rgb,
+                        change,
+                    });
                     camera.push_frame_change(stamp_ns, frame.rgb, frame.change)?
                 };
+                *last_black = Some(self.black);
                 Ok(packets.into_iter().map(SensorOutput::Events).collect())
             }
         }

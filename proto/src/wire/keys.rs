@@ -147,6 +147,9 @@ pub enum Key {
     SensorRgb(ObserverId),
     /// A camera's notices of packets it dropped (`sensor/<o>/dropped`).
     SensorDropped(ObserverId),
+    /// What an event camera's sensor was fed (`camera/<o>/input`): its renders as RGB updates,
+    /// published only for a recording that regenerates the events from them.
+    CameraInput(ObserverId),
     ObserverTokens(ObserverId),
     ObserverFrames(ObserverId),
     ObserverDecision(ObserverId),
@@ -187,6 +190,7 @@ impl Key {
             ["sensor", o, "events"] => Key::SensorEvents(obs(o)?),
             ["sensor", o, "rgb"] => Key::SensorRgb(obs(o)?),
             ["sensor", o, "dropped"] => Key::SensorDropped(obs(o)?),
+            ["camera", o, "input"] => Key::CameraInput(obs(o)?),
             ["observer", o, "tokens"] => Key::ObserverTokens(obs(o)?),
             ["observer", o, "frames"] => Key::ObserverFrames(obs(o)?),
             ["observer", o, "decision"] => Key::ObserverDecision(obs(o)?),
@@ -225,6 +229,7 @@ impl Key {
             Key::SensorEvents(o) => format!("sensor/{o}/events"),
             Key::SensorRgb(o) => format!("sensor/{o}/rgb"),
             Key::SensorDropped(o) => format!("sensor/{o}/dropped"),
+            Key::CameraInput(o) => format!("camera/{o}/input"),
             Key::ObserverTokens(o) => format!("observer/{o}/tokens"),
             Key::ObserverFrames(o) => format!("observer/{o}/frames"),
             Key::ObserverDecision(o) => format!("observer/{o}/decision"),
@@ -250,6 +255,7 @@ impl Key {
             Key::SensorEvents(o)
             | Key::SensorRgb(o)
             | Key::SensorDropped(o)
+            | Key::CameraInput(o)
             | Key::ObserverTokens(o)
             | Key::ObserverFrames(o)
             | Key::ObserverDecision(o)
@@ -323,6 +329,10 @@ impl Keys {
 
     pub fn sensor_dropped(&self, o: &ObserverId) -> String {
         self.of(&Key::SensorDropped(o.clone()))
+    }
+
+    pub fn camera_input(&self, o: &ObserverId) -> String {
+        self.of(&Key::CameraInput(o.clone()))
     }
 
     /// Both sensor streams of one observer and its camera's drop notices (`sensor/<o>/*`).
@@ -526,6 +536,7 @@ mod tests {
             Key::SensorEvents(o2.clone()),
             Key::SensorRgb(o2.clone()),
             Key::SensorDropped(o2.clone()),
+            Key::CameraInput(o2.clone()),
             Key::ObserverTokens(o2.clone()),
             Key::ObserverFrames(o2.clone()),
             Key::ObserverDecision(o2.clone()),
