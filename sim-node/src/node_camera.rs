@@ -116,15 +116,12 @@ struct InputOutbox {
 
 impl InputOutbox {
     fn send(&mut self, bus: &mut Bus, input: SensorInput<'_>) -> Result<()> {
-        let frame = RgbFrame {
-            seq: self.next_seq,
-            stamp_ns: input.stamp_ns,
-            width: IMAGE_WIDTH_PX,
-            height: IMAGE_HEIGHT_PX,
-            valid: true,
-            continuous: true,
-            rgb: input.rgb.to_vec(),
-        };
+        let frame = RgbFrame::rendered(
+            self.next_seq,
+            input.stamp_ns,
+            (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX),
+            input.rgb.to_vec(),
+        );
         self.next_seq += 1;
         let wire = rgb_wire(&frame, input.change, &mut self.last_seq, INPUT_KEY_EVERY);
         bus.put_bytes(&self.key, wire)?;

@@ -140,6 +140,25 @@ fn no_broadcast_runs_as_separate_processes_in_lockstep() {
     assert!(r.observers["O1"].tokens.is_empty());
 }
 
+/// `waggle replay FILE --json`: its report (exit 0 required: every decode reproduced).
+fn replay_json(file: &std::path::Path) -> Value {
+    let out = waggle()
+        .arg("replay")
+        .arg(file)
+        .arg("--json")
+        .output()
+        .unwrap();
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e}: {}",
+            file.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    });
+    assert!(out.status.success(), "{}: {v:#}", file.display());
+    v
+}
+
 #[test]
 fn a_sensor_preset_reaches_the_camera_processes_and_the_summary_records_it() {
     // A throttled and a blacked-out camera too: the recording keeps the sensors' input (the
@@ -164,16 +183,8 @@ fn a_sensor_preset_reaches_the_camera_processes_and_the_summary_records_it() {
     );
     r.assert_pass();
     let recording = out_dir_path("sensor-preset").join("session.mcap");
-    let replay = waggle()
-        .arg("replay")
-        .arg(&recording)
-        .arg("--json")
-        .output()
-        .unwrap();
-    let v: Value = serde_json::from_slice(&replay.stdout).unwrap_or_else(|e| {
-        panic!("{e}: {}", String::from_utf8_lossy(&replay.stderr));
-    });
-    assert!(replay.status.success(), "{v:#}");
+    let v = replay_json(&recording);
+    assert_eq!(v["partial"], false, "{v:#}");
     assert_eq!(v["all_matched"], true, "{v:#}");
     for o in ["O1", "O2"] {
         let g = &v["observers"][o]["regenerated"];
@@ -215,15 +226,7 @@ fn a_sensor_preset_reaches_the_camera_processes_and_the_summary_records_it() {
     for k in [2, 3] {
         let cut = recording.with_file_name(format!("cut-{k}.mcap"));
         std::fs::write(&cut, &bytes[..bytes.len() * k / 4]).unwrap();
-        let out = waggle()
-            .arg("replay")
-            .arg(&cut)
-            .arg("--json")
-            .output()
-            .unwrap();
-        let v: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
-            panic!("cut {k}/4: {e}: {}", String::from_utf8_lossy(&out.stderr));
-        });
+        let v = replay_json(&cut);
         assert_eq!(v["partial"], true, "cut {k}/4: {v:#}");
         assert_eq!(v["all_matched"], true, "cut {k}/4: {v:#}");
     }

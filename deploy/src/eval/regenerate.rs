@@ -262,15 +262,7 @@ mod tests {
                 FrameChange::Within(rect)
             };
             let made = live.push_frame_change(stamp_ns, &rgb, change).unwrap();
-            let f = RgbFrame {
-                seq: k,
-                stamp_ns,
-                width: IMAGE_WIDTH_PX,
-                height: IMAGE_HEIGHT_PX,
-                valid: true,
-                continuous: true,
-                rgb,
-            };
+            let f = RgbFrame::rendered(k, stamp_ns, (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX), rgb);
             let update = match k {
                 0 | 30 => RgbUpdate::key(&f),
                 _ => RgbUpdate::delta(&f, k - 1, rect),
@@ -306,15 +298,12 @@ mod tests {
             .unwrap();
         for k in 0..60u64 {
             let (rgb, _) = frame(k);
-            let f = RgbFrame {
-                seq: k,
-                stamp_ns: (k + 1) * 10_000_000,
-                width: IMAGE_WIDTH_PX,
-                height: IMAGE_HEIGHT_PX,
-                valid: true,
-                continuous: true,
+            let f = RgbFrame::rendered(
+                k,
+                (k + 1) * 10_000_000,
+                (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX),
                 rgb,
-            };
+            );
             other.input(&o2, RgbUpdate::key(&f)).unwrap();
         }
         other.finish();
@@ -353,15 +342,7 @@ mod tests {
         let mut regen = Regenerator::of(&info(&[])).unwrap().unwrap();
         let o9 = ObserverId::new("O9").unwrap();
         let (rgb, _) = frame(0);
-        let f = RgbFrame {
-            seq: 0,
-            stamp_ns: 10_000_000,
-            width: IMAGE_WIDTH_PX,
-            height: IMAGE_HEIGHT_PX,
-            valid: true,
-            continuous: true,
-            rgb,
-        };
+        let f = RgbFrame::rendered(0, 10_000_000, (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX), rgb);
         let e = format!("{:#}", regen.input(&o9, RgbUpdate::key(&f)).unwrap_err());
         assert!(e.contains("O9"), "{e}");
     }

@@ -257,31 +257,16 @@ impl Replay {
 
     /// Keeps what the observers published live.
     fn take_live(&mut self, msg: Decoded) {
+        fn of<'a>(live: &'a mut BTreeMap<ObserverId, Live>, o: &ObserverId) -> &'a mut Live {
+            live.entry(o.clone()).or_default()
+        }
+        let live = &mut self.live;
         match msg {
-            Decoded::FrameEvent(f) => self
-                .live
-                .entry(f.observer.clone())
-                .or_default()
-                .frames
-                .push(f),
-            Decoded::TokenEvent(t) => self
-                .live
-                .entry(t.observer.clone())
-                .or_default()
-                .tokens
-                .push(t),
-            Decoded::Decision(d) => self
-                .live
-                .entry(d.observer.clone())
-                .or_default()
-                .decisions
-                .push(d),
+            Decoded::FrameEvent(f) => of(live, &f.observer).frames.push(f),
+            Decoded::TokenEvent(t) => of(live, &t.observer).tokens.push(t),
+            Decoded::Decision(d) => of(live, &d.observer).decisions.push(d),
             Decoded::ObserverStatus(s) => {
-                self.live
-                    .entry(s.observer.clone())
-                    .or_default()
-                    .inputs
-                    .insert(s.tick, s.input);
+                of(live, &s.observer).inputs.insert(s.tick, s.input);
             }
             _ => {}
         }

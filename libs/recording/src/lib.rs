@@ -179,15 +179,7 @@ mod tests {
         let mut digest = 0;
         let mut events = 0;
         for k in 1..=20u64 {
-            let frame = proto::RgbFrame {
-                seq: k - 1,
-                stamp_ns: k * TICK_NS,
-                width: 2,
-                height: 1,
-                valid: true,
-                continuous: true,
-                rgb: vec![k as u8; 6],
-            };
+            let frame = proto::RgbFrame::rendered(k - 1, k * TICK_NS, (2, 1), vec![k as u8; 6]);
             let input = proto::encode(&proto::RgbUpdate::key(&frame));
             w.record(&keys.camera_input(&o1), &input).unwrap();
             let p = packet(k, (k as usize) * 10);
@@ -235,15 +227,7 @@ mod tests {
         let mut sent = Vec::new();
         let mut frames = Vec::new();
         for k in 1..=60u64 {
-            let f = proto::RgbFrame {
-                seq: k - 1,
-                stamp_ns: k * TICK_NS,
-                width: 2,
-                height: 1,
-                valid: true,
-                continuous: true,
-                rgb: vec![k as u8; 6],
-            };
+            let f = proto::RgbFrame::rendered(k - 1, k * TICK_NS, (2, 1), vec![k as u8; 6]);
             // Cameras publish updates: a key frame, then only what changed (here everything).
             let update = if k == 1 {
                 proto::RgbUpdate::key(&f)

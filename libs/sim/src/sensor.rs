@@ -172,15 +172,8 @@ impl ObserverSensor {
                     frame.rgb.to_vec()
                 };
                 *last_black = Some(self.black);
-                let frame = RgbFrame {
-                    seq: *next_seq,
-                    stamp_ns,
-                    width: IMAGE_WIDTH_PX,
-                    height: IMAGE_HEIGHT_PX,
-                    valid: true,
-                    continuous: true,
-                    rgb,
-                };
+                let frame =
+                    RgbFrame::rendered(*next_seq, stamp_ns, (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX), rgb);
                 *next_seq += 1;
                 Ok(vec![SensorOutput::Rgb(frame)])
             }

@@ -168,6 +168,20 @@ pub struct RgbFrame {
 }
 
 impl RgbFrame {
+    /// Frame `seq` rendered at `stamp_ns`, `(width, height)` pixels: trustworthy and following
+    /// the frame before it (`valid`, `continuous`).
+    pub fn rendered(seq: u64, stamp_ns: u64, (width, height): (u16, u16), rgb: Vec<u8>) -> Self {
+        Self {
+            seq,
+            stamp_ns,
+            width,
+            height,
+            valid: true,
+            continuous: true,
+            rgb,
+        }
+    }
+
     /// The tick the frame belongs to: the one it was rendered at, `stamp_ns / TICK_NS`.
     pub fn tick(&self) -> u64 {
         self.stamp_ns / crate::TICK_NS
