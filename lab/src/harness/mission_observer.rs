@@ -9,6 +9,7 @@ use perception::Perception;
 use perception::observer::{ObserverCore, Processed};
 use perception::runtime::ObserverRuntime;
 use perception::tick::{MissingReason, SensorPacket};
+use perturb::attitude::{AttitudeError, estimated};
 use perturb::link::LinkNoise;
 use perturb::rgb::RgbSensor;
 use perturb::seed::{Stream, rng, stream_seed};
@@ -50,6 +51,8 @@ pub struct MissionObserver {
     /// Its airframe's attitude at home (as the scene was built): its receiver undoes the turn
     /// from it that each packet was made with, as in link trials.
     home_wxyz: [f64; 4],
+    /// The error of its attitude estimate (`flight.attitude_sigma_deg`; `None`: exact).
+    attitude: Option<AttitudeError>,
     /// What it published, as `observers.json` holds it.
     pub record: ObserverRecord,
 }
@@ -108,6 +111,7 @@ impl MissionObserver {
             black,
             gap: None,
             home_wxyz,
+            attitude: opts.perturbation.attitude_error_of(opts.seed, i),
             record: ObserverRecord::default(),
         })
     }
@@ -163,11 +167,12 @@ impl MissionObserver {
                 return Ok(());
             }
         };
-        // The attitude estimate of the render that made these outputs (the true attitude: IMU
-        // error is not modelled). Bitwise equal to home on a still airframe: nothing to undo.
-        let ego = state
+        // The attitude estimate of the render that made these outputs, with its error if any.
+        // Bitwise equal to home on a still airframe with an exact estimate: nothing to undo.
+        let turn = state
             .drone(&self.name)
             .and_then(|d| proto::EgoRotation::between(self.home_wxyz, d.quat_wxyz));
+        let ego = estimated(self.attitude.as_mut(), t, turn);
         for output in outputs {
             let packet: SensorPacket = match output {
                 SensorOutput::Rgb(mut f) => {

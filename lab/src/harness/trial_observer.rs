@@ -10,6 +10,7 @@ use anyhow::{Context, Result};
 use event_camera::{CameraConfig, EventCamera};
 use perception::{Perception, SensorInput};
 use perturb::Perturbation;
+use perturb::attitude::{AttitudeError, estimated};
 use perturb::link::LinkNoise;
 use perturb::rgb::RgbSensor;
 use perturb::seed::{Stream, rng, stream_seed};
@@ -49,6 +50,8 @@ struct Observer {
     frames: Vec<ReleasedFrame>,
     messages: u64,
     lost: u64,
+    /// The error of its attitude estimate (`flight.attitude_sigma_deg`; `None`: exact).
+    attitude: Option<AttitudeError>,
 }
 
 /// What turns an observer's renders into sensor messages.
@@ -96,6 +99,7 @@ impl Observer {
             frames: Vec::new(),
             messages: 0,
             lost: 0,
+            attitude: opts.perturbation.attitude_error_of(seed, i),
         })
     }
 
@@ -192,6 +196,7 @@ pub fn observe_cached(
                 finished = false;
                 return Ok(false);
             }
+            let ego = estimated(observer.attitude.as_mut(), t, ego);
             observer.perception.set_ego_rotation(ego);
             observer.render(t, rgb, change)?;
             Ok(true)
@@ -226,6 +231,7 @@ pub fn observe_flying(
             return Ok(false);
         }
         // The observer's attitude estimate: its receiver undoes the airframe's turn.
+        let ego = estimated(observers[i].attitude.as_mut(), t, ego);
         observers[i].perception.set_ego_rotation(ego);
         observers[i].render(t, rgb, change)?;
         Ok(true)

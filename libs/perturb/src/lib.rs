@@ -15,6 +15,7 @@
 //! Pure code: no I/O, no clock; the same seed gives the same realisation on every machine
 //! (ChaCha8 streams, integer seeds).
 
+pub mod attitude;
 pub mod flight;
 pub mod light;
 pub mod link;

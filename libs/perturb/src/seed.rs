@@ -19,6 +19,8 @@ pub enum Stream {
     Wind = 6,
     /// The cascade's state-estimate noise (one seed; the physics gives each drone its stream).
     Estimate = 7,
+    /// The error of an observer's attitude estimate, which its receiver undoes.
+    Attitude = 8,
 }
 
 /// SplitMix64's output function: a bijective 64-bit mix.

@@ -258,6 +258,16 @@ pub const PARAMETERS: &[Parameter] = &[
         "cascade only: age of the state estimate (rounded to the 2 ms physics step)",
     ),
     p(
+        "flight.attitude_sigma_deg",
+        "°",
+        0.0,
+        0.0,
+        10.0,
+        false,
+        "σ of each axis of the observers' attitude estimate's error (Gauss–Markov, 1 s), which \
+         their receivers undo as if it were the airframe's turn",
+    ),
+    p(
         "wind.mean_mps",
         "m/s",
         0.0,
