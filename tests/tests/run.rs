@@ -221,6 +221,32 @@ fn a_sensor_preset_reaches_the_camera_processes_and_the_summary_records_it() {
             .any(|t| t.starts_with("/sensor/") && t.ends_with("/events")),
         "{topics:?}"
     );
+    // Exported as a ROS 2 bag, the regenerated packets go in as the recorded ones would.
+    let bag = out_dir_path("sensor-preset").join("bag");
+    let export = waggle()
+        .args(["export", "ros2"])
+        .arg(out_dir_path("sensor-preset"))
+        .arg("--out")
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&export.stdout);
+    assert!(
+        export.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&export.stderr)
+    );
+    let made: u64 = v["observers"]
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|o| o["regenerated"]["made"]["events"].as_u64().unwrap())
+        .sum();
+    assert!(
+        text.contains(&format!("  {made} events, ")),
+        "{made}: {text}"
+    );
+    assert!(text.contains("/O1/events"), "{text}");
     // Cut: compared where it covers the run, without a false mismatch (a lost render cannot be
     // regenerated past, and a cut file holds no account of the packets received).
     for k in [2, 3] {

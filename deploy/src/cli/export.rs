@@ -7,7 +7,9 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
-use ros2_bag::{ExportOptions, ImageFormat, export_run};
+use ros2_bag::{ExportOptions, ImageFormat, export_run_with};
+
+use crate::eval::regenerate::{ExportedEvents, Regenerator};
 
 #[derive(Debug, Args)]
 pub struct ExportArgs {
@@ -46,13 +48,26 @@ pub fn run(args: ExportArgs) -> Result<()> {
             ImageFormat::Png
         },
     };
-    let report = export_run(&args.run, &args.out, &options).with_context(|| {
-        format!(
-            "exporting {} as a ROS 2 bag into {}",
-            args.run.display(),
-            args.out.display()
-        )
-    })?;
+    // A recording of the event sensors' input: the packets are regenerated as it is read.
+    let info = recording::leading_metadata(
+        &crate::eval::recording::resolve(&args.run),
+        recording::SESSION_METADATA,
+    )
+    .with_context(|| format!("reading {}", args.run.display()))?
+    .map(|m| recording::SessionInfo::from_metadata(&m))
+    .unwrap_or_default();
+    let mut regenerated = Regenerator::of(&info)?.map(ExportedEvents);
+    let substitute = regenerated
+        .as_mut()
+        .map(|r| r as &mut dyn ros2_bag::Substitute);
+    let report =
+        export_run_with(&args.run, &args.out, &options, substitute).with_context(|| {
+            format!(
+                "exporting {} as a ROS 2 bag into {}",
+                args.run.display(),
+                args.out.display()
+            )
+        })?;
     let bag = &report.bag;
     // Written, not printed: a closed pipe (`| head`) is an error to report, not a panic.
     let mut out = std::io::stdout().lock();

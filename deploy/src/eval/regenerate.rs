@@ -14,7 +14,7 @@ use event_camera::{CameraConfig, EventCamera, EventSensorModel};
 use node_args::SensorArgs;
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, MAX_OBSERVERS, observer_name};
 use proto::{EventPacket, FrameChange, Modality, ObserverId, RgbReassembler, RgbUpdate};
-use recording::{SessionInfo, UnrecordedPackets};
+use recording::{Decoded, SessionInfo, UnrecordedPackets};
 
 /// The sensor arguments stored in a recording's metadata, parsed as the camera parses them.
 #[derive(Parser)]
@@ -179,6 +179,59 @@ impl Camera {
             self.made.digest = proto::camera::digest(self.made.digest, &proto::encode(p));
         }
         out
+    }
+}
+
+/// The export's view of a recording that kept the sensors' input: each input is replaced by
+/// the packets regenerated from it (on the camera's `sensor/<o>/events` topic, at their end
+/// time), drop notices pass through after the packets they drop are left out, and everything
+/// else passes through untouched.
+pub struct ExportedEvents(pub Regenerator);
+
+impl ExportedEvents {
+    fn packets(o: &ObserverId, packets: Vec<EventPacket>) -> Vec<ros2_bag::Substituted> {
+        packets
+            .into_iter()
+            .map(|p| {
+                let t = p.end_ns;
+                (format!("/sensor/{o}/events"), Decoded::EventPacket(p), t)
+            })
+            .collect()
+    }
+}
+
+impl ros2_bag::Substitute for ExportedEvents {
+    fn substitute(
+        &mut self,
+        topic: &str,
+        msg: Decoded,
+        log_time_ns: u64,
+    ) -> Result<Vec<ros2_bag::Substituted>, String> {
+        let key = crate::eval::recording::topic_key(topic);
+        match (key, msg) {
+            (Some(proto::Key::CameraInput(o)), Decoded::RgbUpdate(u)) => {
+                let released = self.0.input(&o, u).map_err(|e| format!("{e:#}"))?;
+                Ok(Self::packets(&o, released))
+            }
+            (Some(proto::Key::SensorDropped(o)), Decoded::PacketDropped(d)) if d.observer == o => {
+                self.0.dropped(&o, d.seq).map_err(|e| format!("{e:#}"))?;
+                Ok(vec![(
+                    topic.to_string(),
+                    Decoded::PacketDropped(d),
+                    log_time_ns,
+                )])
+            }
+            (_, msg) => Ok(vec![(topic.to_string(), msg, log_time_ns)]),
+        }
+    }
+
+    fn finish(&mut self) -> Result<Vec<ros2_bag::Substituted>, String> {
+        Ok(self
+            .0
+            .finish()
+            .into_iter()
+            .flat_map(|(o, packets)| Self::packets(&o, packets))
+            .collect())
     }
 }
 

@@ -35,11 +35,12 @@ pub enum Ros2Error {
     Incomplete { path: String, reason: String },
     #[error(
         "the recording {path} keeps the event cameras' input, not their packets (`waggle run \
-         --record-events input`, the default with a sensor noise model): the bag would hold no \
-         events. `waggle replay` regenerates them; to export, record the session with \
-         `--record-events packets`"
+         --record-events input`, the default with a sensor noise model), and nothing \
+         regenerates them here: the bag would hold no events"
     )]
     EventsNotRecorded { path: String },
+    #[error("the recording {path}: {reason}")]
+    Substitute { path: String, reason: String },
     #[error(
         "the recording {path}: message {index} (topic {topic}, log time {log_time_ns} ns) does \
          not decode: {reason}"

@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 
 use proto::scene::Formation;
 use recording::{
-    MessageKind, RAW_ENCODING, SESSION_METADATA, SessionInfo, decode, leading_metadata,
+    Decoded, MessageKind, RAW_ENCODING, SESSION_METADATA, SessionInfo, decode, leading_metadata,
     read_recording,
 };
 
@@ -149,6 +149,25 @@ pub fn formation_pitches(observers: usize) -> BTreeMap<String, f64> {
         .collect()
 }
 
+/// A recorded message, or one put in its place: its topic, the message and its log time.
+pub type Substituted = (String, Decoded, u64);
+
+/// Replaces recorded messages before they are converted: for a recording that kept the event
+/// sensors' input instead of their packets, the packets regenerated from it.
+pub trait Substitute {
+    /// What to convert in place of `msg`, recorded on `topic` at `log_time_ns` (nothing, the
+    /// message itself, or others).
+    fn substitute(
+        &mut self,
+        topic: &str,
+        msg: Decoded,
+        log_time_ns: u64,
+    ) -> Result<Vec<Substituted>, String>;
+
+    /// What is still held when the recording ends.
+    fn finish(&mut self) -> Result<Vec<Substituted>, String>;
+}
+
 /// Exports the recording of `run` (a run directory or a `.mcap` file) as the bag directory
 /// `out`, which must not exist or be empty. The bag is written beside `out` first and moved
 /// there only when complete.
@@ -156,6 +175,17 @@ pub fn export_run(
     run: &Path,
     out: &Path,
     options: &ExportOptions,
+) -> Result<ExportReport, Ros2Error> {
+    export_run_with(run, out, options, None)
+}
+
+/// [`export_run`] with every recorded message passed through `substitute` first (required for
+/// a recording that kept the event sensors' input).
+pub fn export_run_with(
+    run: &Path,
+    out: &Path,
+    options: &ExportOptions,
+    substitute: Option<&mut dyn Substitute>,
 ) -> Result<ExportReport, Ros2Error> {
     let recording = recording_path(run);
     if out.exists()
@@ -177,7 +207,7 @@ pub fn export_run(
         .unwrap_or(Path::new("."))
         .join(format!(".{name}.partial-{}", std::process::id()))
         .join(&name);
-    let result = export_into(&recording, &staging, options);
+    let result = export_into(&recording, &staging, options, substitute);
     let finish = result.and_then(|mut report| {
         let io = |source| Ros2Error::Io {
             path: out.display().to_string(),
@@ -200,14 +230,19 @@ fn export_into(
     recording: &Path,
     staging: &Path,
     options: &ExportOptions,
+    mut substitute: Option<&mut dyn Substitute>,
 ) -> Result<ExportReport, Ros2Error> {
     let shown = recording.display().to_string();
     let info = leading_metadata(recording, SESSION_METADATA)?
         .map(|m| SessionInfo::from_metadata(&m))
         .unwrap_or_default();
-    if info.events_from_input {
+    if info.events_from_input && substitute.is_none() {
         return Err(Ros2Error::EventsNotRecorded { path: shown });
     }
+    let substitute_error = |reason| Ros2Error::Substitute {
+        path: shown.clone(),
+        reason,
+    };
     let pitch_rad = pitches(recording)?;
     let mut x = Exporter {
         converter: RosConverter::new(&shown, *options, pitch_rad),
@@ -235,8 +270,16 @@ fn export_into(
             log_time_ns: m.log_time_ns,
             reason: e.to_string(),
         })?;
-        if !x.converter.convert(m.topic, decoded, m.log_time_ns)? {
-            *not_exported.entry(m.topic.to_string()).or_insert(0) += 1;
+        let messages = match substitute.as_mut() {
+            Some(s) => s
+                .substitute(m.topic, decoded, m.log_time_ns)
+                .map_err(substitute_error)?,
+            None => vec![(m.topic.to_string(), decoded, m.log_time_ns)],
+        };
+        for (topic, msg, log_time_ns) in messages {
+            if !x.converter.convert(&topic, msg, log_time_ns)? {
+                *not_exported.entry(topic).or_insert(0) += 1;
+            }
         }
         x.queue();
         x.latest_ns = x.latest_ns.max(m.log_time_ns);
@@ -255,6 +298,14 @@ fn export_into(
             path: shown,
             reason: outcome.problem.unwrap_or_else(|| "unknown".into()),
         });
+    }
+    if let Some(s) = substitute {
+        for (topic, msg, log_time_ns) in s.finish().map_err(substitute_error)? {
+            if !x.converter.convert(&topic, msg, log_time_ns)? {
+                *not_exported.entry(topic).or_insert(0) += 1;
+            }
+        }
+        x.queue();
     }
     x.flush(None)?;
     let (events, images) = (x.converter.events(), x.converter.images());

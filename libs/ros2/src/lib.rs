@@ -44,7 +44,7 @@ pub use cdr::{CdrEncode, CdrError, CdrReader, CdrWriter, RosMessage};
 pub use convert::{Converted, RosConverter};
 pub use convert::{ExportOptions, ImageFormat};
 pub use error::Ros2Error;
-pub use export::{ExportReport, export_run};
+pub use export::{ExportReport, Substitute, Substituted, export_run, export_run_with};
 
 /// The ROS 2 release whose rosbag2 format the bags follow (`ros_distro` in `metadata.yaml`).
 pub const ROS_DISTRO: &str = "jazzy";
