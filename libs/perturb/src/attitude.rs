@@ -5,9 +5,10 @@
 //! accelerometer) is off by a fraction of a degree that wanders over seconds: gyro bias drift,
 //! and tilt corrections that mistake acceleration for gravity. The model: a small world-frame
 //! rotation error whose three axes are independent first-order Gauss–Markov processes of σ
-//! `flight.attitude_sigma_deg` and correlation time [`CORRELATION_S`] (an assumption, stated
-//! here: of the order of the filters' tilt-correction time constants), started from its
-//! stationary distribution and stepped exactly between render instants. The estimate is then
+//! `flight.attitude_sigma_deg` and correlation time `flight.attitude_tau_s` (default 1 s, of the
+//! order of the filters' tilt-correction time constants; long, the error is a bias that holds
+//! over a gesture, which the centred template distance forgives; short, it is jitter), started
+//! from its stationary distribution and stepped exactly between render instants. The estimate is then
 //! `R_err · R_true`, so the turn handed to the receiver is `R_err · (R_true · R_homeᵀ)`.
 //! Off (σ = 0) it draws nothing and hands the turn on untouched.
 
@@ -19,13 +20,11 @@ use rand_distr::{Distribution, StandardNormal};
 use crate::seed::{Stream, stream_seed};
 use crate::spec::Perturbation;
 
-/// Correlation time of the attitude error, seconds.
-pub const CORRELATION_S: f64 = 1.0;
-
 /// One observer's attitude-estimate error over a flight.
 #[derive(Debug, Clone)]
 pub struct AttitudeError {
     sigma_rad: f64,
+    tau_s: f64,
     rng: ChaCha8Rng,
     /// The error's rotation vector (world axes), radians, and when it was drawn.
     state: Option<([f64; 3], u64)>,
@@ -39,6 +38,7 @@ impl Perturbation {
         (sigma_deg > 0.0).then(|| {
             AttitudeError::new(
                 sigma_deg.to_radians(),
+                self.get("flight.attitude_tau_s"),
                 stream_seed(trial_seed, Stream::Attitude, observer),
             )
         })
@@ -46,10 +46,11 @@ impl Perturbation {
 }
 
 impl AttitudeError {
-    /// An error of σ `sigma_rad` per axis, drawn from `seed`.
-    pub fn new(sigma_rad: f64, seed: u64) -> Self {
+    /// An error of σ `sigma_rad` per axis and correlation time `tau_s`, drawn from `seed`.
+    pub fn new(sigma_rad: f64, tau_s: f64, seed: u64) -> Self {
         Self {
             sigma_rad,
+            tau_s,
             rng: ChaCha8Rng::seed_from_u64(seed),
             state: None,
         }
@@ -61,7 +62,7 @@ impl AttitudeError {
         let next = match self.state {
             None => [0, 1, 2].map(|_| self.sigma_rad * draw()),
             Some((e, last_ns)) if t_ns > last_ns => {
-                let a = (-((t_ns - last_ns) as f64 * 1e-9) / CORRELATION_S).exp();
+                let a = (-((t_ns - last_ns) as f64 * 1e-9) / self.tau_s).exp();
                 let b = self.sigma_rad * (1.0 - a * a).sqrt();
                 [0, 1, 2].map(|k| a * e[k] + b * draw())
             }
@@ -124,16 +125,17 @@ mod tests {
         let none = Perturbation::default();
         assert!(none.attitude_error_of(1, 0).is_none());
         assert_eq!(estimated(None, 5, None), None);
-        let p = Perturbation::parse(&["flight.attitude_sigma_deg=0.5"]).unwrap();
-        let sigma = 0.5f64.to_radians();
+        let p = Perturbation::parse(&["flight.attitude_sigma_deg=0.5", "flight.attitude_tau_s=2"])
+            .unwrap();
+        let (sigma, tau_ns) = (0.5f64.to_radians(), 2_000_000_000);
         // Many independent errors: stationary variance σ², lag-τ correlation e⁻¹.
         let (mut var0, mut var1, mut cov) = (0.0, 0.0, 0.0);
         let n = 4000;
         for trial in 0..n {
             let mut e = p.attitude_error_of(trial, 2).unwrap();
             let a = e.at(10_000_000);
-            let b = e.at(10_000_000 + (CORRELATION_S * 1e9) as u64);
-            assert_eq!(e.at(10_000_000 + (CORRELATION_S * 1e9) as u64), b);
+            let b = e.at(10_000_000 + tau_ns);
+            assert_eq!(e.at(10_000_000 + tau_ns), b);
             var0 += a[0] * a[0];
             var1 += b[1] * b[1];
             cov += a[2] * b[2];
@@ -160,17 +162,17 @@ mod tests {
 
     #[test]
     fn the_error_turns_the_true_turn_by_its_own_angle() {
-        let mut e = AttitudeError::new(0.01, 9);
+        let mut e = AttitudeError::new(0.01, 1.0, 9);
         let v = e.at(0);
         let angle = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        let mut e = AttitudeError::new(0.01, 9);
+        let mut e = AttitudeError::new(0.01, 1.0, 9);
         // A still airframe is handed the error alone.
         let still = e.apply(0, None).unwrap();
         assert!((still.angle_rad() - angle).abs() < 1e-9);
         // A turn about z composed with the error: R_err · R_turn.
         let h = 0.05f64;
         let turn = EgoRotation::between([1.0, 0.0, 0.0, 0.0], [h.cos(), 0.0, 0.0, h.sin()]);
-        let mut e = AttitudeError::new(0.01, 9);
+        let mut e = AttitudeError::new(0.01, 1.0, 9);
         let got = e.apply(0, turn).unwrap().world_from_home;
         let r = rotation_matrix(v);
         let t = turn.unwrap().world_from_home;

@@ -264,8 +264,18 @@ pub const PARAMETERS: &[Parameter] = &[
         0.0,
         10.0,
         false,
-        "σ of each axis of the observers' attitude estimate's error (Gauss–Markov, 1 s), which \
-         their receivers undo as if it were the airframe's turn",
+        "σ of each axis of the observers' attitude estimate's error (Gauss–Markov), which their \
+         receivers undo as if it were the airframe's turn",
+    ),
+    p(
+        "flight.attitude_tau_s",
+        "s",
+        1.0,
+        0.01,
+        1000.0,
+        false,
+        "correlation time of the attitude estimate's error (long: a bias that holds over a \
+         gesture; short: jitter)",
     ),
     p(
         "wind.mean_mps",
