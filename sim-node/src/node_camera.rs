@@ -24,7 +24,7 @@ use proto::{
 };
 use sim::lockstep::mirror;
 use sim::render::{CameraRenderer, RenderCounts, RenderPath};
-use sim::sensor::{ObserverSensor, SensorInput, SensorOutput};
+use sim::sensor::{ObserverSensor, SensorFeed, SensorOutput};
 use sim::world::World;
 
 /// `sim-node camera`'s command line: the camera's own arguments (the contract the composer
@@ -115,7 +115,7 @@ struct InputOutbox {
 }
 
 impl InputOutbox {
-    fn send(&mut self, bus: &mut Bus, input: SensorInput<'_>) -> Result<()> {
+    fn send(&mut self, bus: &mut Bus, input: SensorFeed<'_>) -> Result<()> {
         let frame = RgbFrame::rendered(
             self.next_seq,
             input.stamp_ns,

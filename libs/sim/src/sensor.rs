@@ -38,7 +38,7 @@ pub enum SensorError {
 /// sensor of the same model and seed, these make the same packets (a recording keeps them
 /// instead of the packets when noise makes the packets large).
 #[derive(Debug, Clone, Copy)]
-pub struct SensorInput<'a> {
+pub struct SensorFeed<'a> {
     pub stamp_ns: u64,
     pub rgb: &'a [u8],
     pub change: FrameChange,
@@ -144,7 +144,7 @@ impl ObserverSensor {
         &mut self,
         world: &mut World,
         renderer: &mut CameraRenderer,
-        on_input: &mut dyn FnMut(SensorInput<'_>),
+        on_input: &mut dyn FnMut(SensorFeed<'_>),
     ) -> Result<Vec<SensorOutput>, SensorError> {
         let stamp_ns = world.time_ns();
         match &mut self.state {
@@ -187,7 +187,7 @@ impl ObserverSensor {
                     } else {
                         FrameChange::All
                     };
-                    on_input(SensorInput {
+                    on_input(SensorFeed {
                         stamp_ns,
                         rgb: &black,
                         change,
@@ -202,7 +202,7 @@ impl ObserverSensor {
                     } else {
                         FrameChange::All
                     };
-                    on_input(SensorInput {
+                    on_input(SensorFeed {
                         stamp_ns,
                         rgb: frame.rgb,
                         change,
