@@ -77,6 +77,14 @@ pub fn waggle() -> Command {
     Command::new(bin("waggle"))
 }
 
+/// `waggle export ros2 RUN --out BAG`: a recording (a run directory or an `.mcap` file) as a
+/// ROS 2 bag directory.
+pub fn export_ros2(run: &Path, bag: &Path) -> Command {
+    let mut cmd = waggle();
+    cmd.args(["export", "ros2"]).arg(run).arg("--out").arg(bag);
+    cmd
+}
+
 /// Runs `cmd` to its end and returns its output, panicking with its stderr unless it succeeded
 /// (`what` names it in the message, e.g. `waggle compose`).
 pub fn succeed(cmd: &mut Command, what: &str) -> std::process::Output {

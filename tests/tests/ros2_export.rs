@@ -18,7 +18,7 @@ use std::sync::{Mutex, OnceLock};
 
 use recording::{Decoded, MessageKind, RAW_ENCODING, ReadError, decode, read_recording};
 use serde_json::Value;
-use waggle_tests::{succeed, waggle, waggle_with_nodes, workspace_root};
+use waggle_tests::{export_ros2, succeed, waggle, waggle_with_nodes, workspace_root};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("waggle-ros2-{}-{name}", std::process::id()));
@@ -70,15 +70,7 @@ fn only_a(modality: &'static str) -> &'static Path {
 
 /// `waggle export ros2 RUN --out BAG ARGS…`.
 fn export(run: &Path, bag: &Path, args: &[&str]) -> String {
-    let out = succeed(
-        waggle()
-            .args(["export", "ros2"])
-            .arg(run)
-            .arg("--out")
-            .arg(bag)
-            .args(args),
-        "waggle export ros2",
-    );
+    let out = succeed(export_ros2(run, bag).args(args), "waggle export ros2");
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
@@ -355,13 +347,7 @@ fn a_damaged_or_cut_recording_is_refused_naming_the_file_and_bytes() {
         let file = dir.join(format!("{name}.mcap"));
         std::fs::write(&file, &data).unwrap();
         let bag = dir.join(format!("{name}-bag"));
-        let out = waggle()
-            .args(["export", "ros2"])
-            .arg(&file)
-            .arg("--out")
-            .arg(&bag)
-            .output()
-            .unwrap();
+        let out = export_ros2(&file, &bag).output().unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(
             !out.status.success(),
@@ -375,13 +361,7 @@ fn a_damaged_or_cut_recording_is_refused_naming_the_file_and_bytes() {
     // An existing bag is never overwritten.
     std::fs::create_dir_all(dir.join("taken")).unwrap();
     std::fs::write(dir.join("taken/x"), b"x").unwrap();
-    let out = waggle()
-        .args(["export", "ros2"])
-        .arg(run)
-        .arg("--out")
-        .arg(dir.join("taken"))
-        .output()
-        .unwrap();
+    let out = export_ros2(run, &dir.join("taken")).output().unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("not an empty directory"));
     let _ = std::fs::remove_dir_all(&dir);

@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 use sha2::{Digest, Sha256};
-use waggle_tests::{succeed, waggle, workspace_root};
+use waggle_tests::{export_ros2, succeed, waggle, workspace_root};
 
 const DOMAIN: u32 = 42;
 
@@ -154,11 +154,7 @@ fn check_live(dir: &Path, live: &Value, modality: &str) {
 
     let bag = dir.join("bag");
     succeed(
-        waggle()
-            .args(["export", "ros2"])
-            .arg(dir.join("run"))
-            .arg("--out")
-            .arg(&bag),
+        &mut export_ros2(&dir.join("run"), &bag),
         "waggle export ros2",
     );
     let out = succeed(

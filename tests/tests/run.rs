@@ -21,7 +21,7 @@ use std::collections::BTreeMap;
 
 use deploy::run_dir::{ObserverRecord, RunSummary};
 use serde_json::Value;
-use waggle_tests::{spawn_background_run, waggle, waggle_with_nodes};
+use waggle_tests::{export_ros2, spawn_background_run, waggle, waggle_with_nodes};
 
 fn out_dir(name: &str) -> PathBuf {
     let dir = out_dir_path(name);
@@ -223,11 +223,7 @@ fn a_sensor_preset_reaches_the_camera_processes_and_the_summary_records_it() {
     );
     // Exported as a ROS 2 bag, the regenerated packets go in as the recorded ones would.
     let bag = out_dir_path("sensor-preset").join("bag");
-    let export = waggle()
-        .args(["export", "ros2"])
-        .arg(out_dir_path("sensor-preset"))
-        .arg("--out")
-        .arg(&bag)
+    let export = export_ros2(&out_dir_path("sensor-preset"), &bag)
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&export.stdout);
