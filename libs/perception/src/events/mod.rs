@@ -6,6 +6,7 @@
 //! - [`health`]: malformed packets (counted by reason) and delivery discontinuities;
 //! - [`background`]: the measured background-activity rate;
 //! - [`denoise`]: the noise front end (spatio-temporal correlation filter);
+//! - [`ego_motion`]: the ego-motion front end (events the airframe's own turning explains);
 //! - [`support`]: unique-pixel support, spans, percentile-bound centre, polarity balance;
 //! - [`tracker`]: localise near the optical centre, track locally, judge support before polarity;
 //! - [`acquisition`]: the NULL gate — a closed moving path observed, a 20 s tracking lease;
@@ -14,6 +15,7 @@
 pub mod acquisition;
 pub mod background;
 pub mod denoise;
+pub mod ego_motion;
 pub mod error;
 pub mod health;
 pub mod receiver;

@@ -22,6 +22,7 @@ use proto::{DecodeError, EventPacket, ReleasedFrame, Token};
 
 use crate::events::acquisition::{Acquisition, AcquisitionConfig, AcquisitionEvent};
 use crate::events::denoise::{DenoiseConfig, DenoiseCounts, NoiseFilter};
+use crate::events::ego_motion::EgoMotionFilter;
 use crate::events::error::EventReceiverError;
 use crate::events::health::{Delivery, DeliveryMonitor, Discontinuity, PacketRejection};
 use crate::events::support::Window;
@@ -188,6 +189,9 @@ pub struct EventReceiver {
     filter: NoiseFilter,
     /// The packet after the noise front end (reused).
     filtered: EventPacket,
+    /// The ego-motion front end and the packet after it (reused).
+    ego_motion: EgoMotionFilter,
+    moving: EventPacket,
     tracker: SupportTracker,
     acquisition: Acquisition,
     decoder: Decoder,
@@ -209,6 +213,12 @@ impl EventReceiver {
             delivery: DeliveryMonitor::new(config.width, config.height, config.packet_period_ns),
             filter: NoiseFilter::new(config.denoise, config.width, config.height)?,
             filtered: EventPacket::from_events(0, (0, 0), (config.width, config.height), &[]),
+            ego_motion: EgoMotionFilter::new(
+                config.segmenter.home_camera,
+                config.width,
+                config.height,
+            ),
+            moving: EventPacket::from_events(0, (0, 0), (config.width, config.height), &[]),
             tracker: SupportTracker::new(config.tracker, config.width, config.height)?,
             acquisition: Acquisition::new(config.acquisition)?,
             decoder: Decoder::new(config.segmenter)?,
@@ -261,6 +271,11 @@ impl EventReceiver {
     /// Events seen and removed by the noise front end.
     pub fn denoise_counts(&self) -> DenoiseCounts {
         self.filter.counts()
+    }
+
+    /// Events seen and removed by the ego-motion front end (zero while no turn was handed over).
+    pub fn ego_motion_counts(&self) -> crate::events::ego_motion::EgoMotionCounts {
+        self.ego_motion.counts()
     }
 
     /// Segmenter refusals (stamps out of order); always zero for a correct receiver.
@@ -343,7 +358,13 @@ impl EventReceiver {
         }
         let stamp_ns = packet.end_ns;
         self.filter.filter(packet, &mut self.filtered);
-        match self.tracker.observe(&self.filtered) {
+        let seen = if self.ego_motion.active() {
+            self.ego_motion.filter(&self.filtered, &mut self.moving);
+            &self.moving
+        } else {
+            &self.filtered
+        };
+        match self.tracker.observe(seen) {
             Observation::Interrupted(fault) => {
                 self.interrupt_at(Some(stamp_ns), fault.into(), &mut out)
             }
@@ -371,6 +392,7 @@ impl EventReceiver {
     /// estimate), undone on the target's track from the next sample on
     /// ([`proto::stabilise`]).
     pub fn set_ego_rotation(&mut self, ego: Option<proto::EgoRotation>) {
+        self.ego_motion.set_ego_rotation(ego);
         self.decoder.set_ego_rotation(ego);
     }
 

@@ -1,0 +1,454 @@
+//! The event receiver's ego-motion front end: removes the events the observer's own turning
+//! explains, so that what is left is what moved in the world.
+//!
+//! A hovering drone leans to hold its place, and its rigidly mounted event camera then sees
+//! every edge of the static scene move: under the cascade in a light breeze that is ≈ 16 M
+//! events in a 97 s link against ≈ 3 M from a still camera, and before the performer first moves
+//! it captures the tracker. The airframe's attitude is known (an IMU-aided estimate; see
+//! [`proto::stabilise`]), and a rotation of a pinhole camera moves the image of the static scene
+//! by a known flow wherever it is. How many events a place of the scene gives for a given flow
+//! depends on what is there (its edges and their directions), which the receiver does not know;
+//! so it learns it, place by place, in the frame of the camera at its home attitude, where the
+//! static scene stays put:
+//!
+//! * the home image is cut into cells of [`CELL_PX`]; at every turn handed over, each cell
+//!   centre's image position under the turn is computed and the path it moved since the previous
+//!   one is summed, `F = (ΣΔx, ΣΔy)` over the packet;
+//! * each event is mapped to the home frame (the packet's last turn undone) and counted in its
+//!   cell, `n`;
+//! * per cell and polarity a linear model of the count in the flow split by direction,
+//!   `μ = c₀ + a₊·F_x⁺ + a₋·F_x⁻ + b₊·F_y⁺ + b₋·F_y⁻`, is fitted by exponentially
+//!   forgetting least squares (time constant [`MEMORY_NS`]; a small ridge keeps it defined while
+//!   the flow has kept one direction);
+//! * a cell whose count the model explains, `n ≤ (1 + κ)·μ + z·√μ + m`, has its events removed;
+//!   a cell above that keeps *all* its events (both edges of a moving object, both polarities);
+//! * the model learns from the count clipped to that bound, so a drone passing through teaches
+//!   the place little, while a drone that comes to rest there is learnt within a few seconds.
+//!   (A resting drone then gives no events, as it gives none to a still camera.)
+//!
+//! This is the scene-fixed counterpart of IMU-aided ego-motion compensation for moving-object
+//! detection with event cameras (A. Mitrokhin, C. Fermüller, C. Parameshwara and Y. Aloimonos,
+//! "Event-based moving object detection and tracking", IROS 2018; D. Falanga, K. Kleber and
+//! D. Scaramuzza, "Dynamic obstacle avoidance for quadrotors with event cameras", Science
+//! Robotics 5(40), 2020): theirs warp a short window of events by the rotation and threshold a
+//! per-pixel timestamp statistic; here the drone moves slowly (a few pixels per packet, as slow
+//! as the scene's own swing), so the per-place statistic has to be learnt over seconds instead.
+//!
+//! Until the first turn is handed over the front end passes every event and costs nothing: a
+//! still camera's receiver computes exactly what it did before this module existed. While a
+//! cell's model is younger than [`WARM_UP_PACKETS`] with flow, its events are removed: it
+//! knows nothing yet, and a still camera would not see a resting scene either.
+
+use proto::EventPacket;
+use proto::scene::ObserverCamera;
+use proto::stabilise::{EgoRotation, predicted_px, stabilised_px};
+
+/// Side of a cell, pixels: about half the performer's image at 1.3–2 m.
+pub const CELL_PX: u16 = 16;
+
+/// The models' memory, ns: several swings of the airframe (≈ 1 Hz) and shorter than a rest.
+pub const MEMORY_NS: u64 = 8_000_000_000;
+
+/// Packets with flow a cell's model must have seen before it removes anything.
+pub const WARM_UP_PACKETS: u32 = 12;
+
+/// The margin of the explained count: relative (`κ`), in standard deviations of a Poisson count
+/// (`z`) and absolute (`m`, events).
+const KAPPA: f64 = 0.5;
+const Z: f64 = 3.0;
+const MARGIN_EVENTS: f64 = 3.0;
+
+/// A group of kept cells whose larger polarity has this share of its events is a static edge.
+const ONE_SIDED_FRACTION: f64 = 0.9;
+
+/// A cell whose count falls below this share of its prediction has been vacated …
+const VACATED_FRACTION: f64 = 0.5;
+/// … and its model forgets with this extra factor per such packet (≈ 0.2 s at 25 Hz).
+const VACATED_FORGET: f64 = 0.8;
+
+/// The count a model learns from is clipped at this multiple of its bound.
+const LEARN_CLIP: f64 = 1.0;
+
+/// Ridge of the normal equations, in packets' worth of a unit regressor.
+const RIDGE: f64 = 0.05;
+
+/// Path below which a packet's flow tells a cell nothing about its gain, px.
+const MIN_FLOW_PX: f64 = 0.05;
+
+/// Regressors of a cell's model: a constant and the packet's signed flow split by direction.
+const REGRESSORS: usize = 5;
+
+/// `[1, Δx⁺, Δx⁻, Δy⁺, Δy⁻]` of a packet's net flow `f`, px.
+fn regressors(f: [f64; 2]) -> [f64; REGRESSORS] {
+    [
+        1.0,
+        f[0].max(0.0),
+        (-f[0]).max(0.0),
+        f[1].max(0.0),
+        (-f[1]).max(0.0),
+    ]
+}
+
+/// One cell's forgetting least-squares state: one design (the flow) and two counts, ON and
+/// OFF events, because a static edge's polarity follows the direction it moves in.
+#[derive(Debug, Clone, Copy, Default)]
+struct CellModel {
+    /// Σ λᵏ x xᵀ.
+    xx: [[f64; REGRESSORS]; REGRESSORS],
+    /// Σ λᵏ x n, per polarity (0 OFF, 1 ON).
+    xn: [[f64; REGRESSORS]; 2],
+    /// Packets with flow seen.
+    packets: u32,
+    /// The current fits, per polarity.
+    theta: [[f64; REGRESSORS]; 2],
+    /// Forgetting mean of the squared residual of the (clipped) counts, events², per polarity.
+    residual_sq: [f64; 2],
+}
+
+impl CellModel {
+    fn predict(&self, x: &[f64; REGRESSORS], polarity: usize) -> f64 {
+        let t = &self.theta[polarity];
+        t.iter().zip(x).map(|(a, b)| a * b).sum::<f64>().max(0.0)
+    }
+
+    /// The largest count of `polarity` this model explains at regressors `x`.
+    fn bound(&self, x: &[f64; REGRESSORS], polarity: usize) -> f64 {
+        let mu = self.predict(x, polarity);
+        (1.0 + KAPPA) * mu + Z * mu.max(self.residual_sq[polarity]).sqrt() + MARGIN_EVENTS
+    }
+
+    fn learn(&mut self, x: &[f64; REGRESSORS], n: [f64; 2], forget: f64) {
+        for (p, &count) in n.iter().enumerate() {
+            let r = count - self.predict(x, p);
+            self.residual_sq[p] = self.residual_sq[p] * forget + (1.0 - forget) * r * r;
+        }
+        for i in 0..REGRESSORS {
+            for j in 0..REGRESSORS {
+                self.xx[i][j] = self.xx[i][j] * forget + x[i] * x[j];
+            }
+            for (p, &count) in n.iter().enumerate() {
+                self.xn[p][i] = self.xn[p][i] * forget + x[i] * count;
+            }
+        }
+        if x[1..].iter().sum::<f64>() >= MIN_FLOW_PX {
+            self.packets = self.packets.saturating_add(1);
+        }
+        let mut a = self.xx;
+        for (i, row) in a.iter_mut().enumerate() {
+            row[i] += RIDGE;
+        }
+        if let Some(l) = cholesky(&a) {
+            for p in 0..2 {
+                self.theta[p] = solve_cholesky(&l, &self.xn[p]);
+            }
+        }
+    }
+}
+
+/// The lower Cholesky factor of a symmetric positive definite `a` (`None` if it is not).
+fn cholesky(a: &[[f64; REGRESSORS]; REGRESSORS]) -> Option<[[f64; REGRESSORS]; REGRESSORS]> {
+    let mut l = [[0.0; REGRESSORS]; REGRESSORS];
+    for i in 0..REGRESSORS {
+        for j in 0..=i {
+            let s: f64 = (0..j).map(|k| l[i][k] * l[j][k]).sum();
+            if i == j {
+                let d = a[i][i] - s;
+                if !(d.is_finite() && d > 0.0) {
+                    return None;
+                }
+                l[i][i] = d.sqrt();
+            } else {
+                l[i][j] = (a[i][j] - s) / l[j][j];
+            }
+        }
+    }
+    Some(l)
+}
+
+/// `L·Lᵀ·θ = b`.
+fn solve_cholesky(l: &[[f64; REGRESSORS]; REGRESSORS], b: &[f64; REGRESSORS]) -> [f64; REGRESSORS] {
+    let mut y = [0.0; REGRESSORS];
+    for i in 0..REGRESSORS {
+        y[i] = (b[i] - (0..i).map(|k| l[i][k] * y[k]).sum::<f64>()) / l[i][i];
+    }
+    let mut theta = [0.0; REGRESSORS];
+    for i in (0..REGRESSORS).rev() {
+        theta[i] = (y[i] - (i + 1..REGRESSORS).map(|k| l[k][i] * theta[k]).sum::<f64>()) / l[i][i];
+    }
+    theta
+}
+
+/// Events seen and removed by the ego-motion front end.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct EgoMotionCounts {
+    pub seen: u64,
+    pub removed: u64,
+}
+
+/// The ego-motion front end of one receiver.
+#[derive(Debug, Clone)]
+pub struct EgoMotionFilter {
+    home: Option<ObserverCamera>,
+    cols: usize,
+    rows: usize,
+    /// The latest turn handed over, and whether any was.
+    ego: Option<EgoRotation>,
+    active: bool,
+    /// Image position of each home cell's centre under the latest turn.
+    cell_px: Vec<[f64; 2]>,
+    /// How far each home cell's image moved since the last packet, px.
+    flow: Vec<[f64; 2]>,
+    models: Vec<CellModel>,
+    /// Per packet: home-from-image offset of each image cell, events per home cell, kept cells.
+    offsets: Vec<[f64; 2]>,
+    counts: Vec<[u32; 2]>,
+    keep_cell: Vec<bool>,
+    /// Per home cell: above its bound at this packet, and at the previous one.
+    excess: Vec<bool>,
+    excess_before: Vec<bool>,
+    /// Scratch of the grouping: visited cells, the stack, one group's members.
+    group: Vec<bool>,
+    stack: Vec<usize>,
+    members: Vec<usize>,
+    /// Per event of the packet: its home cell (`usize::MAX`: outside the home image).
+    event_cell: Vec<usize>,
+    last_end_ns: Option<u64>,
+    totals: EgoMotionCounts,
+}
+
+impl EgoMotionFilter {
+    /// A front end for a `width`×`height` sensor whose camera at its home attitude is `home`
+    /// (`None`: turns cannot be undone and the front end passes everything).
+    pub fn new(home: Option<ObserverCamera>, width: u16, height: u16) -> Self {
+        let cell = usize::from(CELL_PX);
+        let (cols, rows) = (
+            usize::from(width).div_ceil(cell),
+            usize::from(height).div_ceil(cell),
+        );
+        let centres = (0..rows * cols)
+            .map(|c| Self::centre(c, cols))
+            .collect::<Vec<_>>();
+        Self {
+            home,
+            cols,
+            rows,
+            ego: None,
+            active: false,
+            cell_px: centres,
+            flow: vec![[0.0; 2]; rows * cols],
+            models: vec![CellModel::default(); rows * cols],
+            offsets: vec![[0.0; 2]; rows * cols],
+            counts: vec![[0; 2]; rows * cols],
+            keep_cell: vec![true; rows * cols],
+            excess: vec![false; rows * cols],
+            excess_before: vec![false; rows * cols],
+            group: Vec::new(),
+            stack: Vec::new(),
+            members: Vec::new(),
+            event_cell: Vec::new(),
+            last_end_ns: None,
+            totals: EgoMotionCounts::default(),
+        }
+    }
+
+    fn centre(c: usize, cols: usize) -> [f64; 2] {
+        let half = f64::from(CELL_PX) / 2.0;
+        [
+            (c % cols) as f64 * f64::from(CELL_PX) + half - 0.5,
+            (c / cols) as f64 * f64::from(CELL_PX) + half - 0.5,
+        ]
+    }
+
+    /// Whether any turn has been handed over (and the home camera is known): only then does
+    /// [`EgoMotionFilter::filter`] remove anything.
+    pub fn active(&self) -> bool {
+        self.active
+    }
+
+    pub fn counts(&self) -> EgoMotionCounts {
+        self.totals
+    }
+
+    /// The airframe's turn from its home attitude now (at a render, or a packet's end).
+    pub fn set_ego_rotation(&mut self, ego: Option<EgoRotation>) {
+        let Some(home) = &self.home else { return };
+        if !self.active && ego.is_none() {
+            return;
+        }
+        self.active = true;
+        for (c, (pos, flow)) in self.cell_px.iter_mut().zip(&mut self.flow).enumerate() {
+            let centre = Self::centre(c, self.cols);
+            if let Some(now) = predicted_px(home, None, ego.as_ref(), centre) {
+                flow[0] += now[0] - pos[0];
+                flow[1] += now[1] - pos[1];
+                *pos = now;
+            }
+        }
+        self.ego = ego;
+    }
+
+    /// Writes the events of `packet` that the airframe's own turning does not explain into
+    /// `out` (every other field copied), in their order.
+    pub fn filter(&mut self, packet: &EventPacket, out: &mut EventPacket) {
+        let forget = match self.last_end_ns {
+            Some(last) if packet.end_ns > last => {
+                (-((packet.end_ns - last) as f64) / MEMORY_NS as f64).exp()
+            }
+            _ => (-(packet.end_ns.saturating_sub(packet.start_ns) as f64) / MEMORY_NS as f64).exp(),
+        };
+        self.last_end_ns = Some(packet.end_ns);
+        self.map_events(packet);
+        self.judge_cells(forget);
+        self.write(packet, out);
+    }
+
+    /// Each event's home cell, and the events per home cell.
+    fn map_events(&mut self, packet: &EventPacket) {
+        let (cell, cols, rows) = (f64::from(CELL_PX), self.cols, self.rows);
+        for (c, offset) in self.offsets.iter_mut().enumerate() {
+            let q = Self::centre(c, cols);
+            *offset = match (&self.home, &self.ego) {
+                (Some(home), Some(ego)) => stabilised_px(home, ego, q)
+                    .map_or([f64::NAN; 2], |h| [h[0] - q[0], h[1] - q[1]]),
+                _ => [0.0; 2],
+            };
+        }
+        self.counts.iter_mut().for_each(|n| *n = [0; 2]);
+        self.event_cell.clear();
+        let cell_px = usize::from(CELL_PX);
+        for (i, (&x, &y)) in packet.xs.iter().zip(&packet.ys).enumerate() {
+            let (ix, iy) = (usize::from(x) / cell_px, usize::from(y) / cell_px);
+            let home_cell = if ix < cols && iy < rows {
+                let o = self.offsets[iy * cols + ix];
+                let (hx, hy) = (f64::from(x) + o[0], f64::from(y) + o[1]);
+                if hx >= 0.0 && hy >= 0.0 && hx < cols as f64 * cell && hy < rows as f64 * cell {
+                    (hy / cell) as usize * cols + (hx / cell) as usize
+                } else {
+                    usize::MAX
+                }
+            } else {
+                usize::MAX
+            };
+            if home_cell != usize::MAX {
+                let on = usize::from(packet.on_bits[i / 8] >> (i % 8) & 1);
+                self.counts[home_cell][on] += 1;
+            }
+            self.event_cell.push(home_cell);
+        }
+    }
+
+    /// Which cells keep their events; every model learns this packet.
+    fn judge_cells(&mut self, forget: f64) {
+        std::mem::swap(&mut self.excess, &mut self.excess_before);
+        for c in 0..self.models.len() {
+            let x = regressors(self.flow[c]);
+            let model = &mut self.models[c];
+            let bound = [model.bound(&x, 0), model.bound(&x, 1)];
+            let n = self.counts[c].map(f64::from);
+            // A model still warming up knows nothing yet: its place gives nothing, as the
+            // scene gives a still camera nothing.
+            self.excess[c] =
+                model.packets >= WARM_UP_PACKETS && (n[0] > bound[0] || n[1] > bound[1]);
+            self.keep_cell[c] = false;
+            let clip = |p: usize| n[p].min(LEARN_CLIP * bound[p]);
+            // A place something has left (a drone that rested there) gives far fewer events
+            // than it did: forget faster, or the drone's return there is taken for the scene.
+            let mu = model.predict(&x, 0) + model.predict(&x, 1);
+            let forget = if n[0] + n[1] < VACATED_FRACTION * mu - MARGIN_EVENTS {
+                forget * VACATED_FORGET
+            } else {
+                forget
+            };
+            model.learn(&x, [clip(0), clip(1)], forget);
+            self.flow[c] = [0.0; 2];
+        }
+        // A moving object stays in or next to a cell for more than one packet; the scene's
+        // own edges exceed their models in single packets at the turns' extremes.
+        let (cols, rows) = (self.cols, self.rows);
+        for c in 0..self.models.len() {
+            if !self.excess[c] {
+                continue;
+            }
+            let (cx, cy) = (c % cols, c / cols);
+            let persisted = (cy.saturating_sub(1)..=(cy + 1).min(rows - 1)).any(|y| {
+                (cx.saturating_sub(1)..=(cx + 1).min(cols - 1))
+                    .any(|x| self.excess_before[y * cols + x])
+            });
+            self.keep_cell[c] |= persisted;
+        }
+        self.drop_one_sided_groups();
+    }
+
+    /// Drops every group of kept cells (8-connected) whose events are all but one-sided: a
+    /// static edge the model under-predicted moves one way and fires one polarity, while a
+    /// moving object fires both of its edges.
+    fn drop_one_sided_groups(&mut self) {
+        let (cols, rows) = (self.cols, self.rows);
+        self.group.clear();
+        self.group.resize(self.keep_cell.len(), false);
+        for seed in 0..self.keep_cell.len() {
+            if !self.keep_cell[seed] || self.group[seed] {
+                continue;
+            }
+            self.stack.clear();
+            self.members.clear();
+            self.stack.push(seed);
+            self.group[seed] = true;
+            let mut n = [0u32; 2];
+            while let Some(c) = self.stack.pop() {
+                self.members.push(c);
+                n[0] += self.counts[c][0];
+                n[1] += self.counts[c][1];
+                let (cx, cy) = (c % cols, c / cols);
+                for y in cy.saturating_sub(1)..=(cy + 1).min(rows - 1) {
+                    for x in cx.saturating_sub(1)..=(cx + 1).min(cols - 1) {
+                        let d = y * cols + x;
+                        if self.keep_cell[d] && !self.group[d] {
+                            self.group[d] = true;
+                            self.stack.push(d);
+                        }
+                    }
+                }
+            }
+            let total = f64::from(n[0] + n[1]);
+            if total > 0.0 && f64::from(n[0].max(n[1])) >= ONE_SIDED_FRACTION * total {
+                for &c in &self.members {
+                    self.keep_cell[c] = false;
+                }
+            }
+        }
+    }
+
+    fn write(&mut self, packet: &EventPacket, out: &mut EventPacket) {
+        out.seq = packet.seq;
+        out.start_ns = packet.start_ns;
+        out.end_ns = packet.end_ns;
+        out.width = packet.width;
+        out.height = packet.height;
+        out.valid = packet.valid;
+        out.continuous = packet.continuous;
+        out.xs.clear();
+        out.ys.clear();
+        out.dt_ns.clear();
+        out.on_bits.clear();
+        let mut kept = 0usize;
+        for (i, &cell) in self.event_cell.iter().enumerate() {
+            if cell != usize::MAX && !self.keep_cell[cell] {
+                continue;
+            }
+            out.xs.push(packet.xs[i]);
+            out.ys.push(packet.ys[i]);
+            out.dt_ns.push(packet.dt_ns[i]);
+            if kept.is_multiple_of(8) {
+                out.on_bits.push(0);
+            }
+            if packet.on_bits[i / 8] >> (i % 8) & 1 == 1 {
+                out.on_bits[kept / 8] |= 1 << (kept % 8);
+            }
+            kept += 1;
+        }
+        let n = self.event_cell.len();
+        self.totals.seen += n as u64;
+        self.totals.removed += (n - kept) as u64;
+    }
+}
