@@ -58,11 +58,16 @@ const KAPPA: f64 = 0.5;
 const Z: f64 = 3.0;
 const MARGIN_EVENTS: f64 = 3.0;
 
+/// Packets in a row a cell's neighbourhood must exceed its models before its events are kept.
+const PERSIST_PACKETS: u8 = 3;
+
 /// A group of kept cells whose larger polarity has this share of its events is a static edge.
 const ONE_SIDED_FRACTION: f64 = 0.9;
 
 /// A cell whose count falls below this share of its prediction has been vacated …
 const VACATED_FRACTION: f64 = 0.5;
+/// … for this many packets in a row …
+const VACATED_PACKETS: u8 = 10;
 /// … and its model forgets with this extra factor per such packet (≈ 0.2 s at 25 Hz).
 const VACATED_FORGET: f64 = 0.8;
 
@@ -101,8 +106,12 @@ struct CellModel {
     packets: u32,
     /// The current fits, per polarity.
     theta: [[f64; REGRESSORS]; 2],
-    /// Forgetting mean of the squared residual of the (clipped) counts, events², per polarity.
+    /// Forgetting sums of the squared residual of the (clipped) counts, events², per
+    /// polarity, and of the weights (so the mean is unbiased from the first packet on).
     residual_sq: [f64; 2],
+    weight: f64,
+    /// Packets in a row far below the prediction.
+    quiet: u8,
 }
 
 impl CellModel {
@@ -114,14 +123,16 @@ impl CellModel {
     /// The largest count of `polarity` this model explains at regressors `x`.
     fn bound(&self, x: &[f64; REGRESSORS], polarity: usize) -> f64 {
         let mu = self.predict(x, polarity);
-        (1.0 + KAPPA) * mu + Z * mu.max(self.residual_sq[polarity]).sqrt() + MARGIN_EVENTS
+        let variance = self.residual_sq[polarity] / self.weight.max(1.0);
+        (1.0 + KAPPA) * mu + Z * mu.max(variance).sqrt() + MARGIN_EVENTS
     }
 
     fn learn(&mut self, x: &[f64; REGRESSORS], n: [f64; 2], forget: f64) {
         for (p, &count) in n.iter().enumerate() {
             let r = count - self.predict(x, p);
-            self.residual_sq[p] = self.residual_sq[p] * forget + (1.0 - forget) * r * r;
+            self.residual_sq[p] = self.residual_sq[p] * forget + r * r;
         }
+        self.weight = self.weight * forget + 1.0;
         for i in 0..REGRESSORS {
             for j in 0..REGRESSORS {
                 self.xx[i][j] = self.xx[i][j] * forget + x[i] * x[j];
@@ -203,9 +214,10 @@ pub struct EgoMotionFilter {
     offsets: Vec<[f64; 2]>,
     counts: Vec<[u32; 2]>,
     keep_cell: Vec<bool>,
-    /// Per home cell: above its bound at this packet, and at the previous one.
+    /// Per home cell: above its bound at this packet, and for how many packets in a row a
+    /// cell of its neighbourhood has been.
     excess: Vec<bool>,
-    excess_before: Vec<bool>,
+    streak: Vec<u8>,
     /// Scratch of the grouping: visited cells, the stack, one group's members.
     group: Vec<bool>,
     stack: Vec<usize>,
@@ -241,7 +253,7 @@ impl EgoMotionFilter {
             counts: vec![[0; 2]; rows * cols],
             keep_cell: vec![true; rows * cols],
             excess: vec![false; rows * cols],
-            excess_before: vec![false; rows * cols],
+            streak: vec![0; rows * cols],
             group: Vec::new(),
             stack: Vec::new(),
             members: Vec::new(),
@@ -339,7 +351,6 @@ impl EgoMotionFilter {
 
     /// Which cells keep their events; every model learns this packet.
     fn judge_cells(&mut self, forget: f64) {
-        std::mem::swap(&mut self.excess, &mut self.excess_before);
         for c in 0..self.models.len() {
             let x = regressors(self.flow[c]);
             let model = &mut self.models[c];
@@ -352,9 +363,15 @@ impl EgoMotionFilter {
             self.keep_cell[c] = false;
             let clip = |p: usize| n[p].min(LEARN_CLIP * bound[p]);
             // A place something has left (a drone that rested there) gives far fewer events
-            // than it did: forget faster, or the drone's return there is taken for the scene.
+            // than it did, packet after packet: forget faster, or the drone's return there is
+            // taken for the scene. (A resting drone's jitter pauses for a packet or two too.)
             let mu = model.predict(&x, 0) + model.predict(&x, 1);
-            let forget = if n[0] + n[1] < VACATED_FRACTION * mu - MARGIN_EVENTS {
+            model.quiet = if n[0] + n[1] < VACATED_FRACTION * mu - MARGIN_EVENTS {
+                model.quiet.saturating_add(1)
+            } else {
+                0
+            };
+            let forget = if model.quiet >= VACATED_PACKETS {
                 forget * VACATED_FORGET
             } else {
                 forget
@@ -362,21 +379,46 @@ impl EgoMotionFilter {
             model.learn(&x, [clip(0), clip(1)], forget);
             self.flow[c] = [0.0; 2];
         }
-        // A moving object stays in or next to a cell for more than one packet; the scene's
-        // own edges exceed their models in single packets at the turns' extremes.
+        // A moving object keeps firing in or next to a cell for packet after packet; the
+        // scene's own edges and a resting drone's jitter exceed their models in bursts of a
+        // packet or two at the turns' extremes.
         let (cols, rows) = (self.cols, self.rows);
         for c in 0..self.models.len() {
-            if !self.excess[c] {
+            let (cx, cy) = (c % cols, c / cols);
+            let near = (cy.saturating_sub(1)..=(cy + 1).min(rows - 1)).any(|y| {
+                (cx.saturating_sub(1)..=(cx + 1).min(cols - 1)).any(|x| self.excess[y * cols + x])
+            });
+            self.streak[c] = if near {
+                self.streak[c].saturating_add(1)
+            } else {
+                0
+            };
+        }
+        for c in 0..self.models.len() {
+            self.keep_cell[c] |= self.excess[c] && self.streak[c] >= PERSIST_PACKETS;
+        }
+        self.grow_kept();
+        self.drop_one_sided_groups();
+    }
+
+    /// Keeps the neighbours of every kept cell too: an object's cells do not all exceed their
+    /// models at once (a resting drone's jitter, the slow part of a stroke), and keeping only
+    /// some of them would place it off its centre by up to half its size.
+    fn grow_kept(&mut self) {
+        let (cols, rows) = (self.cols, self.rows);
+        self.group.clear();
+        self.group.extend_from_slice(&self.keep_cell);
+        for c in 0..self.keep_cell.len() {
+            if !self.group[c] {
                 continue;
             }
             let (cx, cy) = (c % cols, c / cols);
-            let persisted = (cy.saturating_sub(1)..=(cy + 1).min(rows - 1)).any(|y| {
-                (cx.saturating_sub(1)..=(cx + 1).min(cols - 1))
-                    .any(|x| self.excess_before[y * cols + x])
-            });
-            self.keep_cell[c] |= persisted;
+            for y in cy.saturating_sub(1)..=(cy + 1).min(rows - 1) {
+                for x in cx.saturating_sub(1)..=(cx + 1).min(cols - 1) {
+                    self.keep_cell[y * cols + x] = true;
+                }
+            }
         }
-        self.drop_one_sided_groups();
     }
 
     /// Drops every group of kept cells (8-connected) whose events are all but one-sided: a
