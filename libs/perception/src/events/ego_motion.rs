@@ -49,8 +49,9 @@ pub const CELL_PX: u16 = 16;
 /// The models' memory, ns: several swings of the airframe (≈ 1 Hz) and shorter than a rest.
 pub const MEMORY_NS: u64 = 8_000_000_000;
 
-/// Packets with flow a cell's model must have seen before it removes anything.
-pub const WARM_UP_PACKETS: u32 = 12;
+/// Packets with flow a cell's model must have seen before it keeps anything: two seconds, more
+/// than a swing of a hovering airframe (≈ 0.7–1 Hz), so its first bounds are not guesses.
+pub const WARM_UP_PACKETS: u32 = 50;
 
 /// The margin of the explained count: relative (`κ`), in standard deviations of a Poisson count
 /// (`z`) and absolute (`m`, events).
