@@ -7,28 +7,11 @@ use std::collections::BTreeSet;
 
 use perception::events::ego_motion::EgoMotionFilter;
 use proto::scene::{ObserverCamera, PERFORMER_HOVER_M, Placement};
-use proto::stabilise::{EgoRotation, turned_px};
+use proto::stabilise::{EgoRotation, about, product, turned_px};
 use proto::{EventPacket, Polarity};
 
 const RENDER_NS: u64 = 10_000_000;
 const RENDERS_PER_PACKET: u64 = 4;
-
-fn about(axis: [f64; 3], angle_rad: f64) -> [f64; 4] {
-    let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
-    let (s, c) = (angle_rad / 2.0).sin_cos();
-    [c, s * axis[0] / n, s * axis[1] / n, s * axis[2] / n]
-}
-
-fn product(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
-    let [aw, ax, ay, az] = a;
-    let [bw, bx, by, bz] = b;
-    [
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    ]
-}
 
 /// What a stream's events were: the scene's, or the object's.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug)]
@@ -96,6 +79,20 @@ impl Stream {
             .collect()
     }
 
+    /// The static scene's events at the turn `ego`.
+    fn scene_events(&mut self, ego: Option<&EgoRotation>, out: &mut Vec<(u16, u16, bool, Source)>) {
+        let scene = std::mem::take(&mut self.scene);
+        Self::events_of(
+            &self.home,
+            ego,
+            &scene,
+            &mut self.scene_px,
+            Source::Scene,
+            out,
+        );
+        self.scene = scene;
+    }
+
     fn events_of(
         home: &ObserverCamera,
         ego: Option<&EgoRotation>,
@@ -124,13 +121,30 @@ impl Stream {
     }
 }
 
+/// An event of the stream: render time, pixel, ON, source.
+type Event = (u64, (u16, u16, bool, Source));
+
+/// The packet that render `r` (at `t_ns`) completes, holding `events` (distinct, so a kept
+/// event identifies its source).
+fn packet_of(events: &BTreeSet<Event>, r: u64, t_ns: u64) -> EventPacket {
+    let start_ns = t_ns - RENDERS_PER_PACKET * RENDER_NS;
+    let evs: Vec<_> = events
+        .iter()
+        .map(|&(t, (x, y, on, _))| {
+            let p = if on { Polarity::On } else { Polarity::Off };
+            (x, y, (t - start_ns) as u32, p)
+        })
+        .collect();
+    EventPacket::from_events(r / RENDERS_PER_PACKET, (start_ns, t_ns), (640, 480), &evs)
+}
+
 /// Runs `seconds` of the stream through the filter; per source, events after `judge_from_s`
 /// (the object's only while it moves): (seen, kept).
 fn run(lean_deg: f64, speed_mps: f64, seconds: u64, judge_from_s: f64) -> [(usize, usize); 2] {
     let mut stream = Stream::new(lean_deg);
     let mut filter = EgoMotionFilter::new(Some(stream.home), 640, 480);
     let mut totals = [(0, 0); 2];
-    let mut pending: Vec<(u64, (u16, u16, bool, Source))> = Vec::new();
+    let mut pending: Vec<Event> = Vec::new();
     let mut out = EventPacket::from_events(0, (0, 0), (640, 480), &[]);
     for r in 1..=seconds * 1_000_000_000 / RENDER_NS {
         let t_ns = r * RENDER_NS;
@@ -138,15 +152,8 @@ fn run(lean_deg: f64, speed_mps: f64, seconds: u64, judge_from_s: f64) -> [(usiz
         let ego = stream.turn(t_s);
         filter.set_ego_rotation(ego);
         let mut evs = Vec::new();
-        let (scene, object) = (stream.scene.clone(), Stream::object(t_s, speed_mps));
-        Stream::events_of(
-            &stream.home,
-            ego.as_ref(),
-            &scene,
-            &mut stream.scene_px,
-            Source::Scene,
-            &mut evs,
-        );
+        stream.scene_events(ego.as_ref(), &mut evs);
+        let object = Stream::object(t_s, speed_mps);
         Stream::events_of(
             &stream.home,
             ego.as_ref(),
@@ -161,16 +168,7 @@ fn run(lean_deg: f64, speed_mps: f64, seconds: u64, judge_from_s: f64) -> [(usiz
         }
         // Distinct (pixel, time, polarity) per packet, so kept events identify their source.
         let unique: BTreeSet<_> = pending.drain(..).collect();
-        let start_ns = t_ns - RENDERS_PER_PACKET * RENDER_NS;
-        let evs: Vec<_> = unique
-            .iter()
-            .map(|&(t, (x, y, on, _))| {
-                let p = if on { Polarity::On } else { Polarity::Off };
-                (x, y, (t - start_ns) as u32, p)
-            })
-            .collect();
-        let packet =
-            EventPacket::from_events(r / RENDERS_PER_PACKET, (start_ns, t_ns), (640, 480), &evs);
+        let packet = packet_of(&unique, r, t_ns);
         filter.filter(&packet, &mut out);
         let kept: BTreeSet<_> = (0..out.len())
             .map(|i| {
@@ -255,28 +253,12 @@ fn the_event_receiver_filters_a_rocking_scene_only_once_given_turns() {
         let ego = stream.turn(t_ns as f64 * 1e-9);
         turned.set_ego_rotation(ego);
         still.set_ego_rotation(None);
-        let scene = stream.scene.clone();
-        Stream::events_of(
-            &stream.home,
-            ego.as_ref(),
-            &scene,
-            &mut stream.scene_px,
-            Source::Scene,
-            &mut pending,
-        );
+        stream.scene_events(ego.as_ref(), &mut pending);
         if r % RENDERS_PER_PACKET != 0 {
             continue;
         }
-        let start_ns = t_ns - RENDERS_PER_PACKET * RENDER_NS;
-        let unique: BTreeSet<_> = pending.drain(..).collect();
-        let evs: Vec<_> = unique
-            .iter()
-            .map(|&(x, y, on, _)| {
-                let p = if on { Polarity::On } else { Polarity::Off };
-                (x, y, 1u32, p)
-            })
-            .collect();
-        let packet = EventPacket::from_events(r / 4, (start_ns, t_ns), (640, 480), &evs);
+        let unique: BTreeSet<_> = pending.drain(..).map(|e| (t_ns, e)).collect();
+        let packet = packet_of(&unique, r, t_ns);
         located += usize::from(turned.push_packet(&packet).point_px.is_some() && r > 200);
         located_still += usize::from(still.push_packet(&packet).point_px.is_some() && r > 200);
     }

@@ -128,28 +128,29 @@ pub fn stabilised_sample(home: &ObserverCamera, ego: &EgoRotation, sample: Sampl
     sample.mapped(|p| stabilised_px(home, ego, p))
 }
 
+/// A unit quaternion (w, x, y, z) turning by `angle_rad` about `axis` (normalised here).
+pub fn about(axis: [f64; 3], angle_rad: f64) -> [f64; 4] {
+    let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+    let (s, c) = (angle_rad / 2.0).sin_cos();
+    [c, s * axis[0] / n, s * axis[1] / n, s * axis[2] / n]
+}
+
+/// The Hamilton product `a·b` of two quaternions (w, x, y, z): turn by `b`, then by `a`.
+pub fn product(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+    let [aw, ax, ay, az] = a;
+    let [bw, bx, by, bz] = b;
+    [
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::scene::{PERFORMER_HOVER_M, Placement};
-
-    /// A unit quaternion turning by `angle_rad` about `axis` (normalised here).
-    fn about(axis: [f64; 3], angle_rad: f64) -> [f64; 4] {
-        let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
-        let (s, c) = (angle_rad / 2.0).sin_cos();
-        [c, s * axis[0] / n, s * axis[1] / n, s * axis[2] / n]
-    }
-
-    fn product(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
-        let [aw, ax, ay, az] = a;
-        let [bw, bx, by, bz] = b;
-        [
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ]
-    }
 
     #[test]
     fn an_unturned_airframe_gives_no_rotation() {

@@ -91,6 +91,40 @@ impl EventPacket {
         bits
     }
 
+    /// Writes into `out` this packet with only the events `keep` selects (every other field
+    /// copied, order kept; `keep(i)` is asked once per event, in order) and returns how many
+    /// it kept. `out`'s buffers are reused: the one way a filter passes a packet on.
+    pub fn select_into(&self, out: &mut EventPacket, mut keep: impl FnMut(usize) -> bool) -> usize {
+        out.seq = self.seq;
+        out.start_ns = self.start_ns;
+        out.end_ns = self.end_ns;
+        out.width = self.width;
+        out.height = self.height;
+        out.valid = self.valid;
+        out.continuous = self.continuous;
+        out.xs.clear();
+        out.ys.clear();
+        out.dt_ns.clear();
+        out.on_bits.clear();
+        let mut kept = 0usize;
+        for i in 0..self.len() {
+            if !keep(i) {
+                continue;
+            }
+            out.xs.push(self.xs[i]);
+            out.ys.push(self.ys[i]);
+            out.dt_ns.push(self.dt_ns[i]);
+            if kept.is_multiple_of(8) {
+                out.on_bits.push(0);
+            }
+            if self.on_bits[i / 8] >> (i % 8) & 1 == 1 {
+                out.on_bits[kept / 8] |= 1 << (kept % 8);
+            }
+            kept += 1;
+        }
+        kept
+    }
+
     /// A valid packet that continues its stream: sequence `seq`, covering `(start_ns, end_ns]`
     /// of a `width`×`height` sensor, holding `events` as `(x, y, dt_ns, polarity)` in order.
     /// The one way tests and tools build a packet by hand.

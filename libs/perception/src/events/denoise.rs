@@ -181,17 +181,6 @@ impl NoiseFilter {
     /// camera sends them; an event off the sensor is dropped (the receiver's health check
     /// rejects such packets before they get here).
     pub fn filter(&mut self, packet: &EventPacket, out: &mut EventPacket) {
-        out.seq = packet.seq;
-        out.start_ns = packet.start_ns;
-        out.end_ns = packet.end_ns;
-        out.width = packet.width;
-        out.height = packet.height;
-        out.valid = packet.valid;
-        out.continuous = packet.continuous;
-        out.xs.clear();
-        out.ys.clear();
-        out.dt_ns.clear();
-        out.on_bits.clear();
         let n = packet.len();
         self.counts.seen += n as u64;
         self.prepare(packet);
@@ -222,22 +211,8 @@ impl NoiseFilter {
         if self.config.border && k > 0 {
             self.grow_borders();
         }
-        let mut kept = 0usize;
-        for i in 0..n {
-            if !self.keep[i] {
-                continue;
-            }
-            out.xs.push(packet.xs[i]);
-            out.ys.push(packet.ys[i]);
-            out.dt_ns.push(packet.dt_ns[i]);
-            if kept.is_multiple_of(8) {
-                out.on_bits.push(0);
-            }
-            if packet.on_bits[i / 8] >> (i % 8) & 1 == 1 {
-                out.on_bits[kept / 8] |= 1 << (kept % 8);
-            }
-            kept += 1;
-        }
+        let keep = &self.keep;
+        let kept = packet.select_into(out, |i| keep[i]);
         self.counts.removed += (n - kept) as u64;
     }
 

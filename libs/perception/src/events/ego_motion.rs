@@ -49,15 +49,35 @@ pub const CELL_PX: u16 = 16;
 /// The models' memory, ns: several swings of the airframe (≈ 1 Hz) and shorter than a rest.
 pub const MEMORY_NS: u64 = 8_000_000_000;
 
-/// Packets with flow a cell's model must have seen before it keeps anything: two seconds, more
-/// than a swing of a hovering airframe (≈ 0.7–1 Hz), so its first bounds are not guesses.
-pub const WARM_UP_PACKETS: u32 = 50;
+/// Packets with flow a cell's model must have seen before it keeps anything (≈ 0.5 s: short
+/// enough to see a performer's first moves; the young models' leaks are lines, which
+/// [`MIN_MINOR_SPREAD_PX`] drops).
+pub const WARM_UP_PACKETS: u32 = 12;
 
 /// The margin of the explained count: relative (`κ`), in standard deviations of a Poisson count
 /// (`z`) and absolute (`m`, events).
 const KAPPA: f64 = 0.5;
 const Z: f64 = 3.0;
 const MARGIN_EVENTS: f64 = 3.0;
+
+/// A group of kept cells whose events spread less than this across their principal axis is
+/// a line: an under-predicted static edge, not an object (a drone's events spread by its
+/// height, several pixels, even edge-on).
+const MIN_MINOR_SPREAD_PX: f64 = 1.5;
+
+/// The standard deviation across the principal axis of `total` points with moments `m`
+/// (Σx, Σy, Σx², Σy², Σxy), px.
+fn minor_spread_px(m: &[f64; 5], total: f64) -> f64 {
+    let (mx, my) = (m[0] / total, m[1] / total);
+    let (sxx, syy, sxy) = (
+        m[2] / total - mx * mx,
+        m[3] / total - my * my,
+        m[4] / total - mx * my,
+    );
+    let half_trace = (sxx + syy) / 2.0;
+    let root = (((sxx - syy) / 2.0).powi(2) + sxy * sxy).sqrt();
+    (half_trace - root).max(0.0).sqrt()
+}
 
 /// Packets in a row a cell's neighbourhood must exceed its models before its events are kept.
 const PERSIST_PACKETS: u8 = 3;
@@ -214,6 +234,8 @@ pub struct EgoMotionFilter {
     /// Per packet: home-from-image offset of each image cell, events per home cell, kept cells.
     offsets: Vec<[f64; 2]>,
     counts: Vec<[u32; 2]>,
+    /// Per home cell: Σx, Σy, Σx², Σy², Σxy of its events' sensor pixels (for a group's shape).
+    moments: Vec<[f64; 5]>,
     keep_cell: Vec<bool>,
     /// Per home cell: above its bound at this packet, and for how many packets in a row a
     /// cell of its neighbourhood has been.
@@ -252,6 +274,7 @@ impl EgoMotionFilter {
             models: vec![CellModel::default(); rows * cols],
             offsets: vec![[0.0; 2]; rows * cols],
             counts: vec![[0; 2]; rows * cols],
+            moments: vec![[0.0; 5]; rows * cols],
             keep_cell: vec![true; rows * cols],
             excess: vec![false; rows * cols],
             streak: vec![0; rows * cols],
@@ -327,6 +350,7 @@ impl EgoMotionFilter {
             };
         }
         self.counts.iter_mut().for_each(|n| *n = [0; 2]);
+        self.moments.iter_mut().for_each(|m| *m = [0.0; 5]);
         self.event_cell.clear();
         let cell_px = usize::from(CELL_PX);
         for (i, (&x, &y)) in packet.xs.iter().zip(&packet.ys).enumerate() {
@@ -345,6 +369,15 @@ impl EgoMotionFilter {
             if home_cell != usize::MAX {
                 let on = usize::from(packet.on_bits[i / 8] >> (i % 8) & 1);
                 self.counts[home_cell][on] += 1;
+                let (fx, fy) = (f64::from(x), f64::from(y));
+                let m = &mut self.moments[home_cell];
+                *m = [
+                    m[0] + fx,
+                    m[1] + fy,
+                    m[2] + fx * fx,
+                    m[3] + fy * fy,
+                    m[4] + fx * fy,
+                ];
             }
             self.event_cell.push(home_cell);
         }
@@ -438,10 +471,14 @@ impl EgoMotionFilter {
             self.stack.push(seed);
             self.group[seed] = true;
             let mut n = [0u32; 2];
+            let mut m = [0.0f64; 5];
             while let Some(c) = self.stack.pop() {
                 self.members.push(c);
                 n[0] += self.counts[c][0];
                 n[1] += self.counts[c][1];
+                for (a, b) in m.iter_mut().zip(&self.moments[c]) {
+                    *a += b;
+                }
                 let (cx, cy) = (c % cols, c / cols);
                 for y in cy.saturating_sub(1)..=(cy + 1).min(rows - 1) {
                     for x in cx.saturating_sub(1)..=(cx + 1).min(cols - 1) {
@@ -454,7 +491,8 @@ impl EgoMotionFilter {
                 }
             }
             let total = f64::from(n[0] + n[1]);
-            if total > 0.0 && f64::from(n[0].max(n[1])) >= ONE_SIDED_FRACTION * total {
+            let one_sided = f64::from(n[0].max(n[1])) >= ONE_SIDED_FRACTION * total;
+            if total > 0.0 && (one_sided || minor_spread_px(&m, total) < MIN_MINOR_SPREAD_PX) {
                 for &c in &self.members {
                     self.keep_cell[c] = false;
                 }
@@ -463,33 +501,8 @@ impl EgoMotionFilter {
     }
 
     fn write(&mut self, packet: &EventPacket, out: &mut EventPacket) {
-        out.seq = packet.seq;
-        out.start_ns = packet.start_ns;
-        out.end_ns = packet.end_ns;
-        out.width = packet.width;
-        out.height = packet.height;
-        out.valid = packet.valid;
-        out.continuous = packet.continuous;
-        out.xs.clear();
-        out.ys.clear();
-        out.dt_ns.clear();
-        out.on_bits.clear();
-        let mut kept = 0usize;
-        for (i, &cell) in self.event_cell.iter().enumerate() {
-            if cell != usize::MAX && !self.keep_cell[cell] {
-                continue;
-            }
-            out.xs.push(packet.xs[i]);
-            out.ys.push(packet.ys[i]);
-            out.dt_ns.push(packet.dt_ns[i]);
-            if kept.is_multiple_of(8) {
-                out.on_bits.push(0);
-            }
-            if packet.on_bits[i / 8] >> (i % 8) & 1 == 1 {
-                out.on_bits[kept / 8] |= 1 << (kept % 8);
-            }
-            kept += 1;
-        }
+        let (cells, keep) = (&self.event_cell, &self.keep_cell);
+        let kept = packet.select_into(out, |i| cells[i] == usize::MAX || keep[cells[i]]);
         let n = self.event_cell.len();
         self.totals.seen += n as u64;
         self.totals.removed += (n - kept) as u64;
