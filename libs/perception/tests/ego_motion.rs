@@ -204,6 +204,14 @@ fn without_turns_nothing_is_filtered_and_the_front_end_stays_off() {
         filter.set_ego_rotation(None);
     }
     assert!(!filter.active());
+    // An attitude that differs from home in the last bits is no turn.
+    filter.set_ego_rotation(EgoRotation::between(
+        stream.home_q,
+        product(about([0.3, 1.0, 0.0], 1e-9), stream.home_q),
+    ));
+    assert!(!filter.active());
+    filter.set_ego_rotation(stream.turn(0.3));
+    assert!(filter.active());
     // No home camera: turns cannot be undone, so none is taken.
     let mut blind = EgoMotionFilter::new(None, 640, 480);
     blind.set_ego_rotation(stream.turn(0.3));

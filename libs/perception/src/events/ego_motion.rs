@@ -34,8 +34,9 @@
 //! per-pixel timestamp statistic; here the drone moves slowly (a few pixels per packet, as slow
 //! as the scene's own swing), so the per-place statistic has to be learnt over seconds instead.
 //!
-//! Until the first turn is handed over the front end passes every event and costs nothing: a
-//! still camera's receiver computes exactly what it did before this module existed. While a
+//! Until a turn that moves the image by [`ACTIVATION_PX`] is handed over the front end passes
+//! every event and costs nothing: a still camera's receiver computes exactly what it did before
+//! this module existed, even when its attitude differs from home in the last bits. While a
 //! cell's model is younger than [`WARM_UP_PACKETS`] with flow, its events are removed: it
 //! knows nothing yet, and a still camera would not see a resting scene either.
 
@@ -45,6 +46,9 @@ use proto::stabilise::{EgoRotation, predicted_px, stabilised_px};
 
 /// Side of a cell, pixels: about half the performer's image at 1.3–2 m.
 pub const CELL_PX: u16 = 16;
+
+/// Image motion, px, of the first turn that switches the front end on.
+pub const ACTIVATION_PX: f64 = 0.5;
 
 /// The models' memory, ns: several swings of the airframe (≈ 1 Hz) and shorter than a rest.
 pub const MEMORY_NS: u64 = 8_000_000_000;
@@ -308,10 +312,15 @@ impl EgoMotionFilter {
     /// The airframe's turn from its home attitude now (at a render, or a packet's end).
     pub fn set_ego_rotation(&mut self, ego: Option<EgoRotation>) {
         let Some(home) = &self.home else { return };
-        if !self.active && ego.is_none() {
-            return;
+        if !self.active {
+            // A turn that moves the image by less than this is none: an airframe held still
+            // in still air still differs from its home attitude in the last bits.
+            let turned_px = ego.map_or(0.0, |e| e.angle_rad() * proto::scene::focal_px());
+            if turned_px < ACTIVATION_PX {
+                return;
+            }
+            self.active = true;
         }
-        self.active = true;
         for (c, (pos, flow)) in self.cell_px.iter_mut().zip(&mut self.flow).enumerate() {
             let centre = Self::centre(c, self.cols);
             if let Some(now) = predicted_px(home, None, ego.as_ref(), centre) {
