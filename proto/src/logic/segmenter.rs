@@ -23,6 +23,16 @@
 //!
 //! Motion seen before the first NULL after a reset is not a candidate: there is no delimiter in
 //! front of it.
+//!
+//! **Late NULL** ([`SegmenterConfig::late_null`], the event receiver's setting): before the
+//! first NULL, a rest that lasted `null_confirm_ns` while the receiver's gate was closed is held
+//! as a *vetoed* NULL. If the gate opens while the point still rests there, the NULL is
+//! confirmed then, as without the setting. If the point left first and the gate opens before
+//! the next rest is confirmed, the vetoed NULL is emitted, with its own stamp, just before that
+//! rest's action and NULL: the event receiver's gate opens on a closed path that *starts* at a
+//! rest, which proves that rest was the target's (a receiver that locks on late still reads the
+//! symbol that locked it). A second vetoed rest replaces the first; overlong motion or an
+//! interruption drops it.
 
 use crate::{Classification, MatchSettings, Rejection, Token, classify};
 
@@ -45,6 +55,16 @@ pub struct SegmenterConfig {
     /// The camera at its home attitude, for undoing the airframe's turns
     /// ([`Segmenter::set_ego_rotation`]); `None`: the camera is not known and no turn is undone.
     pub home_camera: Option<crate::scene::ObserverCamera>,
+    /// A rest vetoed by the receiver's gate before the first NULL becomes a NULL late when the
+    /// gate opens before the next rest is confirmed (see the module docs).
+    pub late_null: bool,
+    /// The receiver holds its last estimate through a rest it has no evidence of (a still
+    /// target makes no events), so a rest may sit where the target was last seen rather than
+    /// where it stopped. When the point leaves a rest by a jump of more than the anchor radius
+    /// in one step, either the rest was stale or the target was seen only once well under way:
+    /// the symbol's path is classified both from the rest and from where the target reappeared,
+    /// and the better match is kept.
+    pub held_rests: bool,
 }
 
 impl SegmenterConfig {
@@ -58,14 +78,19 @@ impl SegmenterConfig {
             match_settings: MatchSettings::rgb(),
             rectifier: None,
             home_camera: None,
+            late_null: false,
+            held_rests: false,
         }
     }
 
-    /// Event receiver: 20 px anchor, 3 s NULL, 25 Hz receiver steps.
+    /// Event receiver: 20 px anchor, 3 s NULL, 25 Hz receiver steps, late NULLs (its gate opens
+    /// on a closed path, after the rest the path started from).
     pub fn events() -> Self {
         Self {
             anchor_radius_px: 20.0,
             match_settings: MatchSettings::events(),
+            late_null: true,
+            held_rests: true,
             ..Self::rgb()
         }
     }
@@ -242,6 +267,10 @@ pub struct Segmenter {
     /// How far the observer's airframe has turned from its home attitude, undone on every
     /// sample's point before rectification (`None`: not turned, or not known).
     ego: Option<crate::stabilise::EgoRotation>,
+    /// Stamp of the vetoed NULL held as the current delimiter ([`SegmenterConfig::late_null`]).
+    vetoed_null_ns: Option<u64>,
+    /// The candidate path left its rest by a jump ([`SegmenterConfig::held_rests`]).
+    stale_rest: bool,
 }
 
 impl Segmenter {
@@ -264,6 +293,8 @@ impl Segmenter {
             path_px: Vec::new(),
             recent: std::collections::VecDeque::new(),
             ego: None,
+            vetoed_null_ns: None,
+            stale_rest: false,
         }
     }
 
@@ -288,7 +319,7 @@ impl Segmenter {
 
     /// True while the current rest has been confirmed as NULL.
     pub fn is_resting(&self) -> bool {
-        self.rested
+        self.rested && self.vetoed_null_ns.is_none()
     }
 
     /// Stamp of the last sample or interruption.
@@ -356,18 +387,10 @@ impl Segmenter {
                 .anchor
                 .is_some_and(|a| dist(a.point_px, p) <= radius_px)
             {
-                self.rest_sum_px = [self.rest_sum_px[0] + p[0], self.rest_sum_px[1] + p[1]];
-                self.rest_count = self.rest_count.saturating_add(1);
+                self.stay_at_rest(stamp_ns, p, sample.null_allowed, &mut out);
                 return Ok(out);
             }
-            // The target left its confirmed rest: motion starts here.
-            self.rested = false;
-            // Samples of the confirmed rest must never start the next one.
-            self.recent.clear();
-            self.recent.push_back((stamp_ns, p));
-            self.motion_start_ns = Some(stamp_ns);
-            self.path_px.clear();
-            self.path_px.push(self.rest_mean());
+            self.leave_rest(stamp_ns, p);
         }
         if self.after_null {
             self.path_px.push(p);
@@ -390,11 +413,14 @@ impl Segmenter {
             && let Some(motion_ns) = self.motion_start_ns.map(|m| start_ns.saturating_sub(m))
             && motion_ns > self.config.max_motion_ns
         {
-            out.push(SegmentToken {
-                token: Token::Unknown,
-                stamp_ns,
-                cause: TokenCause::Overlong { motion_ns },
-            });
+            // After a vetoed NULL no delimiter was ever emitted: nothing to report.
+            if self.vetoed_null_ns.take().is_none() {
+                out.push(SegmentToken {
+                    token: Token::Unknown,
+                    stamp_ns,
+                    cause: TokenCause::Overlong { motion_ns },
+                });
+            }
             self.after_null = false;
             self.motion_start_ns = None;
             self.path_px.clear();
@@ -407,8 +433,12 @@ impl Segmenter {
         self.anchor = Some(anchor);
         self.rest_sum_px = sum_px;
         self.rest_count = count;
-        if stamp_ns - start_ns >= self.config.null_confirm_ns && sample.null_allowed {
-            self.confirm_null(stamp_ns, anchor, &mut out);
+        if stamp_ns - start_ns >= self.config.null_confirm_ns {
+            if sample.null_allowed {
+                self.confirm_null(stamp_ns, anchor, &mut out);
+            } else if self.config.late_null && (!self.after_null || self.vetoed_null_ns.is_some()) {
+                self.hold_vetoed_null(stamp_ns);
+            }
         }
         Ok(out)
     }
@@ -436,6 +466,7 @@ impl Segmenter {
         self.motion_start_ns = None;
         self.path_px.clear();
         self.rest_count = 0;
+        self.vetoed_null_ns = None;
         if self.interrupted {
             return None;
         }
@@ -447,11 +478,66 @@ impl Segmenter {
         })
     }
 
+    /// A sample within the confirmed (or vetoed) rest's radius.
+    fn stay_at_rest(
+        &mut self,
+        stamp_ns: u64,
+        p: [f64; 2],
+        null_allowed: bool,
+        out: &mut Vec<SegmentToken>,
+    ) {
+        self.rest_sum_px = [self.rest_sum_px[0] + p[0], self.rest_sum_px[1] + p[1]];
+        self.rest_count = self.rest_count.saturating_add(1);
+        if null_allowed && self.vetoed_null_ns.take().is_some() {
+            // The gate opened on the vetoed rest itself: an ordinary NULL, now.
+            out.push(SegmentToken {
+                token: Token::Null,
+                stamp_ns,
+                cause: TokenCause::Rest,
+            });
+        }
+    }
+
+    /// The target left its confirmed rest: motion starts at `p`.
+    fn leave_rest(&mut self, stamp_ns: u64, p: [f64; 2]) {
+        self.rested = false;
+        self.stale_rest = self.config.held_rests
+            && self.recent.len() >= 2
+            && dist(self.recent[self.recent.len() - 2].1, p) > self.config.anchor_radius_px;
+        // Samples of the confirmed rest must never start the next one.
+        self.recent.clear();
+        self.recent.push_back((stamp_ns, p));
+        self.motion_start_ns = Some(stamp_ns);
+        self.path_px.clear();
+        self.path_px.push(self.rest_mean());
+    }
+
+    /// The current rest would be a NULL but for the gate: it delimits what follows, unemitted.
+    fn hold_vetoed_null(&mut self, stamp_ns: u64) {
+        self.vetoed_null_ns = Some(stamp_ns);
+        self.rested = true;
+        self.after_null = true;
+        self.motion_start_ns = None;
+        self.path_px.clear();
+    }
+
     fn confirm_null(&mut self, stamp_ns: u64, anchor: Anchor, out: &mut Vec<SegmentToken>) {
+        if let Some(vetoed_ns) = self.vetoed_null_ns.take() {
+            out.push(SegmentToken {
+                token: Token::Null,
+                stamp_ns: vetoed_ns,
+                cause: TokenCause::Rest,
+            });
+        }
         if self.after_null && self.motion_start_ns.is_some() {
             let mut candidate = self.path_px[..=anchor.path_index].to_vec();
             candidate.push(self.rest_mean());
-            out.push(match classify(&candidate, &self.config.match_settings) {
+            let mut classified = classify(&candidate, &self.config.match_settings);
+            if self.stale_rest && candidate.len() > 2 {
+                let reappeared = classify(&candidate[1..], &self.config.match_settings);
+                classified = better(classified, reappeared);
+            }
+            out.push(match classified {
                 Ok(c) => SegmentToken {
                     token: c.action.token(),
                     stamp_ns,
@@ -478,6 +564,19 @@ impl Segmenter {
     fn rest_mean(&self) -> [f64; 2] {
         let n = f64::from(self.rest_count.max(1));
         [self.rest_sum_px[0] / n, self.rest_sum_px[1] / n]
+    }
+}
+
+/// The better of two classifications of one symbol: an accepted one over a rejection, the
+/// closer match of two accepted ones (ties to `a`).
+fn better(
+    a: Result<Classification, Rejection>,
+    b: Result<Classification, Rejection>,
+) -> Result<Classification, Rejection> {
+    match (&a, &b) {
+        (Err(_), Ok(_)) => b,
+        (Ok(x), Ok(y)) if y.error < x.error => b,
+        _ => a,
     }
 }
 
@@ -782,6 +881,129 @@ pub(crate) mod tests {
         let out = run(&mut rgb(), &sc.samples);
         assert_eq!(tokens(&out), vec![Token::Null, Token::Unknown, Token::Null]);
         assert!(matches!(out[1].cause, TokenCause::Overlong { motion_ns } if motion_ns > 30 * S));
+    }
+
+    /// `sc`'s samples with the gate closed before `open_ns`.
+    fn gated(sc: &Script, open_ns: u64) -> Vec<Sample> {
+        let gate = |s: &Sample| Sample {
+            null_allowed: s.stamp_ns >= open_ns,
+            ..*s
+        };
+        sc.samples.iter().map(gate).collect()
+    }
+
+    #[test]
+    fn a_rest_vetoed_by_the_gate_delimits_the_symbol_that_opened_it() {
+        // Rest 4 s (gate closed), START, rest: the gate opens 1.5 s into the second rest, as
+        // the event receiver's does when the closed path settles.
+        let mut sc = Script::new(0);
+        sc.hover(CENTRE, 4 * S)
+            .draw(Action::Start, CENTRE, 90.0, 4 * S)
+            .hover(CENTRE, 5 * S);
+        let samples = gated(&sc, 9_500_000_000);
+        let out = run(
+            &mut Segmenter::new(SegmenterConfig::events()).unwrap(),
+            &samples,
+        );
+        assert_eq!(
+            tokens(&out),
+            vec![Token::Null, Token::Start, Token::Null],
+            "{out:?}"
+        );
+        assert_eq!(
+            out[0].stamp_ns,
+            3 * S,
+            "the vetoed NULL keeps its own stamp"
+        );
+        assert!(out[1].stamp_ns > 9_500_000_000 && out[1].stamp_ns == out[2].stamp_ns);
+        // Without late NULLs the symbol is motion before the first NULL.
+        let rgb_like = SegmenterConfig {
+            late_null: false,
+            ..SegmenterConfig::events()
+        };
+        let out = run(&mut Segmenter::new(rgb_like).unwrap(), &samples);
+        assert_eq!(tokens(&out), vec![Token::Null]);
+    }
+
+    #[test]
+    fn a_gate_opening_on_the_vetoed_rest_itself_confirms_it_then() {
+        let mut sc = Script::new(0);
+        sc.hover(CENTRE, 8 * S);
+        for late_null in [false, true] {
+            let config = SegmenterConfig {
+                late_null,
+                ..SegmenterConfig::events()
+            };
+            let out = run(&mut Segmenter::new(config).unwrap(), &gated(&sc, 5 * S));
+            assert_eq!(tokens(&out), vec![Token::Null], "late_null {late_null}");
+            assert_eq!(out[0].stamp_ns, 5 * S, "late_null {late_null}");
+        }
+    }
+
+    #[test]
+    fn a_vetoed_rest_is_replaced_by_the_next_and_dropped_by_overlong_motion() {
+        let seg = || Segmenter::new(SegmenterConfig::events()).unwrap();
+        // Two vetoed rests: the symbol after the second one is the candidate.
+        let mut sc = Script::new(0);
+        sc.hover(CENTRE, 4 * S)
+            .draw(Action::End, CENTRE, 90.0, 4 * S)
+            .hover(CENTRE, 4 * S)
+            .draw(Action::Bit1, CENTRE, 90.0, 4 * S)
+            .hover(CENTRE, 5 * S);
+        let out = run(&mut seg(), &gated(&sc, 18 * S));
+        assert_eq!(tokens(&out), vec![Token::Null, Token::Bit1, Token::Null]);
+        assert!((10 * S..12 * S).contains(&out[0].stamp_ns), "{out:?}");
+        // Motion that never settles drops the vetoed rest without a token.
+        let mut sc = Script::new(0);
+        sc.hover(CENTRE, 4 * S);
+        for _ in 0..10 {
+            sc.draw(Action::End, CENTRE, 90.0, 4 * S);
+        }
+        sc.hover(CENTRE, 5 * S);
+        let out = run(&mut seg(), &gated(&sc, 44 * S));
+        assert_eq!(tokens(&out), vec![Token::Null]);
+        assert!(out[0].stamp_ns > 44 * S, "{out:?}");
+    }
+
+    #[test]
+    fn a_rest_left_by_a_jump_is_read_from_the_rest_or_from_where_the_target_reappeared() {
+        let poly: Vec<[f64; 2]> = Action::Start
+            .image_polyline()
+            .iter()
+            .map(|q| [CENTRE[0] + 90.0 * q[0], CENTRE[1] + 90.0 * q[1]])
+            .collect();
+        // The symbol spans 173 px: 45 px at either end is beyond the 0.2 closure limit.
+        let along = 45.0 / dist(poly[0], poly[1]);
+        let mut later = poly.clone();
+        later[0] = [
+            poly[0][0] + along * (poly[1][0] - poly[0][0]),
+            poly[0][1] + along * (poly[1][1] - poly[0][1]),
+        ];
+        let offset = [CENTRE[0] - 45.0, CENTRE[1]];
+        // (where the receiver held the rest, the path it saw): a stale hold 45 px off the
+        // start, then the whole symbol; a true rest, then the symbol seen only 45 px under way
+        // (a jump too, which must not cost the symbol).
+        for (held, drawn) in [(offset, &poly), (poly[0], &later)] {
+            let mut sc = Script::new(0);
+            sc.hover(held, 4 * S)
+                .polyline(drawn, 4 * S)
+                .hover(*poly.last().unwrap(), 4 * S);
+            for held_rests in [false, true] {
+                let config = SegmenterConfig {
+                    held_rests,
+                    ..SegmenterConfig::events()
+                };
+                let out = run(&mut Segmenter::new(config).unwrap(), &sc.samples);
+                let read = tokens(&out);
+                // A true rest is right whichever way the symbol was seen: only a stale hold
+                // needs the second reading.
+                if held_rests || held == poly[0] {
+                    assert_eq!(read[1], Token::Start, "held {held:?}: {out:?}");
+                } else {
+                    assert_eq!(read[1], Token::Unknown, "held {held:?}: {out:?}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -475,7 +475,8 @@ impl EventReceiver {
     fn absorb(&mut self, step: DecodeStep, out: &mut PacketOutcome) {
         for token in &step.tokens {
             match (token.token, token.cause) {
-                (Token::Null, _) => self.recent.clear(),
+                // A late NULL (stamped in the past) keeps the samples after it.
+                (Token::Null, _) => self.recent.retain(|s| s.stamp_ns > token.stamp_ns),
                 (_, TokenCause::Interrupted(_)) => {}
                 _ => self.trajectories.push(EventSymbolTrajectory {
                     token: token.token,
