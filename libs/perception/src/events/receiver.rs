@@ -101,6 +101,8 @@ pub enum EventInterruptCause {
     NotContinuous,
     BroadActivity,
     OneSidedPolarity,
+    /// A track located once and then never again ([`TrackFault::Unconfirmed`]).
+    Unconfirmed,
     /// Reported by the caller ([`EventReceiver::interrupt`]): a lost publisher, a fault.
     External,
 }
@@ -121,6 +123,7 @@ impl From<TrackFault> for EventInterruptCause {
         match f {
             TrackFault::BroadActivity { .. } => EventInterruptCause::BroadActivity,
             TrackFault::OneSidedPolarity { .. } => EventInterruptCause::OneSidedPolarity,
+            TrackFault::Unconfirmed { .. } => EventInterruptCause::Unconfirmed,
         }
     }
 }

@@ -59,6 +59,9 @@ pub struct EventTrackerConfig {
     pub broad_cell_min_events: u32,
     /// This many active cells anywhere on the sensor is broad scene activity.
     pub broad_active_cells: usize,
+    /// A track located by one packet only is a blip, not a target, once this many packets
+    /// after it have not located it again: it is dropped, not held (0: every track is held).
+    pub unconfirmed_hold_packets: u32,
 }
 
 impl EventTrackerConfig {
@@ -80,6 +83,7 @@ impl EventTrackerConfig {
             broad_cell_px: 32,
             broad_cell_min_events: 4,
             broad_active_cells: 40,
+            unconfirmed_hold_packets: 12,
         }
     }
 
@@ -174,6 +178,9 @@ pub fn support_first(evidence: &Evidence, config: &EventTrackerConfig) -> Judgem
 pub enum TrackFault {
     /// This many coarse cells of the sensor were active.
     BroadActivity { active_cells: usize },
+    /// The track was located by one packet and by none of the next `held_packets`: a blip
+    /// (track confirmation, as in M-of-N track initiation: Blackman & Popoli 1999, §3.2).
+    Unconfirmed { held_packets: u32 },
     /// Supported one-sided local evidence, confirmed by the events around it: the share of the
     /// majority polarity and the number of events in the confirming window.
     OneSidedPolarity { majority_fraction: f64, events: u64 },
@@ -227,6 +234,9 @@ pub struct SupportTracker {
     context: VecDeque<Counts>,
     /// A supported one-sided packet awaiting confirmation: counts of its context and itself.
     pending: Option<Counts>,
+    /// Packets that located the current track (saturating) and packets since the last one.
+    located_packets: u32,
+    held_packets: u32,
     scratch: SupportScratch,
 }
 
@@ -251,6 +261,8 @@ impl SupportTracker {
             estimate_px: None,
             context: VecDeque::with_capacity(config.polarity_context_packets + 1),
             pending: None,
+            located_packets: 0,
+            held_packets: 0,
             scratch: SupportScratch::new(width, height),
         })
     }
@@ -287,6 +299,15 @@ impl SupportTracker {
         self.estimate_px = None;
         self.context.clear();
         self.pending = None;
+        self.located_packets = 0;
+        self.held_packets = 0;
+    }
+
+    /// Counts one more packet without location; true when that makes the track a blip.
+    fn unconfirmed(&mut self) -> bool {
+        self.held_packets = self.held_packets.saturating_add(1);
+        let limit = self.config.unconfirmed_hold_packets;
+        limit > 0 && self.located_packets < 2 && self.held_packets >= limit
     }
 
     /// Reads one consistent packet of this sensor's size.
@@ -330,6 +351,8 @@ impl SupportTracker {
                     None => centre_px,
                 };
                 self.estimate_px = Some(point_px);
+                self.located_packets = self.located_packets.saturating_add(1);
+                self.held_packets = 0;
                 Observation::Located {
                     point_px,
                     centre_px,
@@ -345,7 +368,13 @@ impl SupportTracker {
                     }
                     self.pending = Some(window);
                 }
+                let blip = self.estimate_px.is_some() && self.unconfirmed();
                 match self.estimate_px {
+                    Some(_) if blip => {
+                        let held_packets = self.held_packets;
+                        self.lose();
+                        return Observation::Interrupted(TrackFault::Unconfirmed { held_packets });
+                    }
                     Some(point_px) => Observation::Held { point_px, evidence },
                     None => Observation::NoTarget { evidence },
                 }
@@ -399,6 +428,36 @@ mod tests {
         let next = t.observe(&packet(&moving_bar(340, 240)));
         let p = next.point_px().unwrap();
         assert!((p[0] - (point_px[0] + 0.6 * 10.0)).abs() < 1e-9, "{p:?}");
+    }
+
+    #[test]
+    fn a_track_located_once_is_dropped_after_its_hold_but_a_confirmed_one_is_held() {
+        let limit = EventTrackerConfig::paper().unconfirmed_hold_packets;
+        let mut blip = tracker();
+        blip.observe(&packet(&moving_bar(330, 240)));
+        for _ in 1..limit {
+            assert!(matches!(
+                blip.observe(&packet(&[])),
+                Observation::Held { .. }
+            ));
+        }
+        assert_eq!(
+            blip.observe(&packet(&[])),
+            Observation::Interrupted(TrackFault::Unconfirmed {
+                held_packets: limit
+            })
+        );
+        assert_eq!(blip.estimate_px(), None, "searching again");
+        // Located twice: a target, held through any quiet.
+        let mut target = tracker();
+        target.observe(&packet(&moving_bar(330, 240)));
+        target.observe(&packet(&moving_bar(334, 240)));
+        for _ in 0..10 * limit {
+            assert!(matches!(
+                target.observe(&packet(&[])),
+                Observation::Held { .. }
+            ));
+        }
     }
 
     #[test]
