@@ -37,6 +37,7 @@ pub struct Observed {
     pub messages: u64,
     pub lost: u64,
     pub denoise: Option<perception::events::DenoiseCounts>,
+    pub ego_motion: Option<perception::events::ego_motion::EgoMotionCounts>,
 }
 
 /// One observer's perturbed sensor and its receiver, fed the camera's renders in order (from
@@ -175,6 +176,7 @@ impl Observer {
             messages: self.messages,
             lost: self.lost,
             denoise: self.perception.denoise_counts(),
+            ego_motion: self.perception.ego_motion_counts(),
         }
     }
 }

@@ -261,6 +261,7 @@ fn run_trial(
             messages,
             lost: messages_lost,
             denoise,
+            ego_motion,
         },
     ) in observed.into_iter().enumerate()
     {
@@ -283,6 +284,7 @@ fn run_trial(
                 messages_lost,
                 events_received: denoise.map(|d| d.seen),
                 events_removed: denoise.map(|d| d.removed),
+                events_removed_ego: ego_motion.map(|e| e.removed),
             },
         );
     }
@@ -466,7 +468,10 @@ mod tests {
             .iter()
             .map(|o| {
                 let out = serde_json::to_string(&o.out).unwrap();
-                format!("{out} {} {} {:?}", o.messages, o.lost, o.denoise)
+                format!(
+                    "{out} {} {} {:?} {:?}",
+                    o.messages, o.lost, o.denoise, o.ego_motion
+                )
             })
             .collect()
     }

@@ -45,6 +45,10 @@ pub struct ObserverTrial {
     pub events_received: Option<u64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub events_removed: Option<u64>,
+    /// Of the events the noise front end kept, how many the ego-motion front end removed
+    /// (absent while the observer's airframe never turned).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub events_removed_ego: Option<u64>,
 }
 
 /// One trial.

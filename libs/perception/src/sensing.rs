@@ -167,6 +167,15 @@ impl Perception {
         }
     }
 
+    /// Events seen and removed by the event receiver's ego-motion front end: `None` for RGB and
+    /// while no turn has switched it on.
+    pub fn ego_motion_counts(&self) -> Option<crate::events::ego_motion::EgoMotionCounts> {
+        match self {
+            Self::Events(r) => Some(r.ego_motion_counts()).filter(|c| c.seen > 0),
+            Self::Rgb(_) | Self::Tracked(_) => None,
+        }
+    }
+
     /// How far the observer's airframe has turned from its home attitude, from the next input
     /// on: its attitude estimate, which the receiver undoes on the target's track
     /// ([`proto::stabilise`]). `None`: not turned.
