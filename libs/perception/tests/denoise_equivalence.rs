@@ -351,6 +351,8 @@ fn config(rng: &mut Rng) -> DenoiseConfig {
         adaptive: rng.chance(0.4).then(|| perception::events::Adaptive {
             budget_events: [0.001, 0.01, 1.0, 100.0][rng.below(4) as usize],
             window_px: 1 + rng.below(20_000) as u32,
+            once_support: rng.below(most + 1) as u8,
+            tolerated_events: [0.01, 1.0, 100.0][rng.below(3) as usize],
         }),
     }
 }

@@ -518,8 +518,24 @@ mod tests {
         let c = DenoiseConfig::receiver();
         let packet_ns = 40_000_000;
         assert_eq!(c.support_for(0.0, packet_ns), 0);
-        assert_eq!(c.support_for(5.0, packet_ns), 8);
-        assert_eq!(c.support_for(1e4, packet_ns), 8, "capped at min_neighbours");
+        assert_eq!(c.support_for(3.0, packet_ns), 8);
+        assert_eq!(
+            c.support_for(5.0, packet_ns),
+            8,
+            "8 leaves ≈ 0.09 noise events"
+        );
+        assert_eq!(c.support_for(6.5, packet_ns), 8);
+        assert_eq!(
+            c.support_for(7.0, packet_ns),
+            11,
+            "8 would leave more than one"
+        );
+        assert_eq!(c.support_for(10.0, packet_ns), 13);
+        assert_eq!(
+            c.support_for(1e4, packet_ns),
+            16,
+            "capped at min_neighbours"
+        );
         let mut last = 0;
         for k in 0..=60 {
             let rate_hz = 1e-4 * 1.2f64.powi(k);
@@ -532,7 +548,7 @@ mod tests {
             adaptive: None,
             ..c
         };
-        assert_eq!(fixed.support_for(0.0, packet_ns), 8);
+        assert_eq!(fixed.support_for(0.0, packet_ns), 16);
     }
 
     #[test]

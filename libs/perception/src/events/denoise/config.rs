@@ -36,38 +36,58 @@ pub struct DenoiseConfig {
 /// `r · window_px · T · P(Poisson(2·W·r·N) ≥ k) ≤ budget_events` (T the packet period, W the
 /// correlation window, N the neighbours). With no background the support is 0 and every event
 /// passes: a noiseless sensor's stream reaches the tracker untouched.
+///
+/// Past [`Adaptive::once_support`] the support starts removing the target's own pixels that
+/// fire only once within the window, so it goes beyond that only when it must: when that
+/// support would leave more than [`Adaptive::tolerated_events`] noise events per packet in the
+/// window, more than the tracker can absorb. Then it rises to whatever meets the budget.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Adaptive {
     /// Noise events the tracker may see inside its window per packet.
     pub budget_events: f64,
     /// Pixels of the tracking window.
     pub window_px: u32,
+    /// The most support a patch of target pixels that each fire once can give.
+    pub once_support: u8,
+    /// Noise events per packet inside the window the tracker still absorbs: the support stays
+    /// at `once_support` while no more than this many are expected to survive it.
+    pub tolerated_events: f64,
 }
 
 impl DenoiseConfig {
     /// The receiver's front end: 8 neighbours, two events each, ±15 ms, borders, and a support
-    /// set from the measured background (at most 8), so that one noise event per hundred
-    /// packets (4 s) is expected to survive inside the ±64×±48 px tracking window: a couple of
-    /// stray pixels are enough to turn a target's sparse tail into a supported, displaced
-    /// estimate (measured: unfiltered, 0.0003 Hz per pixel already cost 11 of 100 trials).
+    /// set from the measured background, so that one noise event per hundred packets (4 s) is
+    /// expected to survive inside the ±64×±48 px tracking window: a couple of stray pixels are
+    /// enough to turn a target's sparse tail into a supported, displaced estimate (measured:
+    /// unfiltered, 0.0003 Hz per pixel already cost 11 of 100 trials).
     ///
     /// Chosen on the receiver's own terms, not on any sensor preset. Support 8 is the most a
-    /// patch of pixels that each fire once can give, and at 5 Hz per pixel (the top of published
-    /// dim-light figures) it is what the budget asks for: on generated streams
-    /// (`libs/perception/tests/denoise.rs`, whose ROC it prints) it removes 99.98 % of the noise,
-    /// and a smaller support let clumps survive that moved the tracker's percentile centre by up
-    /// to 18 px. A fixed support 8 also removed 5.6 % of a real drone's noiseless events and lost
-    /// every message of an observer at 40°: the adaptive support is 0 on a noiseless sensor.
+    /// patch of pixels that each fire once can give, and up to ≈ 6.8 Hz per pixel it is where
+    /// the support stops: on generated streams (`libs/perception/tests/denoise.rs`, whose ROC it
+    /// prints) it removes 99.98 % of 5 Hz noise, a smaller support let clumps survive that moved
+    /// the tracker's percentile centre by up to 18 px, and a larger one (10, what the budget
+    /// alone asks for at 5 Hz) kept only 92.5 % of a target and lost a bit of a 5 Hz frame.
+    /// Beyond 8 the support goes only when 8 would leave more than one noise event per packet
+    /// in the window (the percentile centre absorbs a few: 2.5 % of a target's ≈ 200 pixels),
+    /// up to 16, all that 8 neighbours remembering two events each can give: at 10 Hz per pixel,
+    /// the dim-light figure of a real DAVIS346, support 8 let ≈ 1 % of the noise through, its
+    /// survivors lit enough of the sensor's 32 px cells to be read as broad scene activity in
+    /// every packet and a whole frame gave no token; support 13 decodes it (a moving edge fires
+    /// several events per pixel). A fixed support 8 also removed 5.6 % of a real drone's
+    /// noiseless events and lost every message of an observer at 40°: the adaptive support is
+    /// 0 on a noiseless sensor.
     pub fn receiver() -> Self {
         Self {
             radius_px: 1,
             window_ns: 15_000_000,
-            min_neighbours: 8,
+            min_neighbours: 16,
             border: true,
             depth: 2,
             adaptive: Some(Adaptive {
                 budget_events: 0.01,
                 window_px: 129 * 97,
+                once_support: 8,
+                tolerated_events: 1.0,
             }),
         }
     }
@@ -94,14 +114,25 @@ impl DenoiseConfig {
         let mean = 2.0 * self.window_ns as f64 * 1e-9 * rate_hz * self.neighbours() as f64;
         // P(Poisson(mean) ≥ k) for k = 0, 1, …: 1 minus the running sum of the terms.
         let (mut term, mut below): (f64, f64) = ((-mean).exp(), 0.0);
+        let mut at_once = None;
         for k in 0..self.min_neighbours {
-            if arriving * (1.0 - below).max(0.0) <= a.budget_events {
-                return k;
+            let surviving = arriving * (1.0 - below).max(0.0);
+            if k == a.once_support {
+                at_once = Some(surviving);
+            }
+            if surviving <= a.budget_events {
+                return match at_once {
+                    Some(noise) if noise <= a.tolerated_events => a.once_support,
+                    _ => k,
+                };
             }
             below += term;
             term *= mean / f64::from(k + 1);
         }
-        self.min_neighbours
+        match at_once {
+            Some(noise) if noise <= a.tolerated_events => a.once_support,
+            _ => self.min_neighbours,
+        }
     }
 
     /// Neighbours in the neighbourhood: `(2r+1)² − 1`.
