@@ -18,14 +18,35 @@ const PACKET_NS: u64 = 40_000_000;
 
 /// `seconds` of uniform background activity at `rate_hz` per pixel, as 40 ms packets.
 fn background(rate_hz: f64, seconds: u64, seed: u64) -> Vec<EventPacket> {
+    background_split(rate_hz, rate_hz, WIDTH, seconds, seed)
+}
+
+/// `seconds` of background activity at `left_hz` per pixel left of column `split_x` and
+/// `right_hz` from it on (a scene's dark and bright parts), as 40 ms packets.
+fn background_split(
+    left_hz: f64,
+    right_hz: f64,
+    split_x: u16,
+    seconds: u64,
+    seed: u64,
+) -> Vec<EventPacket> {
     let mut rng = Rng(seed);
-    let pixels = u64::from(WIDTH) * u64::from(HEIGHT);
+    let left = u64::from(split_x) * u64::from(HEIGHT);
+    let right = u64::from(WIDTH - split_x) * u64::from(HEIGHT);
+    let expected = (left_hz * left as f64 + right_hz * right as f64) * PACKET_NS as f64 * 1e-9;
+    let left_share = left_hz * left as f64 / (left_hz * left as f64 + right_hz * right as f64);
     (0..seconds * NS_PER_S / PACKET_NS)
         .map(|k| {
-            let n = rng.poisson(rate_hz * pixels as f64 * PACKET_NS as f64 * 1e-9);
+            let n = rng.poisson(expected);
             let mut events: Vec<_> = (0..n)
                 .map(|_| {
-                    let i = rng.below(pixels);
+                    let (x0, w) = if rng.chance(left_share) {
+                        (0, u64::from(split_x))
+                    } else {
+                        (u64::from(split_x), u64::from(WIDTH - split_x))
+                    };
+                    let j = rng.below(w * u64::from(HEIGHT));
+                    let i = (j / w) * u64::from(WIDTH) + x0 + j % w;
                     let dt = 1 + rng.below(PACKET_NS) as u32;
                     let pol = if rng.next() & 1 == 1 {
                         Polarity::On
@@ -173,6 +194,43 @@ fn dim_light_background_is_removed_to_the_budget() {
     // 24.5 tracking windows fit on the sensor and the budget is 0.01 events per window; broad
     // activity needs at least 160 (40 cells of 4 events).
     assert!(mean < 1.0 && worst < 40, "mean {mean}, max {worst}");
+}
+
+/// A background that is not uniform: the model, fed the median cell's rate, under-counts what
+/// survives in the busier part, and the survivors measured there raise the support to what the
+/// budget asks for (not to what the busier part alone would need: ≈ 59 a packet still survive
+/// there, in cells the median does not see).
+#[test]
+fn survivors_of_a_non_uniform_background_raise_the_support_past_the_model() {
+    // 55 % of the sensor at 6.5 Hz per pixel (the median the model sees: support 8), the rest
+    // at 12 Hz, where support 8 lets ≈ 1 % through.
+    let noise = background_split(12.0, 6.5, 288, 5, 9);
+    let mut filter = NoiseFilter::new(DenoiseConfig::receiver(), WIDTH, HEIGHT).expect("valid");
+    let mut out = EventPacket::from_events(0, (0, 0), (WIDTH, HEIGHT), &[]);
+    let mut survivors = Vec::new();
+    let mut supports = Vec::new();
+    for p in &noise {
+        filter.filter(p, &mut out);
+        survivors.push(out.len());
+        supports.push(filter.support_now());
+    }
+    let mean = |s: &[usize]| s.iter().sum::<usize>() as f64 / s.len() as f64;
+    // The first second is measured at the model's support; the last at the raised one.
+    let (at_8, after) = (mean(&survivors[5..25]), mean(&survivors[100..]));
+    println!(
+        "non-uniform background: support {:?} … {} (escalated {}), survivors per packet \
+         {at_8:.1} → {after:.2}",
+        &supports[3..6],
+        filter.support_now(),
+        filter.escalated()
+    );
+    // (The first packets see a median over a few packets only.)
+    assert!(
+        supports[3..25].iter().all(|&k| k == 8),
+        "the model alone asks for 8 at the median rate: {supports:?}"
+    );
+    assert!(filter.escalated() && filter.support_now() > 8);
+    assert!(after < at_8 / 4.0, "{at_8} → {after}");
 }
 
 #[test]

@@ -77,6 +77,10 @@ pub struct ReferenceFilter {
     keep: Vec<bool>,
     core: Vec<bool>,
     background: BackgroundEstimate,
+    /// Events kept at the adaptive `once_support` over the last second at it, and whether
+    /// their median cell has ever exceeded the tolerance (the support then follows the budget).
+    survivors: BackgroundEstimate,
+    escalated: bool,
     /// The support asked of the last packet.
     support_now: u8,
     counts: DenoiseCounts,
@@ -111,6 +115,8 @@ impl ReferenceFilter {
             keep: Vec::new(),
             core: Vec::new(),
             background: BackgroundEstimate::new(width, height, BACKGROUND_PACKETS),
+            survivors: BackgroundEstimate::new(width, height, BACKGROUND_PACKETS),
+            escalated: false,
             support_now: 0,
             counts: DenoiseCounts::default(),
         }
@@ -154,10 +160,17 @@ impl ReferenceFilter {
         let k = if self.config.min_neighbours == 0 {
             0
         } else {
-            u32::from(
-                self.config
-                    .support_for(self.background.rate_hz(), period_ns),
-            )
+            let rate_hz = self.background.rate_hz();
+            let modelled = self.config.support_for(rate_hz, period_ns);
+            let once = self.config.adaptive.map(|a| a.once_support);
+            if once.is_some_and(|once| modelled < once) {
+                self.escalated = false;
+            }
+            u32::from(if self.escalated {
+                self.config.budget_support(rate_hz, period_ns)
+            } else {
+                modelled
+            })
         };
         self.support_now = k as u8;
         self.keep.clear();
@@ -170,9 +183,33 @@ impl ReferenceFilter {
         if self.config.border && k > 0 {
             self.grow_borders();
         }
+        self.measure_survivors(packet, k, period_ns);
         let keep = &self.keep;
         let kept = packet.select_into(out, |i| keep[i]);
         self.counts.removed += (n - kept) as u64;
+    }
+
+    fn measure_survivors(&mut self, packet: &EventPacket, k: u32, period_ns: u64) {
+        let Some(a) = self.config.adaptive else {
+            return;
+        };
+        if self.escalated || k != u32::from(a.once_support) {
+            self.survivors.clear();
+            return;
+        }
+        let keep = &self.keep;
+        self.survivors.add(
+            period_ns,
+            (0..packet.len())
+                .filter(|&i| keep[i])
+                .map(|i| (packet.xs[i], packet.ys[i])),
+        );
+        let per_window =
+            self.survivors.rate_hz() * f64::from(a.window_px) * period_ns as f64 * 1e-9;
+        if self.survivors.packets() >= BACKGROUND_PACKETS && per_window > a.tolerated_events {
+            self.escalated = true;
+            self.survivors.clear();
+        }
     }
 
     /// The packet's event times and cells; the map made (first packet) or swept for stale
@@ -189,6 +226,8 @@ impl ReferenceFilter {
             self.map.clear();
             self.map.resize(self.stride * rows, Cell::stale(now_us));
             self.background.clear();
+            self.survivors.clear();
+            self.escalated = false;
             self.swept_ns = packet.start_ns;
         } else if packet.start_ns - self.swept_ns >= u64::from(SWEEP_US) * 1_000 {
             for cell in &mut self.map {

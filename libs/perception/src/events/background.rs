@@ -99,6 +99,11 @@ impl BackgroundEstimate {
         f64::from(median) / f64::from(max_area) / (self.span_ns as f64 * 1e-9)
     }
 
+    /// Packets in the window so far (at most the window's length).
+    pub fn packets(&self) -> usize {
+        self.per_packet.len()
+    }
+
     /// Forgets everything (a restarted stream).
     pub fn clear(&mut self) {
         self.sums.fill(0);

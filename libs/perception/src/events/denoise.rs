@@ -38,9 +38,11 @@ use crate::events::error::EventReceiverError;
 
 mod bands;
 mod config;
+mod escalation;
 
 use bands::{Bands, Entry, prefetch};
 pub use config::{Adaptive, DenoiseConfig, DenoiseCounts, MAX_DEPTH, MAX_RADIUS_PX};
+use escalation::Escalation;
 
 /// Packets (40 ms each) the background estimate spans: one second.
 const BACKGROUND_PACKETS: usize = 25;
@@ -118,6 +120,7 @@ pub struct NoiseFilter {
     /// The packet's first event's time, µs (what a cleared later-event time is stale against).
     first_us: u32,
     background: BackgroundEstimate,
+    escalation: Escalation,
     /// The support asked of the last packet.
     support_now: u8,
     counts: DenoiseCounts,
@@ -152,6 +155,7 @@ impl NoiseFilter {
             core: Vec::new(),
             first_us: 0,
             background: BackgroundEstimate::new(width, height, BACKGROUND_PACKETS),
+            escalation: Escalation::new(width, height, BACKGROUND_PACKETS),
             support_now: 0,
             counts: DenoiseCounts::default(),
         })
@@ -169,6 +173,12 @@ impl NoiseFilter {
     /// The support asked of the last packet (0: every event passed).
     pub fn support_now(&self) -> u8 {
         self.support_now
+    }
+
+    /// Whether what survived support `once_support` (measured) has raised the support past
+    /// what the model asks for (module `escalation`).
+    pub fn escalated(&self) -> bool {
+        self.escalation.escalated()
     }
 
     /// The measured background rate, Hz per pixel.
@@ -195,10 +205,8 @@ impl NoiseFilter {
         let k = if self.config.min_neighbours == 0 {
             0
         } else {
-            u32::from(
-                self.config
-                    .support_for(self.background.rate_hz(), period_ns),
-            )
+            let rate_hz = self.background.rate_hz();
+            u32::from(self.escalation.support(&self.config, rate_hz, period_ns))
         };
         self.support_now = k as u8;
         self.keep.clear();
@@ -212,6 +220,14 @@ impl NoiseFilter {
             self.grow_borders();
         }
         let keep = &self.keep;
+        self.escalation.observe(
+            &self.config,
+            k as u8,
+            period_ns,
+            (0..n)
+                .filter(|&i| keep[i])
+                .map(|i| (packet.xs[i], packet.ys[i])),
+        );
         let kept = packet.select_into(out, |i| keep[i]);
         self.counts.removed += (n - kept) as u64;
     }
@@ -228,6 +244,7 @@ impl NoiseFilter {
             self.map.clear();
             self.map.resize(self.bands.cells(), Cell::stale(now_us));
             self.background.clear();
+            self.escalation.clear();
             self.swept_ns = packet.start_ns;
         } else if packet.start_ns - self.swept_ns >= u64::from(SWEEP_US) * 1_000 {
             for cell in &mut self.map {

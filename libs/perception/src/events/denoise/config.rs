@@ -73,7 +73,9 @@ impl DenoiseConfig {
     /// the dim-light figure of a real DAVIS346, support 8 let ≈ 1 % of the noise through, its
     /// survivors lit enough of the sensor's 32 px cells to be read as broad scene activity in
     /// every packet and a whole frame gave no token; support 13 decodes it (a moving edge fires
-    /// several events per pixel). A fixed support 8 also removed 5.6 % of a real drone's
+    /// several events per pixel). Where the background is not uniform the model under-counts
+    /// what survives; the filter then measures it (module `escalation`). A fixed support 8 also
+    /// removed 5.6 % of a real drone's
     /// noiseless events and lost every message of an observer at 40°: the adaptive support is
     /// 0 on a noiseless sensor.
     pub fn receiver() -> Self {
@@ -105,10 +107,30 @@ impl DenoiseConfig {
     }
 
     /// The support this configuration asks for against a background of `rate_hz` per pixel
-    /// with packets of `packet_ns`.
+    /// with packets of `packet_ns`: the budget's, held at [`Adaptive::once_support`] while that
+    /// is modelled to leave at most [`Adaptive::tolerated_events`] noise events.
     pub fn support_for(&self, rate_hz: f64, packet_ns: u64) -> u8 {
+        let (budget, at_once) = self.supports(rate_hz, packet_ns);
+        match (self.adaptive, at_once) {
+            (Some(a), Some(noise)) if budget > a.once_support && noise <= a.tolerated_events => {
+                a.once_support
+            }
+            _ => budget,
+        }
+    }
+
+    /// The support the budget alone asks for (past [`Adaptive::once_support`] whenever it
+    /// must): what the filter uses once it has *measured* more survivors at
+    /// `once_support` than the tracker absorbs.
+    pub fn budget_support(&self, rate_hz: f64, packet_ns: u64) -> u8 {
+        self.supports(rate_hz, packet_ns).0
+    }
+
+    /// (the least support meeting the budget, the noise modelled to survive
+    /// `once_support` inside the window per packet, if the search reached it).
+    fn supports(&self, rate_hz: f64, packet_ns: u64) -> (u8, Option<f64>) {
         let Some(a) = self.adaptive else {
-            return self.min_neighbours;
+            return (self.min_neighbours, None);
         };
         let arriving = rate_hz * f64::from(a.window_px) * packet_ns as f64 * 1e-9;
         let mean = 2.0 * self.window_ns as f64 * 1e-9 * rate_hz * self.neighbours() as f64;
@@ -121,18 +143,12 @@ impl DenoiseConfig {
                 at_once = Some(surviving);
             }
             if surviving <= a.budget_events {
-                return match at_once {
-                    Some(noise) if noise <= a.tolerated_events => a.once_support,
-                    _ => k,
-                };
+                return (k, at_once);
             }
             below += term;
             term *= mean / f64::from(k + 1);
         }
-        match at_once {
-            Some(noise) if noise <= a.tolerated_events => a.once_support,
-            _ => self.min_neighbours,
-        }
+        (self.min_neighbours, at_once)
     }
 
     /// Neighbours in the neighbourhood: `(2r+1)² − 1`.
