@@ -39,15 +39,17 @@ use crate::events::error::EventReceiverError;
 mod bands;
 mod config;
 mod escalation;
+mod times;
 
 use bands::{Bands, Entry, prefetch};
 pub use config::{Adaptive, DenoiseConfig, DenoiseCounts, MAX_DEPTH, MAX_RADIUS_PX};
 use escalation::Escalation;
+use times::Times;
 
 /// Packets (40 ms each) the background estimate spans: one second.
 const BACKGROUND_PACKETS: usize = 25;
 
-/// Age beyond which a stored time is refreshed to [`Cell::stale`]: times are kept as wrapping
+/// Age beyond which a stored time is refreshed to [`times::never`]: times are kept as wrapping
 /// u32 microseconds, so every stored age must stay below 2³¹ µs (≈ 36 min) to be read right.
 const STALE_US: u32 = 1 << 30;
 /// How often (stream time) stored times are swept for staleness: an age read between sweeps is
@@ -57,30 +59,6 @@ const SWEEP_US: u32 = 1 << 29;
 /// How many events ahead of the one being judged a pass asks for its neighbourhood's cache
 /// lines: far enough for the lines to arrive, near enough that they are still there.
 const PREFETCH_AHEAD: usize = 16;
-
-/// One pixel's times, microseconds (wrapping u32; see [`STALE_US`]). Kept together so a
-/// neighbourhood lookup touches three short runs of memory, not five maps.
-#[derive(Debug, Clone, Copy)]
-struct Cell {
-    /// The pixel's latest and second-latest events so far.
-    past: [u32; MAX_DEPTH],
-    /// Inside one packet's backward pass: its earliest and second-earliest later events.
-    next: [u32; MAX_DEPTH],
-    /// Its latest core event so far (with borders).
-    core: u32,
-}
-
-impl Cell {
-    /// A cell with nothing in reach of a time `now_us`.
-    fn stale(now_us: u32) -> Self {
-        let never = now_us.wrapping_sub(STALE_US);
-        Self {
-            past: [never; MAX_DEPTH],
-            next: [never; MAX_DEPTH],
-            core: never,
-        }
-    }
-}
 
 /// Which side of an event in time a pass looks at.
 #[derive(Debug, Clone, Copy)]
@@ -104,7 +82,7 @@ pub struct NoiseFilter {
     bands: Bands,
     /// Every band's cells with their halo rows, padded by r columns (padding never fires).
     /// Empty until the first packet gives a time to be stale against.
-    map: Vec<Cell>,
+    times: Times,
     /// Stream time of the last staleness sweep and of the last packet, ns (full width: a gap
     /// longer than the wrapping times can tell is seen here).
     swept_ns: u64,
@@ -145,7 +123,7 @@ impl NoiseFilter {
             width,
             height,
             bands: Bands::new(width, height, r),
-            map: Vec::new(),
+            times: Times::default(),
             swept_ns: 0,
             last_ns: 0,
             offsets,
@@ -194,7 +172,6 @@ impl NoiseFilter {
         let n = packet.len();
         self.counts.seen += n as u64;
         self.prepare(packet);
-        self.mark();
         let period_ns = packet.end_ns.saturating_sub(packet.start_ns);
         self.background.add(
             period_ns,
@@ -202,6 +179,8 @@ impl NoiseFilter {
                 .filter(|&i| self.on_sensor[i])
                 .map(|i| (packet.xs[i], packet.ys[i])),
         );
+        // The support asked depends on the background and on earlier packets only, so it is
+        // known before this packet's events are counted.
         let k = if self.config.min_neighbours == 0 {
             0
         } else {
@@ -209,16 +188,7 @@ impl NoiseFilter {
             u32::from(self.escalation.support(&self.config, rate_hz, period_ns))
         };
         self.support_now = k as u8;
-        self.keep.clear();
-        self.keep.extend(
-            self.on_sensor
-                .iter()
-                .zip(&self.support)
-                .map(|(&on, &support)| on && support >= k),
-        );
-        if self.config.border && k > 0 {
-            self.grow_borders();
-        }
+        self.judge(k);
         let keep = &self.keep;
         self.escalation.observe(
             &self.config,
@@ -238,25 +208,16 @@ impl NoiseFilter {
         let now_us = (packet.start_ns / 1_000) as u32;
         let stale_ns = u64::from(STALE_US) * 1_000;
         let jumped = packet.start_ns < self.last_ns || packet.start_ns - self.last_ns > stale_ns;
-        if self.map.is_empty() || jumped {
+        if self.times.is_empty() || jumped {
             // First packet, time going back (a restarted stream) or a silence longer than any
             // stored time can be aged over: nothing stored is in reach.
-            self.map.clear();
-            self.map.resize(self.bands.cells(), Cell::stale(now_us));
+            self.times
+                .reset(self.bands.cells(), self.bands.band_cells(), now_us);
             self.background.clear();
             self.escalation.clear();
             self.swept_ns = packet.start_ns;
         } else if packet.start_ns - self.swept_ns >= u64::from(SWEEP_US) * 1_000 {
-            for cell in &mut self.map {
-                for t in cell.past.iter_mut().chain(cell.next.iter_mut()) {
-                    if now_us.wrapping_sub(*t) > STALE_US {
-                        *t = now_us.wrapping_sub(STALE_US);
-                    }
-                }
-                if now_us.wrapping_sub(cell.core) > STALE_US {
-                    cell.core = now_us.wrapping_sub(STALE_US);
-                }
-            }
+            self.times.sweep(now_us);
             self.swept_ns = packet.start_ns;
         }
         self.last_ns = packet.start_ns;
@@ -275,15 +236,16 @@ impl NoiseFilter {
         self.bands.sort(packet, &self.on_sensor);
     }
 
-    /// Prefetches the neighbourhood rows of entry `k` of a band starting at `base`.
+    /// Prefetches the neighbourhood rows of entry `k` of a band in `times`, whose band part
+    /// starts at `base` (0 for the band-relative scratch).
     #[inline(always)]
-    fn prefetch_entry(&self, k: usize, base: usize) {
+    fn prefetch_entry<T>(&self, times: &[T], k: usize, base: usize) {
         if let Some(e) = self.bands.get(k) {
             let (cell, r) = (e.cell(base), usize::from(self.config.radius_px));
             let stride = self.bands.stride();
             for row in [cell.wrapping_sub(r * stride), cell, cell + r * stride] {
-                prefetch(&self.map, row.wrapping_sub(r));
-                prefetch(&self.map, row + r);
+                prefetch(times, row.wrapping_sub(r));
+                prefetch(times, row + r);
             }
         }
     }
@@ -292,31 +254,60 @@ impl NoiseFilter {
         (self.config.window_ns / 1_000).min(u64::from(STALE_US / 2)) as u32
     }
 
-    /// Counts every event's support (both passes, band by band) and updates the past times.
-    fn mark(&mut self) {
+    /// Decides every event of the packet for support `k`, band by band: each band's support is
+    /// counted (both passes, updating the past times) and its own events kept or not; with
+    /// borders, a band's border passes follow once the band below it has been counted (its
+    /// halo holds that band's core events), while the band's cells are still in cache. Each
+    /// band's part of the map sees the same passes in the same order as when every band was
+    /// counted before any border pass, so the events kept are the same.
+    fn judge(&mut self, k: u32) {
         let n = self.on_sensor.len();
         self.support.clear();
         self.support.resize(n, 0);
-        // Forward: neighbours' latest events (this packet's earlier ones included) within the
-        // window before; then backward: their later events of this packet within the window
-        // after.
-        for b in 0..self.bands.count() {
-            let (entries, base) = self.bands.band(b);
-            let (lo, hi) = (entries.start, entries.end);
-            // A halo entry counts nothing (0): its own band counts it.
-            for k in lo..hi {
-                self.prefetch_entry(k + PREFETCH_AHEAD, base);
-                let e = self.bands.entry(k);
-                let support = self.count_and_record(e, base, Side::Past);
-                self.support[e.index] += support;
+        self.keep.clear();
+        self.keep.resize(n, false);
+        self.core.clear();
+        self.core.resize(n, false);
+        let borders = self.config.border && k > 0;
+        let bands = self.bands.count();
+        for b in 0..=bands {
+            if b < bands {
+                self.mark_band(b, k);
             }
-            for k in (lo..hi).rev() {
-                self.prefetch_entry(k.wrapping_sub(PREFETCH_AHEAD), base);
-                let e = self.bands.entry(k);
-                let support = self.count_and_record(e, base, Side::Next);
-                self.support[e.index] += support;
+            if borders && b > 0 {
+                self.border_band(b - 1);
             }
-            self.clear_next(lo..hi, base);
+        }
+    }
+
+    /// Counts the support of band `b`'s own events (forward: neighbours' latest events, this
+    /// packet's earlier ones included, within the window before; backward: their later events
+    /// of this packet within the window after), updates the band's past times, and keeps its
+    /// own events with support `k` or more (they are also its core events).
+    fn mark_band(&mut self, b: usize, k: u32) {
+        let (entries, base) = self.bands.band(b);
+        let (lo, hi) = (entries.start, entries.end);
+        // A halo entry counts nothing (0): its own band counts it.
+        for j in lo..hi {
+            self.prefetch_entry(&self.times.past, j + PREFETCH_AHEAD, base);
+            let e = self.bands.entry(j);
+            let support = self.count_and_record(e, base, Side::Past);
+            self.support[e.index] += support;
+        }
+        for j in (lo..hi).rev() {
+            self.prefetch_entry(&self.times.next, j.wrapping_sub(PREFETCH_AHEAD), 0);
+            let e = self.bands.entry(j);
+            let support = self.count_and_record(e, base, Side::Next);
+            self.support[e.index] += support;
+        }
+        self.clear_next(lo..hi);
+        for j in lo..hi {
+            let e = self.bands.entry(j);
+            if e.own() {
+                let kept = self.support[e.index] >= k;
+                self.keep[e.index] = kept;
+                self.core[e.index] = kept;
+            }
         }
     }
 
@@ -324,85 +315,83 @@ impl NoiseFilter {
     /// pixel), then the event recorded on that side of its pixel's copy.
     #[inline]
     fn count_and_record(&mut self, e: Entry, base: usize, side: Side) -> u32 {
-        let cell = e.cell(base);
         let (t, window) = (e.t, self.window_us());
         let depth = usize::from(self.config.depth);
+        // The past times are the band's part of the map; the later ones its scratch.
+        let (times, cell) = match side {
+            Side::Past => (&mut self.times.past, e.cell(base)),
+            Side::Next => (&mut self.times.next, e.cell(0)),
+        };
         let mut support = 0u32;
         if e.own() {
             for &off in &self.offsets {
-                let c = &self.map[cell.wrapping_add_signed(off)];
+                let c = &times[cell.wrapping_add_signed(off)];
                 support += match side {
-                    Side::Past => c.past[..depth]
+                    Side::Past => c[..depth]
                         .iter()
                         .map(|&p| u32::from(t.wrapping_sub(p) <= window))
                         .sum::<u32>(),
-                    Side::Next => c.next[..depth]
+                    Side::Next => c[..depth]
                         .iter()
                         .map(|&later| u32::from(later.wrapping_sub(t) <= window))
                         .sum(),
                 };
             }
         }
-        let times = match side {
-            Side::Past => &mut self.map[cell].past,
-            Side::Next => &mut self.map[cell].next,
-        };
-        times.copy_within(..MAX_DEPTH - 1, 1);
-        times[0] = t;
+        let own = &mut times[cell];
+        own.copy_within(..MAX_DEPTH - 1, 1);
+        own[0] = t;
         support
     }
 
     /// Forgets this packet's later-event times in one band (they belong to the backward passes
     /// only).
-    fn clear_next(&mut self, entries: std::ops::Range<usize>, base: usize) {
-        let never = self.first_us.wrapping_sub(STALE_US);
+    fn clear_next(&mut self, entries: std::ops::Range<usize>) {
+        let never = times::never(self.first_us);
         for k in entries {
-            let cell = self.bands.entry(k).cell(base);
-            self.map[cell].next = [never; MAX_DEPTH];
+            let cell = self.bands.entry(k).cell(0);
+            self.times.next[cell] = [never; MAX_DEPTH];
         }
     }
 
-    /// Marks as kept every event with a core event among its neighbours within the window
-    /// (forward: this and earlier packets; backward: this packet), and records this packet's
-    /// core events; band by band.
-    fn grow_borders(&mut self) {
-        self.core.clear();
-        self.core.extend_from_slice(&self.keep);
-        for b in 0..self.bands.count() {
-            let (entries, base) = self.bands.band(b);
-            let (lo, hi) = (entries.start, entries.end);
-            for k in lo..hi {
-                self.prefetch_entry(k + PREFETCH_AHEAD, base);
-                self.border_step(self.bands.entry(k), base, Side::Past);
-            }
-            for k in (lo..hi).rev() {
-                self.prefetch_entry(k.wrapping_sub(PREFETCH_AHEAD), base);
-                self.border_step(self.bands.entry(k), base, Side::Next);
-            }
-            self.clear_next(lo..hi, base);
+    /// Marks as kept every own event of band `b` with a core event among its neighbours
+    /// within the window (forward: this and earlier packets; backward: this packet), and
+    /// records the band's core events.
+    fn border_band(&mut self, b: usize) {
+        let (entries, base) = self.bands.band(b);
+        let (lo, hi) = (entries.start, entries.end);
+        for j in lo..hi {
+            self.prefetch_entry(&self.times.core, j + PREFETCH_AHEAD, base);
+            self.border_step(self.bands.entry(j), base, Side::Past);
         }
+        for j in (lo..hi).rev() {
+            self.prefetch_entry(&self.times.next, j.wrapping_sub(PREFETCH_AHEAD), 0);
+            self.border_step(self.bands.entry(j), base, Side::Next);
+        }
+        self.clear_next(lo..hi);
     }
 
     /// An own event kept if a neighbour's core event on `side` is within the window; a core
     /// event recorded on that side of its pixel's copy.
     #[inline]
     fn border_step(&mut self, e: Entry, base: usize, side: Side) {
-        let (cell, i) = (e.cell(base), e.index);
+        let i = e.index;
         let (t, window) = (e.t, self.window_us());
-        let core_time = |c: &Cell| match side {
-            Side::Past => t.wrapping_sub(c.core),
-            Side::Next => c.next[0].wrapping_sub(t),
-        };
         if e.own() && !self.keep[i] {
-            self.keep[i] = self
-                .offsets
-                .iter()
-                .any(|&off| core_time(&self.map[cell.wrapping_add_signed(off)]) <= window);
+            let near = |off: isize| match side {
+                Side::Past => {
+                    t.wrapping_sub(self.times.core[e.cell(base).wrapping_add_signed(off)]) <= window
+                }
+                Side::Next => {
+                    self.times.next[e.cell(0).wrapping_add_signed(off)][0].wrapping_sub(t) <= window
+                }
+            };
+            self.keep[i] = self.offsets.iter().any(|&off| near(off));
         }
         if self.core[i] {
             match side {
-                Side::Past => self.map[cell].core = t,
-                Side::Next => self.map[cell].next[0] = t,
+                Side::Past => self.times.core[e.cell(base)] = t,
+                Side::Next => self.times.next[e.cell(0)][0] = t,
             }
         }
     }

@@ -44,7 +44,8 @@ impl Entry {
         self.cell & HALO == 0
     }
 
-    /// The event's cell in the map, for a band whose part starts at `base`.
+    /// The event's cell in the map, for a band whose part starts at `base` (0: its cell
+    /// relative to its band's part).
     pub fn cell(&self, base: usize) -> usize {
         base + (self.cell & !HALO) as usize
     }
@@ -103,6 +104,11 @@ impl Bands {
         self.bands.last().map_or(0, |b| {
             b.base + (self.height - b.y0 + 2 * self.r) * self.stride
         })
+    }
+
+    /// Cells of the largest band's part (what a band-relative scratch needs).
+    pub fn band_cells(&self) -> usize {
+        (BAND_ROWS.min(self.height) + 2 * self.r) * self.stride
     }
 
     /// Number of bands.
