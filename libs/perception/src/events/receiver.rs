@@ -360,7 +360,13 @@ impl EventReceiver {
             }
         }
         let stamp_ns = packet.end_ns;
+        let escalated = self.filter.escalated();
         self.filter.filter(packet, &mut self.filtered);
+        if self.filter.escalated() && !escalated {
+            // The filter has just measured that what it let through was mostly noise: a track
+            // it confirmed on that output must be confirmed again on what it lets through now.
+            self.tracker.doubt();
+        }
         let seen = if self.ego_motion.active() {
             self.ego_motion.filter(&self.filtered, &mut self.moving);
             &self.moving

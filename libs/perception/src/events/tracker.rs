@@ -303,6 +303,13 @@ impl SupportTracker {
         self.held_packets = 0;
     }
 
+    /// Takes back the track's confirmation (it is kept, but it is dropped as a blip unless
+    /// located twice again before [`EventTrackerConfig::unconfirmed_hold_packets`] pass).
+    pub fn doubt(&mut self) {
+        self.located_packets = 0;
+        self.held_packets = 0;
+    }
+
     /// Counts one more packet without location; true when that makes the track a blip.
     fn unconfirmed(&mut self) -> bool {
         self.held_packets = self.held_packets.saturating_add(1);
@@ -457,6 +464,39 @@ mod tests {
                 target.observe(&packet(&[])),
                 Observation::Held { .. }
             ));
+        }
+    }
+
+    #[test]
+    fn a_doubted_track_must_be_located_again_or_is_dropped() {
+        let limit = EventTrackerConfig::paper().unconfirmed_hold_packets;
+        let confirmed = |t: &mut SupportTracker| {
+            t.observe(&packet(&moving_bar(330, 240)));
+            t.observe(&packet(&moving_bar(334, 240)));
+            for _ in 0..3 * limit {
+                t.observe(&packet(&[]));
+            }
+        };
+        // Doubted while quiet: held for the hold, then dropped.
+        let mut t = tracker();
+        confirmed(&mut t);
+        t.doubt();
+        for _ in 1..limit {
+            assert!(matches!(t.observe(&packet(&[])), Observation::Held { .. }));
+        }
+        assert!(matches!(
+            t.observe(&packet(&[])),
+            Observation::Interrupted(TrackFault::Unconfirmed { .. })
+        ));
+        assert_eq!(t.estimate_px(), None);
+        // Doubted, then located twice again: confirmed, held through any quiet.
+        let mut t = tracker();
+        confirmed(&mut t);
+        t.doubt();
+        t.observe(&packet(&moving_bar(338, 240)));
+        t.observe(&packet(&moving_bar(342, 240)));
+        for _ in 0..3 * limit {
+            assert!(matches!(t.observe(&packet(&[])), Observation::Held { .. }));
         }
     }
 

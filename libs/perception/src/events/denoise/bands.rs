@@ -1,6 +1,6 @@
 //! Where the noise filter keeps its map of times, and in what order it visits a packet's events.
 //!
-//! The whole map of a 640×480 sensor (≈ 6 MB) does not fit in one core's L2 cache, so a filter
+//! The whole map of a 640×480 sensor (≈ 4 MB at 12 bytes a pixel) does not fit in one core's L2 cache, so a filter
 //! judging the packet's events in their own order sent almost every neighbourhood lookup to L3.
 //! The map is therefore cut into horizontal bands of [`BAND_ROWS`] sensor rows, each stored with
 //! copies of the r rows above and below it (halo rows; padding at the sensor's top and bottom),
@@ -15,7 +15,8 @@ use std::ops::Range;
 use proto::EventPacket;
 
 /// Sensor rows each band owns. With its halo rows a band of a 640 px sensor is 18 × 642 cells
-/// (≈ 230 KB): it stays in one core's L2 cache while the band's events are judged.
+/// (≈ 140 KB of past and core times, module `times`): it stays in one core's L2 cache while
+/// the band's events are judged, with the next band's part beside it.
 const BAND_ROWS: usize = 16;
 
 /// A band: the first sensor row it owns and where its part of the map starts.
