@@ -20,10 +20,12 @@
 #   3. audit        cargo-deny (installed once, ≈ 6 min): bans, licenses and sources (deny.toml)
 #                   offline; advisories only when the RustSec database (GitHub) is reachable,
 #                   otherwise a line says they were skipped
-#   4. build        every binary: the cross-process tests in tests/ run them by path
+#   4. build        every binary, test and bench (the cross-process tests in tests/ run the
+#                   binaries by path)
 #   5. clippy       cargo clippy --workspace --all-targets --release -D warnings (after the build,
 #                   whose dependency build scripts and artefacts it reuses)
-#   6. test         cargo test --release
+#   6. test         deploy/test-binaries.sh: the test binaries two at a time, then the doc
+#                   tests (cargo test --release ARGS… when other arguments are given)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -65,18 +67,25 @@ else
   echo "test.sh: advisory database unreachable: skipped (cargo deny check advisories)" >&2
 fi
 
-step "build: cargo build --release --workspace --bins"
+step "build: cargo build --release --workspace --all-targets"
 # The cross-process tests in tests/ spawn the binaries; `cargo test` only builds the binaries of
-# the package under test, so build every one first.
-cargo build --release --workspace --bins || fail "the workspace does not build (errors above)"
+# the package under test, so build every one first. One build for binaries, tests and benches:
+# tests resolve features with the dev-dependencies (proptest, criterion), which add features to
+# shared dependencies (zerocopy, regex-syntax), so building the binaries alone first compiled the
+# Zenoh stack and every crate above it twice (79 crates, ≈ 6 min of a fresh clone's 63 min).
+cargo build --release --workspace --all-targets || fail "the workspace does not build (errors above)"
 
 step "clippy: cargo clippy --workspace --all-targets --release -- -D warnings"
 cargo clippy --workspace --all-targets --release -- -D warnings ||
   fail "clippy reports warnings (denied, above): fix them, or \`#[expect(lint, reason = \"…\")]\` where the lint is wrong"
 
 step "test"
-if [ "${1:-}" = "--full" ]; then
-  exec cargo test --release --workspace -- --include-ignored
+# The default and --full runs go through deploy/test-binaries.sh: every test binary, two at a
+# time, longest first (why: there). Any other arguments are cargo test's.
+if [ "$#" -eq 0 ]; then
+  exec bash deploy/test-binaries.sh
 fi
-if [ "$#" -eq 0 ]; then set -- --workspace; fi
+if [ "$1" = "--full" ]; then
+  exec bash deploy/test-binaries.sh --include-ignored
+fi
 exec cargo test --release "$@"
