@@ -10,16 +10,23 @@
 # on libtest's default threads, in its package directory as cargo would. Each binary's output is
 # printed whole when it ends; every failing binary is named at the end and the exit status is 1.
 # WAGGLE_TEST_JOBS sets how many binaries run at once (default 2).
+# The tests' scratch directories (and the runs' own, which the launcher puts under the temporary
+# directory) go under one TMPDIR made for this run: removed when every test passed, kept and named
+# when one failed, so failures can be read and passing runs leave nothing behind (before, each run
+# left ≈ 4 MB to 86 MB per test directory in /tmp: 1.3 GB after a day of runs, measured).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 jobs="${WAGGLE_TEST_JOBS:-2}"
 
 work="$(mktemp -d)"
+scratch="$(mktemp -d "${TMPDIR:-/tmp}/waggle-tests.XXXXXX")"
+keep_scratch=0
 pids=()
 cleanup() {
   for p in "${pids[@]}"; do kill -- "$p" 2>/dev/null || true; done
   rm -rf "$work"
+  if [ "$keep_scratch" -eq 0 ]; then rm -rf "$scratch"; fi
 }
 trap cleanup EXIT
 trap 'exit 130' INT TERM
@@ -47,6 +54,7 @@ for name in "${longest[@]}"; do
   grep -E "/deps/${name}-[0-9a-f]+ " "$work/all" >>"$work/order" || true
 done
 grep -v -F -f "$work/order" "$work/all" >>"$work/order" || true
+export TMPDIR="$scratch"
 
 declare -A label log
 failed=()
@@ -81,7 +89,9 @@ printf '\n== doc tests: cargo test --release --workspace --doc\n'
 cargo test --release --workspace --doc -- "$@" || failed+=("doc tests")
 
 if [ "${#failed[@]}" -gt 0 ]; then
+  keep_scratch=1
   printf '\ntest-binaries.sh: FAILED: %s\n' "${failed[@]}" >&2
+  printf 'test-binaries.sh: the tests'"'"' scratch directories are kept in %s\n' "$scratch" >&2
   exit 1
 fi
 printf '\ntest-binaries.sh: all %s test binaries and the doc tests passed\n' "$total" >&2
