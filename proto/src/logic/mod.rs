@@ -22,6 +22,7 @@ pub mod min_jerk;
 pub mod payload;
 pub mod provenance;
 pub mod rectify;
+mod rest_home;
 pub mod scene;
 pub mod schedule;
 pub mod segmenter;

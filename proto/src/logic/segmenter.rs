@@ -65,6 +65,9 @@ pub struct SegmenterConfig {
     /// the symbol's path is classified both from the rest and from where the target reappeared,
     /// and the better match is kept.
     pub held_rests: bool,
+    /// A path rejected only because its ends do not meet is read again with both ends at the
+    /// window's home when both lie within the anchor radius of it (`rest_home`).
+    pub pooled_home: bool,
 }
 
 impl SegmenterConfig {
@@ -80,6 +83,7 @@ impl SegmenterConfig {
             home_camera: None,
             late_null: false,
             held_rests: false,
+            pooled_home: false,
         }
     }
 
@@ -91,6 +95,7 @@ impl SegmenterConfig {
             match_settings: MatchSettings::events(),
             late_null: true,
             held_rests: true,
+            pooled_home: true,
             ..Self::rgb()
         }
     }
@@ -271,6 +276,7 @@ pub struct Segmenter {
     vetoed_null_ns: Option<u64>,
     /// The candidate path left its rest by a jump ([`SegmenterConfig::held_rests`]).
     stale_rest: bool,
+    home: crate::logic::rest_home::RestHome,
 }
 
 impl Segmenter {
@@ -295,6 +301,7 @@ impl Segmenter {
             ego: None,
             vetoed_null_ns: None,
             stale_rest: false,
+            home: Default::default(),
         }
     }
 
@@ -529,6 +536,9 @@ impl Segmenter {
                 cause: TokenCause::Rest,
             });
         }
+        if self.config.pooled_home {
+            self.home.record(self.rest_mean());
+        }
         if self.after_null && self.motion_start_ns.is_some() {
             let mut candidate = self.path_px[..=anchor.path_index].to_vec();
             candidate.push(self.rest_mean());
@@ -536,6 +546,12 @@ impl Segmenter {
             if self.stale_rest && candidate.len() > 2 {
                 let reappeared = classify(&candidate[1..], &self.config.match_settings);
                 classified = better(classified, reappeared);
+            }
+            if let Err(Rejection::NotClosed { .. }) = classified
+                && self.config.pooled_home
+                && let Some(homed) = self.home.homed(&candidate, self.config.anchor_radius_px)
+            {
+                classified = better(classified, classify(&homed, &self.config.match_settings));
             }
             out.push(match classified {
                 Ok(c) => SegmentToken {
@@ -754,6 +770,65 @@ pub(crate) mod tests {
                 "from {from_px} px: {null_ns}"
             );
         }
+    }
+
+    /// Three symbols at `scale_px` from home, the last one's rest read at `end_px`.
+    fn three_symbols_ending_at(end_px: [f64; 2], scale_px: f64) -> Vec<Sample> {
+        let mut sc = Script::new(0);
+        sc.hover(CENTRE, 4 * S)
+            .draw(Action::Bit0, CENTRE, scale_px, 4 * S)
+            .hover(CENTRE, 4 * S)
+            .draw(Action::Bit1, CENTRE, scale_px, 4 * S)
+            .hover(CENTRE, 4 * S)
+            .draw(Action::Bit0, CENTRE, scale_px, 4 * S)
+            .hover(end_px, 4 * S);
+        sc.samples
+    }
+
+    fn events(pooled_home: bool) -> Segmenter {
+        Segmenter::new(SegmenterConfig {
+            pooled_home,
+            ..SegmenterConfig::events()
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn a_rest_read_short_of_home_is_closed_at_the_windows_home() {
+        let short = [CENTRE[0] + 14.0, CENTRE[1]];
+        let out = run(&mut events(false), &three_symbols_ending_at(short, 46.0));
+        assert_eq!(out[5].token, Token::Unknown, "{out:?}");
+        assert!(
+            matches!(
+                out[5].cause,
+                TokenCause::Rejected(Rejection::NotClosed { .. })
+            ),
+            "{:?}",
+            out[5]
+        );
+        let out = run(&mut events(true), &three_symbols_ending_at(short, 46.0));
+        assert_eq!(
+            tokens(&out),
+            [
+                Token::Null,
+                Token::Bit0,
+                Token::Null,
+                Token::Bit1,
+                Token::Null,
+                Token::Bit0,
+                Token::Null
+            ]
+        );
+        // A rest beyond the anchor radius of home is not home: the path stays open.
+        let far = [CENTRE[0] + 24.0, CENTRE[1]];
+        let out = run(&mut events(true), &three_symbols_ending_at(far, 46.0));
+        assert_eq!(out[5].token, Token::Unknown, "{out:?}");
+        // Closed paths read as before: the same tokens with the home on or off.
+        let closed = three_symbols_ending_at(CENTRE, 46.0);
+        assert_eq!(
+            run(&mut events(true), &closed),
+            run(&mut events(false), &closed)
+        );
     }
 
     #[test]
