@@ -536,9 +536,7 @@ impl Segmenter {
                 cause: TokenCause::Rest,
             });
         }
-        if self.config.pooled_home {
-            self.home.record(self.rest_mean());
-        }
+        self.home.record(self.rest_mean()); // read only with `pooled_home`
         if self.after_null && self.motion_start_ns.is_some() {
             let mut candidate = self.path_px[..=anchor.path_index].to_vec();
             candidate.push(self.rest_mean());
