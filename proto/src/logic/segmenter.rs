@@ -66,8 +66,8 @@ pub struct SegmenterConfig {
     /// and the better match is kept.
     pub held_rests: bool,
     /// A path rejected only because its ends do not meet is read again with both ends at the
-    /// window's home when both lie within the anchor radius of it (`rest_home`).
-    pub pooled_home: bool,
+    /// window's home when both lie within this distance of it (`rest_home`); `None`: never.
+    pub pooled_home_px: Option<f64>,
 }
 
 impl SegmenterConfig {
@@ -83,7 +83,7 @@ impl SegmenterConfig {
             home_camera: None,
             late_null: false,
             held_rests: false,
-            pooled_home: false,
+            pooled_home_px: None,
         }
     }
 
@@ -95,7 +95,7 @@ impl SegmenterConfig {
             match_settings: MatchSettings::events(),
             late_null: true,
             held_rests: true,
-            pooled_home: true,
+            pooled_home_px: Some(40.0), // half a drone (24 px) + an ego-motion cell: ARCHITECTURE.md
             ..Self::rgb()
         }
     }
@@ -536,7 +536,7 @@ impl Segmenter {
                 cause: TokenCause::Rest,
             });
         }
-        self.home.record(self.rest_mean()); // read only with `pooled_home`
+        self.home.record(self.rest_mean()); // read only with `pooled_home_px`
         if self.after_null && self.motion_start_ns.is_some() {
             let mut candidate = self.path_px[..=anchor.path_index].to_vec();
             candidate.push(self.rest_mean());
@@ -546,8 +546,8 @@ impl Segmenter {
                 classified = better(classified, reappeared);
             }
             if let Err(Rejection::NotClosed { .. }) = classified
-                && self.config.pooled_home
-                && let Some(homed) = self.home.homed(&candidate, self.config.anchor_radius_px)
+                && let Some(reach_px) = self.config.pooled_home_px
+                && let Some(homed) = self.home.homed(&candidate, reach_px)
             {
                 classified = better(classified, classify(&homed, &self.config.match_settings));
             }
@@ -783,9 +783,9 @@ pub(crate) mod tests {
         sc.samples
     }
 
-    fn events(pooled_home: bool) -> Segmenter {
+    fn events(reach_px: Option<f64>) -> Segmenter {
         Segmenter::new(SegmenterConfig {
-            pooled_home,
+            pooled_home_px: reach_px,
             ..SegmenterConfig::events()
         })
         .unwrap()
@@ -794,7 +794,7 @@ pub(crate) mod tests {
     #[test]
     fn a_rest_read_short_of_home_is_closed_at_the_windows_home() {
         let short = [CENTRE[0] + 14.0, CENTRE[1]];
-        let out = run(&mut events(false), &three_symbols_ending_at(short, 46.0));
+        let out = run(&mut events(None), &three_symbols_ending_at(short, 46.0));
         assert_eq!(out[5].token, Token::Unknown, "{out:?}");
         assert!(
             matches!(
@@ -804,7 +804,10 @@ pub(crate) mod tests {
             "{:?}",
             out[5]
         );
-        let out = run(&mut events(true), &three_symbols_ending_at(short, 46.0));
+        let out = run(
+            &mut events(Some(20.0)),
+            &three_symbols_ending_at(short, 46.0),
+        );
         assert_eq!(
             tokens(&out),
             [
@@ -817,16 +820,57 @@ pub(crate) mod tests {
                 Token::Null
             ]
         );
-        // A rest beyond the anchor radius of home is not home: the path stays open.
+        // A rest beyond the reach of home is not home: the path stays open.
         let far = [CENTRE[0] + 24.0, CENTRE[1]];
-        let out = run(&mut events(true), &three_symbols_ending_at(far, 46.0));
+        let out = run(&mut events(Some(20.0)), &three_symbols_ending_at(far, 46.0));
         assert_eq!(out[5].token, Token::Unknown, "{out:?}");
         // Closed paths read as before: the same tokens with the home on or off.
         let closed = three_symbols_ending_at(CENTRE, 46.0);
         assert_eq!(
-            run(&mut events(true), &closed),
-            run(&mut events(false), &closed)
+            run(&mut events(Some(20.0)), &closed),
+            run(&mut events(None), &closed)
         );
+    }
+
+    /// Two bits, then END flown at `scale_px` whose final approach to home is seen only up to
+    /// `short_px` before home (the receiver holds its last sighting through the rest).
+    fn end_lost_short_of_home(scale_px: f64, short_px: f64) -> Vec<Sample> {
+        let mut sc = Script::new(0);
+        sc.hover(CENTRE, 4 * S)
+            .draw(Action::Bit0, CENTRE, 46.0, 4 * S)
+            .hover(CENTRE, 4 * S)
+            .draw(Action::Bit1, CENTRE, 46.0, 4 * S)
+            .hover(CENTRE, 4 * S);
+        let mut poly: Vec<[f64; 2]> = Action::End
+            .image_polyline()
+            .iter()
+            .map(|q| [CENTRE[0] + scale_px * q[0], CENTRE[1] + scale_px * q[1]])
+            .collect();
+        let n = poly.len();
+        let (a, b) = (poly[n - 2], poly[n - 1]);
+        let last_px = dist(a, b);
+        assert!(last_px > short_px, "END's last leg is {last_px} px");
+        let t = 1.0 - short_px / last_px;
+        poly[n - 1] = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+        sc.polyline(&poly, 6 * S).hover(poly[n - 1], 4 * S);
+        sc.samples
+    }
+
+    #[test]
+    fn an_arrival_lost_within_the_reach_of_home_is_closed_at_home() {
+        let end = |reach_px, short_px| {
+            let out = run(
+                &mut events(reach_px),
+                &end_lost_short_of_home(70.0, short_px),
+            );
+            out[5].token
+        };
+        let reach = SegmenterConfig::events().pooled_home_px;
+        assert_eq!(end(None, 0.0), Token::End);
+        assert_eq!(end(None, 34.0), Token::Unknown);
+        assert_eq!(end(reach, 34.0), Token::End);
+        // Beyond the reach the rest is somewhere else: the path stays open.
+        assert_eq!(end(reach, 50.0), Token::Unknown);
     }
 
     #[test]
