@@ -635,6 +635,17 @@ pub(crate) mod tests {
             self
         }
 
+        /// From a 4 s hover at home, each of `actions` drawn at `scale_px` and followed by a
+        /// 4 s hover at home.
+        pub fn symbols(&mut self, actions: &[Action], scale_px: f64) -> &mut Self {
+            self.hover(CENTRE, 4 * S);
+            for &action in actions {
+                self.draw(action, CENTRE, scale_px, 4 * S)
+                    .hover(CENTRE, 4 * S);
+            }
+            self
+        }
+
         /// Draw `action`'s image polyline at `scale_px` from `p` at constant speed.
         pub fn draw(
             &mut self,
@@ -773,11 +784,7 @@ pub(crate) mod tests {
     /// Three symbols at `scale_px` from home, the last one's rest read at `end_px`.
     fn three_symbols_ending_at(end_px: [f64; 2], scale_px: f64) -> Vec<Sample> {
         let mut sc = Script::new(0);
-        sc.hover(CENTRE, 4 * S)
-            .draw(Action::Bit0, CENTRE, scale_px, 4 * S)
-            .hover(CENTRE, 4 * S)
-            .draw(Action::Bit1, CENTRE, scale_px, 4 * S)
-            .hover(CENTRE, 4 * S)
+        sc.symbols(&[Action::Bit0, Action::Bit1], scale_px)
             .draw(Action::Bit0, CENTRE, scale_px, 4 * S)
             .hover(end_px, 4 * S);
         sc.samples
@@ -836,11 +843,7 @@ pub(crate) mod tests {
     /// `short_px` before home (the receiver holds its last sighting through the rest).
     fn end_lost_short_of_home(scale_px: f64, short_px: f64) -> Vec<Sample> {
         let mut sc = Script::new(0);
-        sc.hover(CENTRE, 4 * S)
-            .draw(Action::Bit0, CENTRE, 46.0, 4 * S)
-            .hover(CENTRE, 4 * S)
-            .draw(Action::Bit1, CENTRE, 46.0, 4 * S)
-            .hover(CENTRE, 4 * S);
+        sc.symbols(&[Action::Bit0, Action::Bit1], 46.0);
         let mut poly: Vec<[f64; 2]> = Action::End
             .image_polyline()
             .iter()
@@ -1062,9 +1065,7 @@ pub(crate) mod tests {
         let seg = || Segmenter::new(SegmenterConfig::events()).unwrap();
         // Two vetoed rests: the symbol after the second one is the candidate.
         let mut sc = Script::new(0);
-        sc.hover(CENTRE, 4 * S)
-            .draw(Action::End, CENTRE, 90.0, 4 * S)
-            .hover(CENTRE, 4 * S)
+        sc.symbols(&[Action::End], 90.0)
             .draw(Action::Bit1, CENTRE, 90.0, 4 * S)
             .hover(CENTRE, 5 * S);
         let out = run(&mut seg(), &gated(&sc, 18 * S));
