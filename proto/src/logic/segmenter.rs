@@ -34,7 +34,6 @@
 //! symbol that locked it). A second vetoed rest replaces the first; overlong motion or an
 //! interruption drops it.
 
-use crate::logic::rest_home::{Reading, better};
 use crate::{Classification, MatchSettings, Rejection, Token, classify};
 
 /// Segmenter settings.
@@ -273,9 +272,8 @@ pub struct Segmenter {
     /// How far the observer's airframe has turned from its home attitude, undone on every
     /// sample's point before rectification (`None`: not turned, or not known).
     ego: Option<crate::stabilise::EgoRotation>,
-    /// Stamp and rest of the vetoed NULL held as the current delimiter
-    /// ([`SegmenterConfig::late_null`]).
-    vetoed_null: Option<(u64, [f64; 2])>,
+    /// Stamp of the vetoed NULL held as the current delimiter ([`SegmenterConfig::late_null`]).
+    vetoed_null_ns: Option<u64>,
     /// The candidate path left its rest by a jump ([`SegmenterConfig::held_rests`]).
     stale_rest: bool,
     home: crate::logic::rest_home::RestHome,
@@ -301,7 +299,7 @@ impl Segmenter {
             path_px: Vec::new(),
             recent: std::collections::VecDeque::new(),
             ego: None,
-            vetoed_null: None,
+            vetoed_null_ns: None,
             stale_rest: false,
             home: Default::default(),
         }
@@ -328,7 +326,7 @@ impl Segmenter {
 
     /// True while the current rest has been confirmed as NULL.
     pub fn is_resting(&self) -> bool {
-        self.rested && self.vetoed_null.is_none()
+        self.rested && self.vetoed_null_ns.is_none()
     }
 
     /// Stamp of the last sample or interruption.
@@ -337,7 +335,7 @@ impl Segmenter {
     }
 
     /// Consumes one sample; returns the tokens it confirms (0, 1 or 2 — an action and its NULL,
-    /// or an interruption — or 4 when a deferred reading is released with the next rest's). Malformed samples are rejected and leave the state unchanged.
+    /// or an interruption). Malformed samples are rejected and leave the state unchanged.
     pub fn push(&mut self, sample: Sample) -> Result<Vec<SegmentToken>, SegmenterError> {
         if let Some(previous_ns) = self.last_stamp_ns
             && sample.stamp_ns <= previous_ns
@@ -423,7 +421,7 @@ impl Segmenter {
             && motion_ns > self.config.max_motion_ns
         {
             // After a vetoed NULL no delimiter was ever emitted: nothing to report.
-            if self.vetoed_null.take().is_none() {
+            if self.vetoed_null_ns.take().is_none() {
                 out.push(SegmentToken {
                     token: Token::Unknown,
                     stamp_ns,
@@ -433,7 +431,6 @@ impl Segmenter {
             self.after_null = false;
             self.motion_start_ns = None;
             self.path_px.clear();
-            self.home.drop_deferred();
         }
         let anchor = Anchor {
             point_px: p,
@@ -446,7 +443,7 @@ impl Segmenter {
         if stamp_ns - start_ns >= self.config.null_confirm_ns {
             if sample.null_allowed {
                 self.confirm_null(stamp_ns, anchor, &mut out);
-            } else if self.config.late_null && (!self.after_null || self.vetoed_null.is_some()) {
+            } else if self.config.late_null && (!self.after_null || self.vetoed_null_ns.is_some()) {
                 self.hold_vetoed_null(stamp_ns);
             }
         }
@@ -476,8 +473,7 @@ impl Segmenter {
         self.motion_start_ns = None;
         self.path_px.clear();
         self.rest_count = 0;
-        self.vetoed_null = None;
-        self.home.drop_deferred();
+        self.vetoed_null_ns = None;
         if self.interrupted {
             return None;
         }
@@ -499,10 +495,13 @@ impl Segmenter {
     ) {
         self.rest_sum_px = [self.rest_sum_px[0] + p[0], self.rest_sum_px[1] + p[1]];
         self.rest_count = self.rest_count.saturating_add(1);
-        if null_allowed && let Some((_, rest_px)) = self.vetoed_null.take() {
+        if null_allowed && self.vetoed_null_ns.take().is_some() {
             // The gate opened on the vetoed rest itself: an ordinary NULL, now.
-            self.home.record(rest_px);
-            out.push(null_token(stamp_ns));
+            out.push(SegmentToken {
+                token: Token::Null,
+                stamp_ns,
+                cause: TokenCause::Rest,
+            });
         }
     }
 
@@ -522,7 +521,7 @@ impl Segmenter {
 
     /// The current rest would be a NULL but for the gate: it delimits what follows, unemitted.
     fn hold_vetoed_null(&mut self, stamp_ns: u64) {
-        self.vetoed_null = Some((stamp_ns, self.rest_mean()));
+        self.vetoed_null_ns = Some(stamp_ns);
         self.rested = true;
         self.after_null = true;
         self.motion_start_ns = None;
@@ -530,29 +529,46 @@ impl Segmenter {
     }
 
     fn confirm_null(&mut self, stamp_ns: u64, anchor: Anchor, out: &mut Vec<SegmentToken>) {
-        if let Some((vetoed_ns, rest_px)) = self.vetoed_null.take() {
-            self.home.record(rest_px);
-            out.push(null_token(vetoed_ns));
+        if let Some(vetoed_ns) = self.vetoed_null_ns.take() {
+            out.push(SegmentToken {
+                token: Token::Null,
+                stamp_ns: vetoed_ns,
+                cause: TokenCause::Rest,
+            });
         }
         self.home.record(self.rest_mean()); // read only with `pooled_home_px`
-        let (reach_px, settings) = (self.config.pooled_home_px, &self.config.match_settings);
-        if let Some((reading, held_ns)) = self.home.take_deferred(reach_px, settings) {
-            out.extend(read_tokens(reading, held_ns));
-        }
         if self.after_null && self.motion_start_ns.is_some() {
             let mut candidate = self.path_px[..=anchor.path_index].to_vec();
             candidate.push(self.rest_mean());
-            let mut classified = classify(&candidate, settings);
+            let mut classified = classify(&candidate, &self.config.match_settings);
             if self.stale_rest && candidate.len() > 2 {
-                classified = better(classified, classify(&candidate[1..], settings));
+                let reappeared = classify(&candidate[1..], &self.config.match_settings);
+                classified = better(classified, reappeared);
             }
-            let reading = self
-                .home
-                .read(candidate, classified, stamp_ns, reach_px, settings);
-            out.extend(reading.into_iter().flat_map(|r| read_tokens(r, stamp_ns)));
-        } else {
-            out.push(null_token(stamp_ns));
+            if let Err(Rejection::NotClosed { .. }) = classified
+                && let Some(reach_px) = self.config.pooled_home_px
+                && let Some(homed) = self.home.homed(&candidate, reach_px)
+            {
+                classified = better(classified, classify(&homed, &self.config.match_settings));
+            }
+            out.push(match classified {
+                Ok(c) => SegmentToken {
+                    token: c.action.token(),
+                    stamp_ns,
+                    cause: TokenCause::Classified(c),
+                },
+                Err(r) => SegmentToken {
+                    token: Token::Unknown,
+                    stamp_ns,
+                    cause: TokenCause::Rejected(r),
+                },
+            });
         }
+        out.push(SegmentToken {
+            token: Token::Null,
+            stamp_ns,
+            cause: TokenCause::Rest,
+        });
         self.rested = true;
         self.after_null = true;
         self.motion_start_ns = None;
@@ -565,28 +581,16 @@ impl Segmenter {
     }
 }
 
-/// A symbol's token (its action, or `Unknown` with the rejection) and the NULL that closed it.
-fn read_tokens(reading: Reading, stamp_ns: u64) -> [SegmentToken; 2] {
-    let action = match reading {
-        Ok(c) => SegmentToken {
-            token: c.action.token(),
-            stamp_ns,
-            cause: TokenCause::Classified(c),
-        },
-        Err(r) => SegmentToken {
-            token: Token::Unknown,
-            stamp_ns,
-            cause: TokenCause::Rejected(r),
-        },
-    };
-    [action, null_token(stamp_ns)]
-}
-
-fn null_token(stamp_ns: u64) -> SegmentToken {
-    SegmentToken {
-        token: Token::Null,
-        stamp_ns,
-        cause: TokenCause::Rest,
+/// The better of two classifications of one symbol: an accepted one over a rejection, the
+/// closer match of two accepted ones (ties to `a`).
+fn better(
+    a: Result<Classification, Rejection>,
+    b: Result<Classification, Rejection>,
+) -> Result<Classification, Rejection> {
+    match (&a, &b) {
+        (Err(_), Ok(_)) => b,
+        (Ok(x), Ok(y)) if y.error < x.error => b,
+        _ => a,
     }
 }
 
@@ -855,104 +859,6 @@ pub(crate) mod tests {
         sc.samples
     }
 
-    /// The window's first rest held `short_px` beside home (the rest after the acquisition
-    /// sweep, whose arrival was lost), then START and Bit0 flown from home.
-    fn start_from_a_short_first_rest(short_px: f64) -> Script {
-        let mut sc = Script::new(0);
-        sc.hover([CENTRE[0] + short_px, CENTRE[1]], 4 * S)
-            .draw(Action::Start, CENTRE, 46.0, 4 * S)
-            .hover(CENTRE, 4 * S)
-            .draw(Action::Bit0, CENTRE, 46.0, 4 * S)
-            .hover(CENTRE, 4 * S);
-        sc
-    }
-
-    #[test]
-    fn a_start_read_before_there_is_a_home_waits_for_the_next_rest() {
-        // Without the second reading of a rest left by a jump, so that only the home reads it.
-        let events = |reach_px| {
-            Segmenter::new(SegmenterConfig {
-                held_rests: false,
-                pooled_home_px: reach_px,
-                ..SegmenterConfig::events()
-            })
-            .unwrap()
-        };
-        let samples = start_from_a_short_first_rest(30.0).samples;
-        let out = run(&mut events(None), &samples);
-        assert_eq!(
-            tokens(&out),
-            [
-                Token::Null,
-                Token::Unknown,
-                Token::Null,
-                Token::Bit0,
-                Token::Null
-            ]
-        );
-        assert!(matches!(
-            out[1].cause,
-            TokenCause::Rejected(Rejection::NotClosed { .. })
-        ));
-        // With a pooled home the START waits for the Bit0's rest (the third), is read at the
-        // home it pools and is emitted before the Bit0, with its own stamps.
-        let reach = SegmenterConfig::events().pooled_home_px;
-        let mut seg = events(reach);
-        let mut emitted = Vec::new();
-        for (k, &s) in samples.iter().enumerate() {
-            emitted.extend(seg.push(s).unwrap().into_iter().map(|t| (k, t)));
-        }
-        let pooled: Vec<SegmentToken> = emitted.iter().map(|&(_, t)| t).collect();
-        assert_eq!(
-            tokens(&pooled),
-            [
-                Token::Null,
-                Token::Start,
-                Token::Null,
-                Token::Bit0,
-                Token::Null
-            ]
-        );
-        let stamps: Vec<u64> = pooled.iter().map(|t| t.stamp_ns).collect();
-        assert_eq!(stamps[1..3], [out[1].stamp_ns, out[2].stamp_ns]);
-        assert!(stamps.windows(2).all(|w| w[0] <= w[1]), "{stamps:?}");
-        assert!(
-            emitted[1].0 == emitted[4].0,
-            "released with the Bit0's rest"
-        );
-        // A first rest beyond the reach stays a rejection, emitted at the next rest too.
-        let far = run(
-            &mut events(reach),
-            &start_from_a_short_first_rest(60.0).samples,
-        );
-        assert_eq!(tokens(&far)[1], Token::Unknown, "{far:?}");
-        // An interruption before the next rest drops the waiting reading with its NULL: the
-        // interruption's Unknown discards the frame either way.
-        let mut cut = start_from_a_short_first_rest(30.0);
-        let until = samples.len() - 1;
-        cut.samples.truncate(until - (8 * S / PERIOD_NS) as usize);
-        cut.sample(Sample::lost);
-        let got = tokens(&run(&mut events(reach), &cut.samples));
-        assert_eq!(got, [Token::Null, Token::Unknown], "{got:?}");
-        // The first rest vetoed by a closed gate (opened 1.5 s into START's rest, when the
-        // receiver's acquisition sees START's path settle) is a
-        // rest of the target once its late NULL is emitted, and votes for the home as well:
-        // without it only two rests would have been pooled when the Bit0 came to rest.
-        let sc = start_from_a_short_first_rest(30.0);
-        let late = gated(&sc, 8 * S + 3 * S / 2);
-        let got = tokens(&run(&mut events(reach), &late));
-        assert_eq!(
-            got,
-            [
-                Token::Null,
-                Token::Start,
-                Token::Null,
-                Token::Bit0,
-                Token::Null
-            ]
-        );
-    }
-
     #[test]
     fn an_arrival_lost_within_the_reach_of_home_is_closed_at_home() {
         let end = |reach_px, short_px| {
@@ -1203,7 +1109,6 @@ pub(crate) mod tests {
             for held_rests in [false, true] {
                 let config = SegmenterConfig {
                     held_rests,
-                    pooled_home_px: None,
                     ..SegmenterConfig::events()
                 };
                 let out = run(&mut Segmenter::new(config).unwrap(), &sc.samples);
