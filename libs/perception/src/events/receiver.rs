@@ -25,7 +25,7 @@ use crate::events::denoise::{DenoiseConfig, DenoiseCounts, NoiseFilter};
 use crate::events::ego_motion::EgoMotionFilter;
 use crate::events::error::EventReceiverError;
 use crate::events::health::{Delivery, DeliveryMonitor, Discontinuity, PacketRejection};
-use crate::events::support::Window;
+use crate::events::support::{Centre, Window};
 use crate::events::tracker::{EventTrackerConfig, Observation, SupportTracker, TrackFault};
 use proto::decoder::{DecodeStep, Decoder};
 use proto::segmenter::{Sample, SegmentToken, SegmenterConfig, TokenCause};
@@ -368,6 +368,9 @@ impl EventReceiver {
             self.tracker.doubt();
         }
         let seen = if self.ego_motion.active() {
+            // What the front end keeps is whole cells: the support's median, not its
+            // percentile bounds, tells where the target is in them (`support::Centre`).
+            self.tracker.set_centre(Centre::Median);
             self.ego_motion.filter(&self.filtered, &mut self.moving);
             &self.moving
         } else {

@@ -12,6 +12,20 @@ use proto::EventPacket;
 pub const LOWER_PERCENTILE: f64 = 0.025;
 pub const UPPER_PERCENTILE: f64 = 0.975;
 
+/// Where a support's centre is put.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Centre {
+    /// The paper's: the midpoint of the 2.5th and 97.5th percentile bounds, per axis.
+    #[default]
+    PercentileMidpoint,
+    /// The median, per axis: what a turning camera's support needs. Its ego-motion front end
+    /// keeps or removes whole 16 px cells, so a static edge that crosses the target's cells
+    /// (the floor's far edge behind a drone seen from above) is kept with it as a line a cell
+    /// long; that line's few dozen pixels move the 97.5th percentile bound, and with it the
+    /// midpoint, by up to half a cell, and barely move the median of the target's hundreds.
+    Median,
+}
+
 /// An axis-aligned pixel window, `x0 ≤ x < x1`, `y0 ≤ y < y1`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Window {
@@ -156,6 +170,16 @@ impl SupportScratch {
 /// integer moment sums (for the principal spread). Events outside the sensor are ignored rather
 /// than trusted.
 pub fn gather(packet: &EventPacket, window: Window, scratch: &mut SupportScratch) -> Evidence {
+    gather_centred(packet, window, Centre::PercentileMidpoint, scratch)
+}
+
+/// [`gather`] with the support's centre put by `rule`.
+pub fn gather_centred(
+    packet: &EventPacket,
+    window: Window,
+    rule: Centre,
+    scratch: &mut SupportScratch,
+) -> Evidence {
     let window = Window {
         x0: window.x0,
         y0: window.y0,
@@ -221,8 +245,12 @@ pub fn gather(packet: &EventPacket, window: Window, scratch: &mut SupportScratch
     let var_y = syy as f64 / count - my * my;
     let cov = sxy as f64 / count - mx * my;
     let minor_var = 0.5 * (var_x + var_y) - (0.25 * (var_x - var_y).powi(2) + cov * cov).sqrt();
-    let (x_lo, x_hi, x_span) = percentile_bounds(&scratch.hist_x, n);
-    let (y_lo, y_hi, y_span) = percentile_bounds(&scratch.hist_y, n);
+    let lower = match rule {
+        Centre::PercentileMidpoint => LOWER_PERCENTILE,
+        Centre::Median => 0.5,
+    };
+    let (x_lo, x_hi, x_span) = percentile_bounds(&scratch.hist_x, n, lower);
+    let (y_lo, y_hi, y_span) = percentile_bounds(&scratch.hist_y, n, lower);
     let centre =
         |lo: usize, hi: usize, origin: u16| 0.5 * (lo + hi) as f64 + f64::from(origin) + 0.5;
     Evidence {
@@ -235,12 +263,17 @@ pub fn gather(packet: &EventPacket, window: Window, scratch: &mut SupportScratch
     }
 }
 
-/// (2.5th percentile, 97.5th percentile, max − min) of the `n` (> 0) values counted in
-/// `hist`, nearest rank.
-fn percentile_bounds(hist: &[u32], n: u64) -> (usize, usize, u16) {
+/// (`lower` percentile, `1 − lower` percentile, max − min) of the `n` (> 0) values counted in
+/// `hist`, nearest rank (`lower` 0.5: the median twice).
+fn percentile_bounds(hist: &[u32], n: u64, lower: f64) -> (usize, usize, u16) {
     let last = n - 1;
     let rank = |q: f64| ((q * last as f64).round() as u64).min(last);
-    let (lo_rank, hi_rank) = (rank(LOWER_PERCENTILE), rank(UPPER_PERCENTILE));
+    let upper = if lower == LOWER_PERCENTILE {
+        UPPER_PERCENTILE
+    } else {
+        1.0 - lower
+    };
+    let (lo_rank, hi_rank) = (rank(lower), rank(upper));
     let (mut lo, mut hi) = (None, None);
     let mut below = 0u64;
     for (v, &c) in hist.iter().enumerate() {
@@ -304,6 +337,34 @@ mod tests {
     fn packet(events: &[(u16, u16, Polarity)]) -> EventPacket {
         let events: Vec<_> = events.iter().map(|&(x, y, p)| (x, y, 1, p)).collect();
         EventPacket::from_events(0, (0, 40_000_000), (640, 480), &events)
+    }
+
+    /// A target of 48×12 pixels with a static edge kept beside it (a 30 px line leaving its
+    /// right end, as a turning camera's front end keeps whole cells): the paper's midpoint
+    /// follows the line by half its length, the median moves by the line's share of the pixels.
+    #[test]
+    fn the_median_centre_is_not_pulled_along_an_edge_beside_the_target() {
+        let mut ev: Vec<_> = (0..48 * 12)
+            .map(|i| (300 + i % 48, 230 + i / 48, Polarity::On))
+            .collect();
+        ev.extend((348..378).flat_map(|x| [(x, 229, Polarity::Off), (x, 228, Polarity::On)]));
+        let mut scratch = SupportScratch::new(640, 480);
+        let full = Window::full(640, 480);
+        let target = [324.0, 236.0];
+        let paper = gather(&packet(&ev), full, &mut scratch).centre_px.unwrap();
+        let median = gather_centred(&packet(&ev), full, Centre::Median, &mut scratch)
+            .centre_px
+            .unwrap();
+        assert!(paper[0] - target[0] > 10.0, "paper rule {paper:?}");
+        assert!((median[0] - target[0]).abs() <= 3.0, "median {median:?}");
+        assert!((median[1] - target[1]).abs() <= 2.0, "median {median:?}");
+        // Without the edge both rules agree on the target's centre.
+        ev.truncate(48 * 12);
+        let paper = gather(&packet(&ev), full, &mut scratch).centre_px.unwrap();
+        let median = gather_centred(&packet(&ev), full, Centre::Median, &mut scratch)
+            .centre_px
+            .unwrap();
+        assert!((paper[0] - median[0]).abs() <= 1.0 && (paper[1] - median[1]).abs() <= 1.0);
     }
 
     #[test]

@@ -30,7 +30,9 @@ use std::collections::VecDeque;
 use proto::EventPacket;
 
 use crate::events::error::EventReceiverError;
-use crate::events::support::{Evidence, SupportScratch, Window, active_cells, gather};
+use crate::events::support::{
+    Centre, Evidence, SupportScratch, Window, active_cells, gather_centred,
+};
 
 /// Tracker settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -237,6 +239,9 @@ pub struct SupportTracker {
     /// Packets that located the current track (saturating) and packets since the last one.
     located_packets: u32,
     held_packets: u32,
+    /// Where a support's centre is put (the paper's rule until a turning camera asks for
+    /// the median).
+    centre: Centre,
     scratch: SupportScratch,
 }
 
@@ -263,6 +268,7 @@ impl SupportTracker {
             pending: None,
             located_packets: 0,
             held_packets: 0,
+            centre: Centre::PercentileMidpoint,
             scratch: SupportScratch::new(width, height),
         })
     }
@@ -292,6 +298,11 @@ impl SupportTracker {
                 self.height,
             ),
         }
+    }
+
+    /// Puts the centre of every later packet's support by `rule`.
+    pub fn set_centre(&mut self, rule: Centre) {
+        self.centre = rule;
     }
 
     /// Drops the target (a delivery discontinuity or a reset): search again.
@@ -333,7 +344,7 @@ impl SupportTracker {
                 });
             }
         }
-        let evidence = gather(packet, self.window(), &mut self.scratch);
+        let evidence = gather_centred(packet, self.window(), self.centre, &mut self.scratch);
         let counts = [evidence.on_events as u64, evidence.off_events() as u64];
         if let Some(pending) = self.pending.take() {
             let window = [pending[0] + counts[0], pending[1] + counts[1]];
