@@ -214,7 +214,17 @@ fn ctrl_c_keeps_the_finished_trials() {
         .stdout(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_secs(45));
+    // Interrupt once a trial has finished (its record is written as it ends), not after a
+    // fixed time: on a machine busy with other tests a trial can take longer than any guess.
+    let waiting = Instant::now();
+    while std::fs::read_dir(dir.join("trials")).map_or(0, |d| d.count()) == 0 {
+        assert!(
+            waiting.elapsed() < Duration::from_secs(900),
+            "no trial finished in 900 s"
+        );
+        assert!(child.try_wait().unwrap().is_none(), "exited before a trial");
+        std::thread::sleep(Duration::from_millis(250));
+    }
     Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()
