@@ -182,7 +182,7 @@ impl ObserverRuntime {
 
     fn absorb(&mut self, step: DecodeStep, now_ns: u64, report: &mut TickReport) {
         for t in &step.tokens {
-            self.parser.push(t.token, t.stamp_ns);
+            self.parser.push_segment(t);
             report.tokens.push(TokenEvent {
                 observer: self.id.clone(),
                 seq: self.next_token_seq,

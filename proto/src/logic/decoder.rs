@@ -67,7 +67,7 @@ impl Decoder {
     fn parse(&mut self, tokens: Vec<SegmentToken>) -> DecodeStep {
         let frames = tokens
             .iter()
-            .filter_map(|t| self.parser.push(t.token, t.stamp_ns))
+            .filter_map(|t| self.parser.push_segment(t))
             .collect();
         DecodeStep { tokens, frames }
     }

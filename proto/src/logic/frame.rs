@@ -16,6 +16,12 @@
 //!
 //! Consequently a frame is released at a token iff the last 17 tokens since the last
 //! invalidation form a valid frame.
+//!
+//! One token may arrive out of order: an action the segmenter read only after it had emitted
+//! the NULL that follows it (a path that waited for the window's home,
+//! [`crate::segmenter::SegmentToken::late`]). [`FrameParser::push_late`] puts it back between
+//! the two NULLs it belongs between, as if it had arrived in order; anywhere else it
+//! invalidates what is held (it cannot be placed, so no frame may span it).
 
 use serde::{Deserialize, Serialize};
 
@@ -146,6 +152,18 @@ impl ReleasedFrame {
 pub struct FrameParser {
     /// Longest valid frame prefix that is a suffix of the input, with token stamps.
     held: Vec<(Token, u64)>,
+    /// Stamp of the last token pushed, when it was a NULL.
+    last_null_ns: Option<u64>,
+    /// The last two tokens pushed were NULLs: what was held between them, and both stamps.
+    gap: Option<NullGap>,
+}
+
+/// Where an action read late belongs: between two consecutive NULLs.
+#[derive(Debug, Clone)]
+struct NullGap {
+    held_after_first: Vec<(Token, u64)>,
+    first_ns: u64,
+    second_ns: u64,
 }
 
 impl FrameParser {
@@ -166,10 +184,52 @@ impl FrameParser {
     /// Drops any incomplete frame (input gap, lost tracking, round reset).
     pub fn interrupt(&mut self) {
         self.held.clear();
+        self.last_null_ns = None;
+        self.gap = None;
+    }
+
+    /// Feeds one token as the segmenter confirmed it: in order, or late ([`Self::push_late`]).
+    pub fn push_segment(
+        &mut self,
+        token: &crate::segmenter::SegmentToken,
+    ) -> Option<ReleasedFrame> {
+        if token.late {
+            self.push_late(token.token, token.stamp_ns)
+        } else {
+            self.push(token.token, token.stamp_ns)
+        }
+    }
+
+    /// Feeds an action read late: it belongs between the last two tokens pushed, which must be
+    /// NULLs stamped before it (the first) and not before it (the second). Placed there, the
+    /// frame is parsed as if it had arrived in order, and the second NULL may release it.
+    /// Anywhere else the action cannot be placed and everything held is dropped.
+    pub fn push_late(&mut self, token: Token, stamp_ns: u64) -> Option<ReleasedFrame> {
+        let gap = self
+            .gap
+            .take()
+            .filter(|g| g.first_ns < stamp_ns && stamp_ns <= g.second_ns);
+        let Some(gap) = gap else {
+            self.interrupt();
+            return None;
+        };
+        self.held = gap.held_after_first;
+        self.last_null_ns = Some(gap.first_ns);
+        let released = self.push(token, stamp_ns);
+        self.push(Token::Null, gap.second_ns).or(released)
     }
 
     /// Feeds one confirmed token; returns the frame it completes, if any.
     pub fn push(&mut self, token: Token, stamp_ns: u64) -> Option<ReleasedFrame> {
+        self.gap = match (token, self.last_null_ns) {
+            (Token::Null, Some(first_ns)) if first_ns <= stamp_ns => Some(NullGap {
+                held_after_first: self.held.clone(),
+                first_ns,
+                second_ns: stamp_ns,
+            }),
+            _ => None,
+        };
+        self.last_null_ns = (token == Token::Null).then_some(stamp_ns);
         if token == Token::Unknown {
             self.held.clear();
             return None;
@@ -316,6 +376,46 @@ mod tests {
     }
 
     #[test]
+    fn a_late_action_is_placed_only_between_two_nulls_before_it() {
+        let f = frame_tokens(0b101101);
+        // START read late: the frame is released by its final NULL as if in order.
+        let mut p = FrameParser::new();
+        p.push(f[0], 0);
+        p.push(f[2], 20);
+        assert_eq!(p.push_late(Token::Start, 20), None);
+        assert_eq!(p.progress(), 3);
+        let released: Vec<_> = (3..17)
+            .filter_map(|i| p.push(f[i], 10 * i as u64))
+            .collect();
+        assert_eq!(released.len(), 1);
+        assert_eq!(released[0].payload, 0b101101);
+        assert_eq!(released[0].token_stamps_ns[..3], [0, 20, 20]);
+        // END read late releases the frame at once, stamped by the NULL after it.
+        let mut p = FrameParser::new();
+        feed(&mut p, &f[..15]);
+        assert_eq!(p.push(Token::Null, 16_000), None);
+        let end = p
+            .push_late(Token::End, 16_000)
+            .expect("the late END completes the frame");
+        assert_eq!(end.final_null_ns(), 16_000);
+        // Not after two NULLs, or stamped outside their span: nothing held survives.
+        for (prefix, stamp_ns) in [(&f[..3], 2_000), (&f[..4], 3_000), (&f[..5], 1_000)] {
+            let mut p = FrameParser::new();
+            feed(&mut p, prefix);
+            p.push(Token::Null, 9_000);
+            assert_eq!(p.push_late(Token::Bit1, stamp_ns), None);
+            assert_eq!(p.progress(), 0, "{prefix:?} at {stamp_ns}");
+        }
+        // Only one action fits a gap.
+        let mut p = FrameParser::new();
+        p.push(Token::Null, 0);
+        p.push(Token::Null, 10);
+        p.push_late(Token::Start, 10);
+        assert_eq!(p.push_late(Token::Bit0, 10), None);
+        assert_eq!(p.progress(), 0);
+    }
+
+    #[test]
     fn end_alone_never_releases() {
         let mut p = FrameParser::new();
         let seq = [
@@ -374,6 +474,33 @@ mod tests {
                     prop_assert_eq!(f.token_stamps_ns, want);
                 }
             }
+        }
+
+        /// An action (or a rejection) pushed late, after the NULL that follows it, releases
+        /// exactly the frames, with the same stamps, that it releases in order.
+        #[test]
+        fn an_action_pushed_late_parses_as_in_order(seq in sequence_strategy(), pick in any::<prop::sample::Index>()) {
+            let gaps: Vec<usize> = (1..seq.len().saturating_sub(1))
+                .filter(|&k| seq[k - 1] == Token::Null && seq[k] != Token::Null && seq[k + 1] == Token::Null)
+                .collect();
+            prop_assume!(!gaps.is_empty());
+            let k = gaps[pick.index(gaps.len())];
+            let stamp = |j: usize| 10 * j as u64;
+            let mut in_order = FrameParser::new();
+            let want: Vec<ReleasedFrame> =
+                seq.iter().enumerate().filter_map(|(j, &t)| in_order.push(t, stamp(j))).collect();
+            let mut late = FrameParser::new();
+            let mut got = Vec::new();
+            for (j, &t) in seq.iter().enumerate() {
+                if j == k {
+                    continue;
+                }
+                got.extend(late.push(t, stamp(j)));
+                if j == k + 1 {
+                    got.extend(late.push_late(seq[k], stamp(k)));
+                }
+            }
+            prop_assert_eq!(got, want, "action {:?} at {} of {:?}", seq[k], k, seq);
         }
 
         #[test]

@@ -7,8 +7,21 @@
 //! that reading can fall 7–14 px short while the window's other rests agree within ≈ 2 px
 //! (measured, ARCHITECTURE.md, "`v2e-noisy` at the range's edge"). The component-wise median
 //! of the window's rests is a reading of home that one short rest cannot move.
+//!
+//! A window's first symbols come before it has rests enough for a median: a path rejected only
+//! for its open ends then *waits* for the next confirmed rest, which pools a home, and is read
+//! there. Its NULL is not held back (a delimiter must never wait on a later rest): the reading
+//! is emitted late, flagged so, and the frame parser puts it back between the two NULLs it
+//! belongs between ([`crate::FrameParser::push_late`]). The event receiver's START, whose
+//! start is the rest after the acquisition sweep, is such a symbol (ARCHITECTURE.md, "A START
+//! read before there is a home").
 
 use std::collections::VecDeque;
+
+use crate::{Classification, MatchSettings, Rejection, classify};
+
+/// A symbol's reading: accepted, or why not.
+pub(crate) type Reading = Result<Classification, Rejection>;
 
 /// Rests that vote, the latest first out of the window when it is full: a home that drifts
 /// (an observer in wind) is followed, not averaged over the whole reception.
@@ -17,10 +30,19 @@ const MAX_RESTS: usize = 8;
 /// Fewest rests for a median that one outlier cannot decide.
 const MIN_RESTS: usize = 3;
 
-/// The window's confirmed rest positions (image pixels).
+/// The window's confirmed rest positions (image pixels) and the reading waiting for a home.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct RestHome {
     rests_px: VecDeque<[f64; 2]>,
+    waiting: Option<Waiting>,
+}
+
+/// A path rejected only for its open ends before the window had a home.
+#[derive(Debug, Clone)]
+struct Waiting {
+    candidate: Vec<[f64; 2]>,
+    reading: Reading,
+    stamp_ns: u64,
 }
 
 impl RestHome {
@@ -64,6 +86,75 @@ impl RestHome {
         homed[0] = home;
         homed[candidate.len() - 1] = home;
         Some(homed)
+    }
+
+    /// The reading of `candidate` (first read as `reading`, at `stamp_ns`) to emit now, or
+    /// `None` when it waits for a home. Only a path rejected only for its open ends is read
+    /// again, with both ends at the home within `reach_px` (`None`: no pooling, `reading` as is).
+    pub(crate) fn read(
+        &mut self,
+        candidate: Vec<[f64; 2]>,
+        reading: Reading,
+        stamp_ns: u64,
+        reach_px: Option<f64>,
+        settings: &MatchSettings,
+    ) -> Option<Reading> {
+        let (Err(Rejection::NotClosed { .. }), Some(reach_px)) = (&reading, reach_px) else {
+            return Some(reading);
+        };
+        if self.centre_px().is_none() {
+            self.waiting = Some(Waiting {
+                candidate,
+                reading,
+                stamp_ns,
+            });
+            return None;
+        }
+        Some(self.at_home(&candidate, reading, reach_px, settings))
+    }
+
+    /// The waiting reading, read at the home the rests now pool (as it was without one), and
+    /// its stamp; call after recording a rest.
+    pub(crate) fn take_waiting(
+        &mut self,
+        reach_px: Option<f64>,
+        settings: &MatchSettings,
+    ) -> Option<(Reading, u64)> {
+        let w = self.waiting.take()?;
+        let reading = match reach_px {
+            Some(reach_px) => self.at_home(&w.candidate, w.reading, reach_px, settings),
+            None => w.reading,
+        };
+        Some((reading, w.stamp_ns))
+    }
+
+    /// Forgets the waiting reading (continuity broke: the interruption's `Unknown` discards
+    /// its frame either way).
+    pub(crate) fn drop_waiting(&mut self) {
+        self.waiting = None;
+    }
+
+    fn at_home(
+        &self,
+        candidate: &[[f64; 2]],
+        reading: Reading,
+        reach_px: f64,
+        settings: &MatchSettings,
+    ) -> Reading {
+        match self.homed(candidate, reach_px) {
+            Some(homed) => better(reading, classify(&homed, settings)),
+            None => reading,
+        }
+    }
+}
+
+/// The better of two readings of one symbol: an accepted one over a rejection, the closer
+/// match of two accepted ones (ties to `a`).
+pub(crate) fn better(a: Reading, b: Reading) -> Reading {
+    match (&a, &b) {
+        (Err(_), Ok(_)) => b,
+        (Ok(x), Ok(y)) if y.error < x.error => b,
+        _ => a,
     }
 }
 

@@ -32,8 +32,16 @@
 //! rest's action and NULL: the event receiver's gate opens on a closed path that *starts* at a
 //! rest, which proves that rest was the target's (a receiver that locks on late still reads the
 //! symbol that locked it). A second vetoed rest replaces the first; overlong motion or an
-//! interruption drops it.
+//! interruption drops it. Once emitted, a vetoed rest votes for the window's home too.
+//!
+//! **Late action** ([`SegmenterConfig::pooled_home_px`]): a path rejected only because its ends
+//! do not meet, before the window has rests enough to pool a home, waits for the next confirmed
+//! rest and is read at the home that rest pools. Its NULL is emitted at once (a delimiter never
+//! waits on a later rest); the action follows with the next rest's tokens, with its own stamp
+//! and flagged [`SegmentToken::late`], and [`crate::FrameParser::push_segment`] parses it
+//! between the two NULLs it belongs between (`rest_home`).
 
+use crate::logic::rest_home::{Reading, better};
 use crate::{Classification, MatchSettings, Rejection, Token, classify};
 
 /// Segmenter settings.
@@ -219,6 +227,10 @@ pub struct SegmentToken {
     pub token: Token,
     pub stamp_ns: u64,
     pub cause: TokenCause,
+    /// An action read after the NULL that follows it was emitted (it waited for a home,
+    /// [`SegmenterConfig::pooled_home_px`]): it belongs between the last two NULLs emitted,
+    /// where [`crate::FrameParser::push_segment`] puts it.
+    pub late: bool,
 }
 
 /// Malformed input.
@@ -272,8 +284,9 @@ pub struct Segmenter {
     /// How far the observer's airframe has turned from its home attitude, undone on every
     /// sample's point before rectification (`None`: not turned, or not known).
     ego: Option<crate::stabilise::EgoRotation>,
-    /// Stamp of the vetoed NULL held as the current delimiter ([`SegmenterConfig::late_null`]).
-    vetoed_null_ns: Option<u64>,
+    /// Stamp and rest of the vetoed NULL held as the current delimiter
+    /// ([`SegmenterConfig::late_null`]).
+    vetoed_null: Option<(u64, [f64; 2])>,
     /// The candidate path left its rest by a jump ([`SegmenterConfig::held_rests`]).
     stale_rest: bool,
     home: crate::logic::rest_home::RestHome,
@@ -299,7 +312,7 @@ impl Segmenter {
             path_px: Vec::new(),
             recent: std::collections::VecDeque::new(),
             ego: None,
-            vetoed_null_ns: None,
+            vetoed_null: None,
             stale_rest: false,
             home: Default::default(),
         }
@@ -326,7 +339,7 @@ impl Segmenter {
 
     /// True while the current rest has been confirmed as NULL.
     pub fn is_resting(&self) -> bool {
-        self.rested && self.vetoed_null_ns.is_none()
+        self.rested && self.vetoed_null.is_none()
     }
 
     /// Stamp of the last sample or interruption.
@@ -335,7 +348,8 @@ impl Segmenter {
     }
 
     /// Consumes one sample; returns the tokens it confirms (0, 1 or 2 — an action and its NULL,
-    /// or an interruption). Malformed samples are rejected and leave the state unchanged.
+    /// or an interruption — and before them a vetoed NULL or a late action when one is
+    /// released). Malformed samples are rejected and leave the state unchanged.
     pub fn push(&mut self, sample: Sample) -> Result<Vec<SegmentToken>, SegmenterError> {
         if let Some(previous_ns) = self.last_stamp_ns
             && sample.stamp_ns <= previous_ns
@@ -421,16 +435,18 @@ impl Segmenter {
             && motion_ns > self.config.max_motion_ns
         {
             // After a vetoed NULL no delimiter was ever emitted: nothing to report.
-            if self.vetoed_null_ns.take().is_none() {
+            if self.vetoed_null.take().is_none() {
                 out.push(SegmentToken {
                     token: Token::Unknown,
                     stamp_ns,
                     cause: TokenCause::Overlong { motion_ns },
+                    late: false,
                 });
             }
             self.after_null = false;
             self.motion_start_ns = None;
             self.path_px.clear();
+            self.home.drop_waiting();
         }
         let anchor = Anchor {
             point_px: p,
@@ -443,7 +459,7 @@ impl Segmenter {
         if stamp_ns - start_ns >= self.config.null_confirm_ns {
             if sample.null_allowed {
                 self.confirm_null(stamp_ns, anchor, &mut out);
-            } else if self.config.late_null && (!self.after_null || self.vetoed_null_ns.is_some()) {
+            } else if self.config.late_null && (!self.after_null || self.vetoed_null.is_some()) {
                 self.hold_vetoed_null(stamp_ns);
             }
         }
@@ -473,7 +489,8 @@ impl Segmenter {
         self.motion_start_ns = None;
         self.path_px.clear();
         self.rest_count = 0;
-        self.vetoed_null_ns = None;
+        self.vetoed_null = None;
+        self.home.drop_waiting();
         if self.interrupted {
             return None;
         }
@@ -482,6 +499,7 @@ impl Segmenter {
             token: Token::Unknown,
             stamp_ns,
             cause: TokenCause::Interrupted(why),
+            late: false,
         })
     }
 
@@ -495,13 +513,10 @@ impl Segmenter {
     ) {
         self.rest_sum_px = [self.rest_sum_px[0] + p[0], self.rest_sum_px[1] + p[1]];
         self.rest_count = self.rest_count.saturating_add(1);
-        if null_allowed && self.vetoed_null_ns.take().is_some() {
+        if null_allowed && let Some((_, rest_px)) = self.vetoed_null.take() {
             // The gate opened on the vetoed rest itself: an ordinary NULL, now.
-            out.push(SegmentToken {
-                token: Token::Null,
-                stamp_ns,
-                cause: TokenCause::Rest,
-            });
+            self.home.record(rest_px);
+            out.push(null_token(stamp_ns));
         }
     }
 
@@ -521,7 +536,7 @@ impl Segmenter {
 
     /// The current rest would be a NULL but for the gate: it delimits what follows, unemitted.
     fn hold_vetoed_null(&mut self, stamp_ns: u64) {
-        self.vetoed_null_ns = Some(stamp_ns);
+        self.vetoed_null = Some((stamp_ns, self.rest_mean()));
         self.rested = true;
         self.after_null = true;
         self.motion_start_ns = None;
@@ -529,46 +544,32 @@ impl Segmenter {
     }
 
     fn confirm_null(&mut self, stamp_ns: u64, anchor: Anchor, out: &mut Vec<SegmentToken>) {
-        if let Some(vetoed_ns) = self.vetoed_null_ns.take() {
-            out.push(SegmentToken {
-                token: Token::Null,
-                stamp_ns: vetoed_ns,
-                cause: TokenCause::Rest,
-            });
+        if let Some((vetoed_ns, rest_px)) = self.vetoed_null.take() {
+            // Proved the target's by the path that opened the gate: it votes for home too.
+            self.home.record(rest_px);
+            out.push(null_token(vetoed_ns));
         }
         self.home.record(self.rest_mean()); // read only with `pooled_home_px`
+        let (reach_px, settings) = (self.config.pooled_home_px, &self.config.match_settings);
+        if let Some((reading, read_ns)) = self.home.take_waiting(reach_px, settings) {
+            out.push(SegmentToken {
+                late: true,
+                ..action_token(reading, read_ns)
+            });
+        }
         if self.after_null && self.motion_start_ns.is_some() {
             let mut candidate = self.path_px[..=anchor.path_index].to_vec();
             candidate.push(self.rest_mean());
-            let mut classified = classify(&candidate, &self.config.match_settings);
+            let mut classified = classify(&candidate, settings);
             if self.stale_rest && candidate.len() > 2 {
-                let reappeared = classify(&candidate[1..], &self.config.match_settings);
-                classified = better(classified, reappeared);
+                classified = better(classified, classify(&candidate[1..], settings));
             }
-            if let Err(Rejection::NotClosed { .. }) = classified
-                && let Some(reach_px) = self.config.pooled_home_px
-                && let Some(homed) = self.home.homed(&candidate, reach_px)
-            {
-                classified = better(classified, classify(&homed, &self.config.match_settings));
-            }
-            out.push(match classified {
-                Ok(c) => SegmentToken {
-                    token: c.action.token(),
-                    stamp_ns,
-                    cause: TokenCause::Classified(c),
-                },
-                Err(r) => SegmentToken {
-                    token: Token::Unknown,
-                    stamp_ns,
-                    cause: TokenCause::Rejected(r),
-                },
-            });
+            let reading = self
+                .home
+                .read(candidate, classified, stamp_ns, reach_px, settings);
+            out.extend(reading.map(|r| action_token(r, stamp_ns)));
         }
-        out.push(SegmentToken {
-            token: Token::Null,
-            stamp_ns,
-            cause: TokenCause::Rest,
-        });
+        out.push(null_token(stamp_ns));
         self.rested = true;
         self.after_null = true;
         self.motion_start_ns = None;
@@ -581,16 +582,26 @@ impl Segmenter {
     }
 }
 
-/// The better of two classifications of one symbol: an accepted one over a rejection, the
-/// closer match of two accepted ones (ties to `a`).
-fn better(
-    a: Result<Classification, Rejection>,
-    b: Result<Classification, Rejection>,
-) -> Result<Classification, Rejection> {
-    match (&a, &b) {
-        (Err(_), Ok(_)) => b,
-        (Ok(x), Ok(y)) if y.error < x.error => b,
-        _ => a,
+/// The token of a symbol's reading, stamped with the NULL it precedes.
+fn action_token(reading: Reading, stamp_ns: u64) -> SegmentToken {
+    let (token, cause) = match reading {
+        Ok(c) => (c.action.token(), TokenCause::Classified(c)),
+        Err(r) => (Token::Unknown, TokenCause::Rejected(r)),
+    };
+    SegmentToken {
+        token,
+        stamp_ns,
+        cause,
+        late: false,
+    }
+}
+
+fn null_token(stamp_ns: u64) -> SegmentToken {
+    SegmentToken {
+        token: Token::Null,
+        stamp_ns,
+        cause: TokenCause::Rest,
+        late: false,
     }
 }
 
@@ -1107,8 +1118,10 @@ pub(crate) mod tests {
                 .polyline(drawn, 4 * S)
                 .hover(*poly.last().unwrap(), 4 * S);
             for held_rests in [false, true] {
+                // Without a pooled home, whose reading would wait for a third rest.
                 let config = SegmenterConfig {
                     held_rests,
+                    pooled_home_px: None,
                     ..SegmenterConfig::events()
                 };
                 let out = run(&mut Segmenter::new(config).unwrap(), &sc.samples);
@@ -1169,5 +1182,83 @@ pub(crate) mod tests {
             Segmenter::new(bad),
             Err(SegmenterError::BadConfig { .. })
         ));
+    }
+
+    /// The window's first rest held `short_px` beside home (the rest after the acquisition
+    /// sweep, whose arrival was lost), then START and Bit0 flown from home.
+    fn start_from_a_short_first_rest(short_px: f64) -> Script {
+        let mut sc = Script::new(0);
+        sc.hover([CENTRE[0] + short_px, CENTRE[1]], 4 * S)
+            .draw(Action::Start, CENTRE, 46.0, 4 * S)
+            .hover(CENTRE, 4 * S)
+            .draw(Action::Bit0, CENTRE, 46.0, 4 * S)
+            .hover(CENTRE, 4 * S);
+        sc
+    }
+
+    #[test]
+    fn a_start_read_before_there_is_a_home_is_read_late_and_its_null_is_not() {
+        // Without the second reading of a rest left by a jump, so that only the home reads it.
+        let events = |reach_px| {
+            Segmenter::new(SegmenterConfig {
+                held_rests: false,
+                pooled_home_px: reach_px,
+                ..SegmenterConfig::events()
+            })
+            .unwrap()
+        };
+        let samples = start_from_a_short_first_rest(30.0).samples;
+        let unpooled = run(&mut events(None), &samples);
+        let (null, start, bit0) = (Token::Null, Token::Start, Token::Bit0);
+        assert_eq!(tokens(&unpooled), [null, Token::Unknown, null, bit0, null]);
+        assert!(matches!(
+            unpooled[1].cause,
+            TokenCause::Rejected(Rejection::NotClosed { .. })
+        ));
+        // With a pooled home START's NULL is emitted at once; START waits for the Bit0's rest
+        // (the window's third), is read at the home it pools and emitted then, late, with its
+        // own stamp.
+        let reach = SegmenterConfig::events().pooled_home_px;
+        let mut seg = events(reach);
+        let mut emitted = Vec::new();
+        for (k, &s) in samples.iter().enumerate() {
+            emitted.extend(seg.push(s).unwrap().into_iter().map(|t| (k, t)));
+        }
+        let pooled: Vec<SegmentToken> = emitted.iter().map(|&(_, t)| t).collect();
+        assert_eq!(tokens(&pooled), [null, null, start, bit0, null]);
+        assert_eq!(emitted[1].1.stamp_ns, unpooled[2].stamp_ns, "NULL at once");
+        assert_eq!(emitted[2].1.stamp_ns, unpooled[1].stamp_ns);
+        let late: Vec<bool> = pooled.iter().map(|t| t.late).collect();
+        assert_eq!(late, [false, false, true, false, false]);
+        assert_eq!(emitted[2].0, emitted[4].0, "read with the Bit0's rest");
+        // The decoder's parser puts START back where it belongs.
+        let mut parser = crate::FrameParser::new();
+        for t in &pooled {
+            parser.push_segment(t);
+        }
+        assert_eq!(
+            parser.held_tokens().collect::<Vec<_>>(),
+            [null, start, null, bit0, null]
+        );
+        // A first rest beyond the reach stays a rejection, emitted late as well.
+        let far = run(
+            &mut events(reach),
+            &start_from_a_short_first_rest(60.0).samples,
+        );
+        assert_eq!(tokens(&far), [null, null, Token::Unknown, bit0, null]);
+        // Cut before the next rest: the NULL is out, START is dropped with the interruption.
+        let mut cut = start_from_a_short_first_rest(30.0);
+        cut.samples
+            .truncate(samples.len() - 1 - (8 * S / PERIOD_NS) as usize);
+        cut.sample(Sample::lost);
+        let got = tokens(&run(&mut events(reach), &cut.samples));
+        assert_eq!(got, [null, null, Token::Unknown], "{got:?}");
+        // The first rest vetoed by a closed gate (opened 1.5 s into START's rest, when the
+        // receiver's acquisition sees START's path settle) is a rest of the target once its
+        // late NULL is emitted, and votes for the home as well: without it only two rests would
+        // have been pooled when the Bit0 came to rest.
+        let sc = start_from_a_short_first_rest(30.0);
+        let got = tokens(&run(&mut events(reach), &gated(&sc, 8 * S + 3 * S / 2)));
+        assert_eq!(got, [null, null, start, bit0, null]);
     }
 }

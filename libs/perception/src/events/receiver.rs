@@ -494,7 +494,12 @@ impl EventReceiver {
                     token: token.token,
                     cause: token.cause,
                     stamp_ns: token.stamp_ns,
-                    samples: self.recent.clone(),
+                    // A late reading's samples went with the NULL after it: none are kept.
+                    samples: if token.late {
+                        Vec::new()
+                    } else {
+                        self.recent.clone()
+                    },
                 }),
             }
         }
