@@ -25,6 +25,7 @@ pub mod rectify;
 mod rest_home;
 pub mod scene;
 pub mod schedule;
+mod segment_sample;
 pub mod segmenter;
 pub mod stabilise;
 pub mod task;
