@@ -56,11 +56,14 @@ done
 grep -v -F -f "$work/order" "$work/all" >>"$work/order" || true
 export TMPDIR="$scratch"
 
-declare -A label log
+declare -A label log began
 failed=()
+timings=()
 finish() {
   local pid="$1" status="$2"
-  printf '\n== %s\n' "${label[$pid]}"
+  local took_s=$((SECONDS - began[$pid]))
+  printf '\n== %s: %s s\n' "${label[$pid]}" "$took_s"
+  timings+=("$took_s ${label[$pid]}")
   cat "${log[$pid]}"
   if [ "$status" -ne 0 ]; then failed+=("${label[$pid]}"); fi
 }
@@ -80,10 +83,16 @@ while read -r exe manifest; do
   (cd "$(dirname "$manifest")" && exec "$exe" "$@") >"$work/$started.log" 2>&1 &
   pid=$!
   log[$pid]="$work/$started.log"
+  began[$pid]=$SECONDS
   label[$pid]="[$started/$total] ${exe#"$root"/} ($(dirname "${manifest#"$root"/}"))"
   pids+=("$pid")
 done <"$work/order"
 while [ "${#pids[@]}" -gt 0 ]; do reap; done
+
+# Wall seconds per binary, longest first: where the suite's time goes (the order above, and what
+# to make faster, comes from this list).
+printf '\n== wall seconds per test binary (two at a time), longest first\n'
+printf '%s\n' "${timings[@]}" | sort -rn | head -n 12
 
 printf '\n== doc tests: cargo test --release --workspace --doc\n'
 cargo test --release --workspace --doc -- "$@" || failed+=("doc tests")
