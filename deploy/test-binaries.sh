@@ -92,7 +92,7 @@ while [ "${#pids[@]}" -gt 0 ]; do reap; done
 # Wall seconds per binary, longest first: where the suite's time goes (the order above, and what
 # to make faster, comes from this list).
 printf '\n== wall seconds per test binary (two at a time), longest first\n'
-printf '%s\n' "${timings[@]}" | sort -rn | head -n 12
+printf '%s\n' "${timings[@]}" | sort -rn | sed -n 1,12p
 
 printf '\n== doc tests: cargo test --release --workspace --doc\n'
 cargo test --release --workspace --doc -- "$@" || failed+=("doc tests")
