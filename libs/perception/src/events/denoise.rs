@@ -89,10 +89,10 @@ pub struct NoiseFilter {
     last_ns: u64,
     /// Map offsets of the neighbours.
     offsets: Vec<isize>,
-    /// Per event of the packet being filtered: on the sensor, neighbour events within the
-    /// window, kept, core.
-    on_sensor: Vec<bool>,
+    /// Per entry of the band being judged: neighbour events within the window.
     support: Vec<u32>,
+    /// Per event of the packet being filtered: on the sensor, kept, core.
+    on_sensor: Vec<bool>,
     keep: Vec<bool>,
     core: Vec<bool>,
     /// The packet's first event's time, µs (what a cleared later-event time is stale against).
@@ -262,8 +262,6 @@ impl NoiseFilter {
     /// counted before any border pass, so the events kept are the same.
     fn judge(&mut self, k: u32) {
         let n = self.on_sensor.len();
-        self.support.clear();
-        self.support.resize(n, 0);
         self.keep.clear();
         self.keep.resize(n, false);
         self.core.clear();
@@ -288,23 +286,25 @@ impl NoiseFilter {
         let (entries, base) = self.bands.band(b);
         let (lo, hi) = (entries.start, entries.end);
         // A halo entry counts nothing (0): its own band counts it.
+        // Support per entry of the band, in band order: both passes walk it in sequence.
+        self.support.clear();
         for j in lo..hi {
             self.prefetch_entry(&self.times.past, j + PREFETCH_AHEAD, base);
             let e = self.bands.entry(j);
             let support = self.count_and_record(e, base, Side::Past);
-            self.support[e.index] += support;
+            self.support.push(support);
         }
         for j in (lo..hi).rev() {
             self.prefetch_entry(&self.times.next, j.wrapping_sub(PREFETCH_AHEAD), 0);
             let e = self.bands.entry(j);
             let support = self.count_and_record(e, base, Side::Next);
-            self.support[e.index] += support;
+            self.support[j - lo] += support;
         }
         self.clear_next(lo..hi);
         for j in lo..hi {
             let e = self.bands.entry(j);
             if e.own() {
-                let kept = self.support[e.index] >= k;
+                let kept = self.support[j - lo] >= k;
                 self.keep[e.index] = kept;
                 self.core[e.index] = kept;
             }
@@ -313,7 +313,7 @@ impl NoiseFilter {
 
     /// Neighbour events of an own event within the window on `side` (at most `depth` per
     /// pixel), then the event recorded on that side of its pixel's copy.
-    #[inline]
+    #[inline(always)]
     fn count_and_record(&mut self, e: Entry, base: usize, side: Side) -> u32 {
         let (t, window) = (e.t, self.window_us());
         let depth = usize::from(self.config.depth);
@@ -323,7 +323,22 @@ impl NoiseFilter {
             Side::Next => (&mut self.times.next, e.cell(0)),
         };
         let mut support = 0u32;
-        if e.own() {
+        if e.own() && self.config.radius_px == 1 && depth == MAX_DEPTH {
+            // The receiver's setting, as one fixed-size block the compiler vectorises (with the
+            // support per band entry below: the whole filter ≈ 10 % faster than the generic
+            // loop, `speed_against_the_reference` in tests/denoise_equivalence.rs).
+            let v = neighbourhood_3x3(times, cell, self.bands.stride());
+            support = match side {
+                Side::Past => v
+                    .iter()
+                    .map(|&p| u32::from(t.wrapping_sub(p) <= window))
+                    .sum(),
+                Side::Next => v
+                    .iter()
+                    .map(|&later| u32::from(later.wrapping_sub(t) <= window))
+                    .sum(),
+            };
+        } else if e.own() {
             for &off in &self.offsets {
                 let c = &times[cell.wrapping_add_signed(off)];
                 support += match side {
@@ -395,6 +410,18 @@ impl NoiseFilter {
             }
         }
     }
+}
+
+/// Both stored times of the 8 neighbours of `cell` (radius 1), row by row: the three cells
+/// above, the left and right ones, the three below.
+#[inline(always)]
+fn neighbourhood_3x3(times: &[[u32; MAX_DEPTH]], cell: usize, stride: usize) -> [u32; 16] {
+    let mut v = [0u32; 16];
+    v[..6].copy_from_slice(times[cell - stride - 1..cell - stride + 2].as_flattened());
+    v[6..8].copy_from_slice(&times[cell - 1]);
+    v[8..10].copy_from_slice(&times[cell + 1]);
+    v[10..].copy_from_slice(times[cell + stride - 1..cell + stride + 2].as_flattened());
+    v
 }
 
 #[cfg(test)]
