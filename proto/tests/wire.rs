@@ -665,3 +665,28 @@ fn setpoints_keep_the_flat_wire_layout() {
         Ok(performer)
     );
 }
+
+proptest! {
+    /// Packing and selecting against their plain statement: every event's polarity read back,
+    /// and a selection holding exactly the selected events, in order, for any packet length
+    /// (bytes full, partial and empty) and any selection, into a reused packet.
+    #[test]
+    fn packed_polarities_and_selections_read_back(
+        events in prop::collection::vec((0u16..640, 0u16..480, 1u32..40_000_000, any::<bool>(), any::<bool>()), 0..70),
+        stale in prop::collection::vec((0u16..640, 0u16..480, 1u32..40_000_000, any::<bool>()), 0..70),
+    ) {
+        let polarity = |on: bool| if on { Polarity::On } else { Polarity::Off };
+        let all: Vec<_> = events.iter().map(|&(x, y, dt, on, _)| (x, y, dt, polarity(on))).collect();
+        let packet = EventPacket::from_events(3, (0, 40_000_000), (640, 480), &all);
+        prop_assert_eq!(packet.on_bits.len(), all.len().div_ceil(8));
+        for (i, e) in all.iter().enumerate() {
+            prop_assert_eq!(packet.polarity(i), e.3);
+        }
+        let old: Vec<_> = stale.iter().map(|&(x, y, dt, on)| (x, y, dt, polarity(on))).collect();
+        let mut out = EventPacket::from_events(9, (0, 1), (2, 2), &old);
+        let kept = packet.select_into(&mut out, |i| events[i].4);
+        let expected: Vec<_> = events.iter().zip(&all).filter(|(e, _)| e.4).map(|(_, a)| *a).collect();
+        prop_assert_eq!(kept, expected.len());
+        prop_assert_eq!(&out, &EventPacket::from_events(3, (0, 40_000_000), (640, 480), &expected));
+    }
+}

