@@ -169,23 +169,31 @@ impl Bands {
                 index: 0,
             },
         );
+        let (r, last) = (self.r, self.bands.len().saturating_sub(1));
         for i in 0..packet.len() {
             if !on_sensor[i] {
                 continue;
             }
             let (x, y) = (usize::from(packet.xs[i]), usize::from(packet.ys[i]));
             let t = (packet.start_ns.wrapping_add(u64::from(packet.dt_ns[i])) / 1_000) as u32;
-            let (b, above, below) = self.bands_of(y);
-            for (band, flag) in [(Some(b), 0), (above, HALO), (below, HALO)] {
-                let Some(band) = band else { continue };
-                // In the band's part: row y sits r + y − y0 rows down.
-                let cell = (y + self.r - self.bands[band].y0) * self.stride + x + self.r;
+            let (b, row) = (y / BAND_ROWS, y % BAND_ROWS);
+            // In band k's part, row y sits r + y − y0(k) rows down, y0(k) = k·BAND_ROWS.
+            let mut put = |band: usize, rows_down: usize, flag: u32| {
+                let cell = rows_down * self.stride + x + r;
                 self.entries[self.cursor[band]] = Entry {
                     t,
                     cell: cell as u32 | flag,
                     index: i,
                 };
                 self.cursor[band] += 1;
+            };
+            put(b, row + r, 0);
+            // A halo row (as `bands_of`): rare, so branches rather than a loop over options.
+            if row < r && b > 0 {
+                put(b - 1, row + BAND_ROWS + r, HALO);
+            }
+            if row + r >= BAND_ROWS && b < last {
+                put(b + 1, row + r - BAND_ROWS, HALO);
             }
         }
     }
