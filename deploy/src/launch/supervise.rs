@@ -23,6 +23,13 @@ use crate::fault::Injected;
 const STARTUP_TIMEOUT: Duration = Duration::from_secs(180);
 /// How long the children get to exit once the mission report is in.
 const EXIT_AFTER_REPORT: Duration = Duration::from_secs(20);
+/// How long the launcher reads what is still queued once the mission is over, while every
+/// expected reject report is in (it stops sooner at the first 200 ms of silence).
+const DRAIN: Duration = Duration::from_secs(2);
+/// How long it waits, at most, for reject reports still missing: each process publishes its
+/// report as it exits, and on a flooded bus the report can queue behind seconds of junk
+/// (`tests/hostile.rs` lost observer-O1's this way once, at 2 s).
+const REPORTS_WAIT: Duration = Duration::from_secs(10);
 
 /// What this launcher does for the session.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -94,7 +101,7 @@ impl Supervisor<'_> {
             bar.finish_and_clear();
         }
         let interrupted = outcome?;
-        self.drain(&mut g)?;
+        self.drain(&mut g, interrupted);
         bar.finish_and_clear();
         Ok(Supervised {
             gathered: g,
@@ -286,18 +293,75 @@ impl Supervisor<'_> {
         Ok(())
     }
 
-    /// Messages published just before the publishers exited may still be queued.
-    fn drain(&mut self, g: &mut Gathered) -> Result<()> {
+    /// Messages published just before the publishers exited may still be queued: read them,
+    /// and wait (bounded) for the reject reports not in yet, naming any that never came.
+    fn drain(&mut self, g: &mut Gathered, interrupted: bool) {
         let keys = self.bus.keys().clone();
-        let until = Instant::now() + Duration::from_secs(2);
-        while Instant::now() < until
-            && let Some(item) = self.bus.recv(Duration::from_millis(200))
-        {
-            if let Inbound::Data { key, payload } = item {
-                g.take(&keys, &key, &payload);
+        let expected = if interrupted {
+            Vec::new()
+        } else {
+            self.expected_reports()
+        };
+        let missing = |g: &Gathered| -> Vec<String> {
+            expected
+                .iter()
+                .filter(|p| !g.reports.contains_key(*p))
+                .cloned()
+                .collect()
+        };
+        let start = Instant::now();
+        loop {
+            let waiting = !missing(g).is_empty();
+            if start.elapsed() >= if waiting { REPORTS_WAIT } else { DRAIN } {
+                break;
+            }
+            match self.bus.recv(Duration::from_millis(200)) {
+                Some(Inbound::Data { key, payload }) => g.take(&keys, &key, &payload),
+                Some(_) => {}
+                None if !waiting => break,
+                None => {}
             }
         }
-        Ok(())
+        let missing = missing(g);
+        if !missing.is_empty() {
+            eprintln!(
+                "waggle: no reject report from {} within {} s of the mission's end: their \
+                 rejects are not in summary.json",
+                missing.join(", "),
+                REPORTS_WAIT.as_secs()
+            );
+        }
+    }
+
+    /// The processes whose reject report the supervising launcher waits for: every mission
+    /// process but a camera killed by a fault and a local child that failed (neither
+    /// published one).
+    fn expected_reports(&self) -> Vec<String> {
+        if self.duty != Duty::Supervise {
+            return Vec::new();
+        }
+        let mut everyone = handshake::mission_processes(self.case.observers, false);
+        if self.recorder {
+            everyone.push(handshake::Process::singleton(Role::Recorder));
+        }
+        let killed: Vec<String> = self
+            .injected
+            .iter()
+            .filter_map(|f| match f {
+                Injected::KillCamera { observer, .. } => Some(format!("camera-{observer}")),
+                Injected::Message(_) => None,
+            })
+            .collect();
+        everyone
+            .iter()
+            .map(handshake::Process::name)
+            .filter(|name| !killed.contains(name))
+            .filter(|name| {
+                self.procs
+                    .iter()
+                    .all(|p| p.name != *name || (p.success && !p.killed_by_fault))
+            })
+            .collect()
     }
 }
 
