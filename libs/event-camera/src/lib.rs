@@ -55,6 +55,7 @@ mod kernel;
 pub mod luminance;
 pub mod noise;
 pub mod picture;
+mod prefetch;
 pub mod reference;
 pub mod synthetic;
 

@@ -109,28 +109,33 @@ impl EventPacket {
         out.height = self.height;
         out.valid = self.valid;
         out.continuous = self.continuous;
-        // Every event is written at the next free slot and the slot advances only when it is
-        // kept: no branch on `keep`, which a noise filter answers at random.
+        // Two passes: the kept events' indices first, each written at the next free slot of
+        // `out.dt_ns` (as scratch) with the slot advancing only when kept (no branch on `keep`,
+        // which a noise filter answers at random), then a copy of only those events. A noise
+        // filter keeps ≈ 1 % of a noisy packet, and copying every event at a branch-free slot
+        // cost ≈ 5 ns per event (the bench `noise_front_end`). Indices fit in u32: a decoded
+        // packet is at most 256 MB (`codec`'s limit), far below 2³² events.
         let n = self.len();
-        out.xs.resize(n, 0);
-        out.ys.resize(n, 0);
         out.dt_ns.resize(n, 0);
-        out.on_bits.clear();
-        out.on_bits.resize(n.div_ceil(8), 0);
         let mut kept = 0usize;
         for i in 0..n {
-            let k = keep(i);
-            out.xs[kept] = self.xs[i];
-            out.ys[kept] = self.ys[i];
-            out.dt_ns[kept] = self.dt_ns[i];
-            let on = (self.on_bits[i / 8] >> (i % 8)) & u8::from(k);
-            out.on_bits[kept / 8] |= on << (kept % 8);
-            kept += usize::from(k);
+            out.dt_ns[kept] = i as u32;
+            kept += usize::from(keep(i));
         }
-        out.xs.truncate(kept);
-        out.ys.truncate(kept);
+        out.xs.resize(kept, 0);
+        out.ys.resize(kept, 0);
+        out.on_bits.clear();
+        out.on_bits.resize(kept.div_ceil(8), 0);
+        for k in 0..kept {
+            // Slot k holds its event's index until it gets that event's time: read before write.
+            let i = out.dt_ns[k] as usize;
+            out.xs[k] = self.xs[i];
+            out.ys[k] = self.ys[i];
+            out.dt_ns[k] = self.dt_ns[i];
+            let on = (self.on_bits[i / 8] >> (i % 8)) & 1;
+            out.on_bits[k / 8] |= on << (k % 8);
+        }
         out.dt_ns.truncate(kept);
-        out.on_bits.truncate(kept.div_ceil(8));
         kept
     }
 

@@ -22,6 +22,7 @@ use rand::Rng;
 use rand_distr::StandardNormal;
 
 use super::{EventNoise, STREAM_LEAK, STREAM_LEAK_SPREAD, rng_stream};
+use crate::prefetch::prefetch;
 
 /// Smallest leak slope of one period: keeps `J_i` strictly increasing (so invertible) when a
 /// jitter draw exceeds `1/j` standard deviations.
@@ -92,6 +93,16 @@ impl LeakModel {
         } else {
             JitterCache::default()
         }
+    }
+
+    /// Asks for pixel i's leak terms and cached jitter sum ahead of judging it.
+    #[inline(always)]
+    pub fn prefetch(&self, cache: &JitterCache, i: usize) {
+        prefetch(&self.phases, i);
+        prefetch(&self.scales, i);
+        prefetch(&cache.m, i);
+        prefetch(&cache.at_m, i);
+        prefetch(&cache.w_m, i);
     }
 
     pub fn scale(&self, i: usize) -> f64 {
@@ -227,6 +238,12 @@ impl LeakSchedule {
             schedule.set(i, g);
         }
         schedule
+    }
+
+    /// Asks for pixel i's due value ahead of [`LeakSchedule::set`].
+    #[inline(always)]
+    pub fn prefetch(&self, i: usize) {
+        prefetch(&self.due, i);
     }
 
     pub fn set(&mut self, i: usize, g: f64) {

@@ -15,6 +15,8 @@ use rand::{Rng, RngCore};
 use rand_chacha::ChaCha8Rng;
 
 use crate::event::Polarity;
+use crate::luminance::MAX_KEY;
+use crate::prefetch::prefetch;
 
 /// Most bucket-index bits of the shot-event sort (2²⁰ counters at most: 4 MB).
 const MAX_BUCKET_BITS: u32 = 20;
@@ -72,8 +74,21 @@ pub(super) struct ShotMap {
     alias: Option<Alias>,
     /// mean(C / C_i): the candidates' rate relative to `shot_noise_hz`.
     pub mean_weight: f64,
-    /// b.
-    bright_drop: f64,
+    /// Per luminance key (0..=[`MAX_KEY`]): a candidate is kept when its 31-bit coin is below
+    /// this (empty without the brightness term). See [`keep_below`].
+    keep_below: Vec<u32>,
+}
+
+/// The integer form of the thinning test `coin / 2³¹ < keep`, `keep = 1 − b·(Y + 20)/275` for
+/// luminance key `key` (`Y = key / 1000`): `coin / 2³¹` is exact in f64 and scaling by 2³¹ is
+/// exact, so the test is `coin < keep·2³¹`, which for an integer coin is `coin < ⌈keep·2³¹⌉`.
+/// One table read per candidate replaces two divisions and a conversion, with the same
+/// decisions (`keep_below_decides_as_the_float_test`).
+fn keep_below(bright_drop: f64, key: u32) -> u32 {
+    let y = f64::from(key) / 1000.0;
+    let keep = 1.0 - bright_drop * (y + 20.0) / 275.0;
+    let scaled = (keep * f64::from(1u32 << 31)).ceil();
+    scaled.clamp(0.0, f64::from(1u32 << 31)) as u32
 }
 
 impl ShotMap {
@@ -87,10 +102,17 @@ impl ShotMap {
             let mean = weights.iter().sum::<f64>() / weights.len() as f64;
             (Some(Alias::new(&weights)), mean)
         };
+        let keep_below = if bright_drop > 0.0 {
+            (0..=MAX_KEY)
+                .map(|key| keep_below(bright_drop, key))
+                .collect()
+        } else {
+            Vec::new()
+        };
         Self {
             alias,
             mean_weight,
-            bright_drop,
+            keep_below,
         }
     }
 }
@@ -111,13 +133,11 @@ impl ShotMap {
     /// second draw `b` (always, without the term).
     #[inline(always)]
     fn keeps(&self, b: u64, pixel: u64, luminance_keys: &[u32]) -> bool {
-        if self.bright_drop <= 0.0 {
+        if self.keep_below.is_empty() {
             return true;
         }
-        let y = f64::from(luminance_keys[pixel as usize]) / 1000.0;
-        let keep = 1.0 - self.bright_drop * (y + 20.0) / 275.0;
-        let coin = ((b >> 1) & 0x7FFF_FFFF) as f64 / f64::from(1u32 << 31);
-        coin < keep
+        let coin = ((b >> 1) & 0x7FFF_FFFF) as u32;
+        coin < self.keep_below[luminance_keys[pixel as usize] as usize]
     }
 }
 
@@ -126,21 +146,6 @@ impl ShotMap {
 #[inline(always)]
 fn column(a: u64, pixels: u32) -> u64 {
     ((a >> 32) * u64::from(pixels)) >> 32
-}
-
-/// Asks the CPU to bring the cache line of `slice[index]` towards L1 ahead of use: a hint that
-/// changes no result.
-#[inline(always)]
-fn prefetch<T>(slice: &[T], index: usize) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let p = slice.as_ptr().wrapping_add(index);
-        // SAFETY: a prefetch is only a hint: it never faults and reads nothing observable, even
-        // at an address outside the slice; SSE is part of the x86_64 baseline.
-        unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (slice, index);
 }
 
 /// One interval's shot events as sortable keys `(t − t0, pixel, polarity)`, packed into a u64
@@ -242,7 +247,7 @@ impl ShotDraws {
                         pixel[s][j] = alias.pixel(pixel[s][j], a[s][j] & 0xFFFF_FFFF);
                     }
                 }
-                if map.bright_drop > 0.0 {
+                if !map.keep_below.is_empty() {
                     for &p in &pixel[s][..m] {
                         prefetch(luminance_keys, p as usize);
                     }
@@ -378,6 +383,37 @@ mod tests {
                 }
                 expected.sort_unstable();
                 assert_eq!(drawn.keys, expected, "map {m}, {count} candidates");
+            }
+        }
+    }
+
+    /// The table against the float test it replaces, at every key and the coins around each
+    /// key's boundary (and the extremes), for v2e's b and the edge values of b.
+    #[test]
+    fn keep_below_decides_as_the_float_test() {
+        for bright_drop in [0.75, 1.0, 0.3, 1e-9] {
+            let map = ShotMap::new(0.2, &[0.2], bright_drop);
+            for key in 0..=MAX_KEY {
+                let y = f64::from(key) / 1000.0;
+                let keep = 1.0 - bright_drop * (y + 20.0) / 275.0;
+                let bound = map.keep_below[key as usize];
+                for coin in [
+                    0,
+                    1,
+                    bound.saturating_sub(1),
+                    bound,
+                    bound + 1,
+                    (1 << 31) - 1,
+                ] {
+                    let coin = coin.min((1 << 31) - 1);
+                    let float = f64::from(coin) / f64::from(1u32 << 31) < keep;
+                    let b = u64::from(coin) << 1;
+                    assert_eq!(
+                        map.keeps(b, 0, &[key]),
+                        float,
+                        "b {bright_drop}, key {key}, coin {coin}"
+                    );
+                }
             }
         }
     }

@@ -6,6 +6,7 @@ use super::LOWPASS_SETTLED;
 use super::leak::{JitterCache, LeakModel, LeakSchedule};
 use crate::converter::no_event_bounds;
 use crate::event::Polarity;
+use crate::prefetch::prefetch;
 
 /// Sort order of a hot pixel's event: after every threshold crossing of its pixel and time.
 pub(super) const ORDER_HOT: u32 = 1 << 31;
@@ -42,6 +43,9 @@ pub(super) struct State {
     pub(super) judged_ns: Vec<u64>,
     pub(super) flagged: Vec<u32>,
     pub(super) crossings: Vec<Crossing>,
+    /// With leak or low-pass: the pixels one frame judges from its settling list or its leak
+    /// schedule (scratch).
+    pub(super) to_judge: Vec<u32>,
 }
 
 /// The interval `(t0, t0 + dt]` between two frames and the refractory period.
@@ -99,6 +103,10 @@ impl Interval {
     }
 }
 
+/// How many listed pixels ahead [`PixelJudge::judge_listed`] asks for: enough for the
+/// memory reads to overlap, few enough that the lines are still in cache when used.
+const JUDGE_AHEAD: usize = 8;
+
 /// One judged frame's constants: judges a pixel exactly as the rule states.
 pub(super) struct PixelJudge<'a> {
     pub(super) table: &'a [f64],
@@ -130,6 +138,47 @@ impl PixelJudge<'_> {
         } else {
             next
         }
+    }
+
+    /// Asks for every per-pixel value [`PixelJudge::judge`] reads of pixel `i` (the luminance
+    /// table aside: its entries repeat across a scene and mostly stay cached).
+    #[inline(always)]
+    pub(super) fn prefetch(&self, state: &State, i: usize) {
+        prefetch(self.thresholds, i);
+        prefetch(&state.l_init, i);
+        prefetch(&state.level, i);
+        prefetch(&state.prev_keys, i);
+        prefetch(&state.ready_at, i);
+        if self.cutoff_hz > 0.0 {
+            prefetch(&state.lp, i);
+            prefetch(&state.judged_ns, i);
+            prefetch(&state.is_unsettled, i);
+        }
+        if let Some(leak) = self.leak {
+            leak.prefetch(&state.jitter, i);
+            state.leak.prefetch(i);
+        }
+    }
+
+    /// Judges each pixel of `state.to_judge` at its key in `prev_keys` (skipping one this frame
+    /// already judged), asking for the per-pixel values of the pixel [`JUDGE_AHEAD`] places on.
+    /// The pixels are scattered over the sensor and each judgement reads about a dozen arrays
+    /// (≈ 30 MB in all for 640×480), so without the hint every read waited for memory. The
+    /// order is the list's, as when each was judged on its own: the hint changes no result.
+    pub(super) fn judge_listed(&self, state: &mut State) {
+        let list = std::mem::take(&mut state.to_judge);
+        for (k, &i) in list.iter().enumerate() {
+            if let Some(&ahead) = list.get(k + JUDGE_AHEAD) {
+                self.prefetch(state, ahead as usize);
+            }
+            let i = i as usize;
+            if self.cutoff_hz > 0.0 && state.judged_ns[i] == self.stamp_ns {
+                continue;
+            }
+            let key = state.prev_keys[i];
+            self.judge(state, i, key);
+        }
+        state.to_judge = list;
     }
 
     /// Pixel `i` has key `key` at the frame (its previous key still in `prev_keys`): records its

@@ -320,8 +320,8 @@ impl NoiseFilter {
             let e = self.bands.entry(j);
             if e.own() {
                 let kept = self.support[j - lo] >= k;
-                self.keep[e.index] = kept;
-                self.core[e.index] = kept;
+                self.keep[e.index()] = kept;
+                self.core[e.index()] = kept;
             }
         }
     }
@@ -399,7 +399,7 @@ impl NoiseFilter {
     fn border_band(&mut self, b: usize) {
         let (entries, base) = self.bands.band(b);
         let (lo, hi) = (entries.start, entries.end);
-        let has_core = (lo..hi).any(|j| self.core[self.bands.entry(j).index]);
+        let has_core = (lo..hi).any(|j| self.core[self.bands.entry(j).index()]);
         if has_core {
             self.band_core_us[b] = self.band_core_us[b].max(self.span_us.1);
         } else if self.span_us.0 > self.band_core_us[b] + u64::from(self.window_us()) {
@@ -420,7 +420,7 @@ impl NoiseFilter {
     /// event recorded on that side of its pixel's copy.
     #[inline]
     fn border_step(&mut self, e: Entry, base: usize, side: Side) {
-        let i = e.index;
+        let i = e.index();
         let (t, window) = (e.t, self.window_us());
         if e.own() && !self.keep[i] {
             let near = |off: isize| match side {

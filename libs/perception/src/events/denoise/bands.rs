@@ -31,12 +31,14 @@ struct Band {
 const HALO: u32 = 1 << 31;
 
 /// One event in a band's list: its time (µs), its cell within the band's part of the map (with
-/// the [`HALO`] flag) and its index in the packet.
+/// the [`HALO`] flag) and its index in the packet. 12 bytes: the lists are written once and
+/// read three to five times per packet; an index fits in u32 because a packet's events number
+/// far below 2³² (a decoded packet is at most 256 MB, `proto`'s message limit).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Entry {
     pub t: u32,
     cell: u32,
-    pub index: usize,
+    index: u32,
 }
 
 impl Entry {
@@ -49,6 +51,11 @@ impl Entry {
     /// relative to its band's part).
     pub fn cell(&self, base: usize) -> usize {
         base + (self.cell & !HALO) as usize
+    }
+
+    /// The event's index in the packet.
+    pub fn index(&self) -> usize {
+        self.index as usize
     }
 }
 
@@ -143,6 +150,7 @@ impl Bands {
     /// Lists the packet's events (those `on_sensor`) by band: a counting sort that keeps the
     /// packet's order within each band.
     pub fn sort(&mut self, packet: &EventPacket, on_sensor: &[bool]) {
+        debug_assert!(u32::try_from(packet.len()).is_ok());
         self.starts.clear();
         self.starts.resize(self.bands.len() + 1, 0);
         for (i, &y) in packet.ys.iter().enumerate() {
@@ -183,7 +191,7 @@ impl Bands {
                 self.entries[self.cursor[band]] = Entry {
                     t,
                     cell: cell as u32 | flag,
-                    index: i,
+                    index: i as u32,
                 };
                 self.cursor[band] += 1;
             };
