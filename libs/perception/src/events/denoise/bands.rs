@@ -14,10 +14,14 @@ use std::ops::Range;
 
 use proto::EventPacket;
 
-/// Sensor rows each band owns. With its halo rows a band of a 640 px sensor is 18 × 642 cells
-/// (≈ 140 KB of past and core times, module `times`): it stays in one core's L2 cache while
-/// the band's events are judged, with the next band's part beside it.
-const BAND_ROWS: usize = 16;
+/// Sensor rows each band owns. With its halo rows a band of a 640 px sensor is 34 × 642 cells
+/// (≈ 260 KB of past and core times, module `times`, and ≈ 175 KB of band scratch): it stays
+/// in one core's L2 cache (2 MB here) while the band's events are judged, with the next band's
+/// part beside it. Measured (`cargo bench -p perception --bench noise_front_end`, the three
+/// alternated): 32 rows ran the front end at 19.6–19.8 M events/s, 16 rows at 17.7–18.8 (an
+/// event in a halo row is listed twice, and 16-row bands have twice the halo rows), 64 at
+/// 19.3–19.5.
+const BAND_ROWS: usize = 32;
 
 /// A band: the first sensor row it owns and where its part of the map starts.
 #[derive(Debug, Clone, Copy)]
