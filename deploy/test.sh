@@ -6,7 +6,8 @@
 #                             the multi-host tests make network namespaces)
 #   deploy/test.sh --full     also the long `#[ignore]`d tests: whole missions as processes with
 #                             sensors, the frozen-behaviour runs of nominal-3 and dropout-o2 (and
-#                             of only-a on the reference `--render full` path), a
+#                             of only-a on the reference `--render full` path), only-a with RGB
+#                             as one-process mission, the RGB link's six-payload sweep, a
 #                             study in shards killed and resumed, and a study as a job array on a
 #                             real Slurm (tests/tests/slurm.rs: installs slurm-wlm and munge once,
 #                             starts its own slurmctld, slurmd and munged from a generated

@@ -2,8 +2,8 @@
 //! receiver of the same flight.
 //!
 //! Proves the RGB receiver releases the same payloads at the ideal token times (within one frame
-//! and a bit), decodes a sweep of payloads for every observer, and that a blacked-out observer
-//! releases nothing while the others are unaffected.
+//! and a bit), decodes a sweep of payloads for every observer (`deploy/test.sh --full`), and that
+//! a blacked-out observer releases nothing while the others are unaffected.
 
 mod common;
 use common::{NOMINAL_PAYLOADS, assert_matches_ideal, link, nominal_link, payloads, tokens};
@@ -25,6 +25,8 @@ fn rgb_releases_the_nominal_payloads_at_ideal_token_times() {
 /// every bit position carries both values, plus both invalid site ids (00, 11) — the link decodes
 /// frames, validity is the agent's business.
 #[test]
+#[ignore = "six offers at three viewpoints, ≈ 2.5 min: deploy/test.sh --full (the default run \
+            decodes the three nominal payloads at the same viewpoints)"]
 fn a_sweep_of_payloads_decodes_for_every_observer() {
     let sweep = ["000000", "111111", "010101", "101010", "001100", "110011"];
     let mut args = vec!["--observers", "3", "--modality", "rgb"];
