@@ -396,22 +396,16 @@ fn junk_on_every_key_leaves_the_run_passing_with_identical_observers_and_counted
             s.rejects.get(process)
         );
     }
-    assert!(
-        count(
-            s,
-            "observer-O1",
-            "sensor/O1/rgb",
-            RejectReason::UnexpectedKey
-        ) > 0
-    );
-    assert!(
-        count(
-            s,
-            "scheduler",
-            "observer/O9/status",
-            RejectReason::UnexpectedKey
-        ) > 0
-    );
+    for (process, key) in [
+        ("observer-O1", "sensor/O1/rgb"),
+        ("scheduler", "observer/O9/status"),
+    ] {
+        assert!(
+            count(s, process, key, RejectReason::UnexpectedKey) > 0,
+            "{process} counted no message on {key} as an unexpected key: {:?}",
+            s.rejects.get(process)
+        );
+    }
     assert!(s.faults_seen.is_empty(), "{:?}", s.faults_seen);
 }
 
