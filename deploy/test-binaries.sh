@@ -43,12 +43,12 @@ sed -n 's/.*"manifest_path":"\([^"]*\)".*"profile":{[^}]*"test":true}.*"executab
 total="$(wc -l <"$work/all")"
 [ "$total" -gt 0 ] || { echo "test-binaries.sh: cargo listed no test binaries" >&2; exit 1; }
 
-# The longest binaries first (wall time on 2 cores, measured 2026-11-28, longest first), so the
+# The longest binaries first (wall time on 2 cores, measured 2026-11-30, longest first), so the
 # short ones fill the other slot at the end; the rest in cargo's order. A binary missing from
 # this list still runs, only later.
-longest=(multihost frozen trials hostile link_events link_rgb record sweep view compose
-  study_shards relocatable delivery_order ros2_export denoise ingest mission run ros2_live decode
-  link lab quic)
+longest=(multihost trials frozen link_events hostile sweep view record link_rgb study_shards
+  compose mission relocatable delivery_order ingest ros2_export denoise run ros2_live decode
+  quic event_receiver link rgb_receiver lab)
 : >"$work/order"
 for name in "${longest[@]}"; do
   grep -E "/deps/${name}-[0-9a-f]+ " "$work/all" >>"$work/order" || true

@@ -198,36 +198,61 @@ impl Rogue {
     }
 }
 
-/// What a run with a rogue beside it left.
+/// What a run with rogues beside it left.
 struct Disturbed {
     summary: RunSummary,
     observers_sha256: String,
-    /// Puts the rogue made, and samples it received.
+    /// Per rogue, in the order given: puts it made, and samples it received.
+    traffic: Vec<Traffic>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Traffic {
     sent: u64,
     received: u64,
 }
 
-/// Runs `only-a` with event cameras (`extra` arguments added) while a rogue — made by
-/// `rogue(endpoint, session)` once the run is up — floods `keys` with `payloads`.
-fn run_beside_rogue(
-    name: &str,
-    extra: &[&str],
-    rogue: impl FnOnce(&str, &str) -> Rogue + Send,
-    keys: impl FnOnce(&str) -> Vec<String> + Send,
-    payloads: impl Fn(u64) -> Vec<Vec<u8>> + Send + Sync,
-) -> Disturbed {
-    let endpoint = format!("tcp/127.0.0.1:{}", waggle_tests::free_port());
-    run_beside_rogue_at(&endpoint, name, extra, rogue, keys, payloads)
+/// One rogue of a run: how it joins (`join(endpoint, session)`, once the run is up), the keys
+/// it floods (`keys(session)`) and the payloads of each round.
+struct RogueSpec<'a> {
+    join: Box<JoinFn<'a>>,
+    keys: Box<KeysFn<'a>>,
+    payloads: Box<PayloadsFn<'a>>,
 }
 
-/// [`run_beside_rogue`] with the run's router listening on `endpoint`.
-fn run_beside_rogue_at(
+/// `(endpoint, session)` → a rogue joined to the run.
+type JoinFn<'a> = dyn FnOnce(&str, &str) -> Rogue + Send + 'a;
+/// `session` → the keys a rogue floods.
+type KeysFn<'a> = dyn FnOnce(&str) -> Vec<String> + Send + 'a;
+/// `round` → the payloads a rogue puts on each key that round.
+type PayloadsFn<'a> = dyn Fn(u64) -> Vec<Vec<u8>> + Send + Sync + 'a;
+
+impl<'a> RogueSpec<'a> {
+    fn new(
+        join: impl FnOnce(&str, &str) -> Rogue + Send + 'a,
+        keys: impl FnOnce(&str) -> Vec<String> + Send + 'a,
+        payloads: impl Fn(u64) -> Vec<Vec<u8>> + Send + Sync + 'a,
+    ) -> Self {
+        Self {
+            join: Box::new(join),
+            keys: Box::new(keys),
+            payloads: Box::new(payloads),
+        }
+    }
+}
+
+/// Runs `only-a` with event cameras (`extra` arguments added) while each rogue floods its keys.
+fn run_beside_rogues(name: &str, extra: &[&str], rogues: Vec<RogueSpec<'_>>) -> Disturbed {
+    let endpoint = format!("tcp/127.0.0.1:{}", waggle_tests::free_port());
+    run_beside_rogues_at(&endpoint, name, extra, rogues)
+}
+
+/// [`run_beside_rogues`] with the run's router listening on `endpoint`.
+fn run_beside_rogues_at(
     endpoint: &str,
     name: &str,
     extra: &[&str],
-    rogue: impl FnOnce(&str, &str) -> Rogue + Send,
-    keys: impl FnOnce(&str) -> Vec<String> + Send,
-    payloads: impl Fn(u64) -> Vec<Vec<u8>> + Send + Sync,
+    rogues: Vec<RogueSpec<'_>>,
 ) -> Disturbed {
     let session = format!("{name}-{}", std::process::id());
     let dir = std::env::temp_dir().join(format!("waggle-{session}"));
@@ -256,21 +281,27 @@ fn run_beside_rogue_at(
     }
     std::thread::sleep(Duration::from_millis(1500));
     let finished = std::sync::atomic::AtomicBool::new(false);
-    let (sent, received, status) = std::thread::scope(|s| {
-        let flooding = s.spawn(|| {
-            let r = rogue(&endpoint, &session);
-            let keys = keys(&session);
-            let sent = r.flood(&keys, &payloads, || {
-                finished.load(std::sync::atomic::Ordering::SeqCst)
-            });
-            let received = r.received();
-            r.session.close().wait().ok();
-            (sent, received)
-        });
+    let (traffic, status) = std::thread::scope(|s| {
+        let flooding: Vec<_> = rogues
+            .into_iter()
+            .map(|spec| {
+                let (endpoint, session, finished) = (&endpoint, &session, &finished);
+                s.spawn(move || {
+                    let r = (spec.join)(endpoint, session);
+                    let keys = (spec.keys)(session);
+                    let sent = r.flood(&keys, &spec.payloads, || {
+                        finished.load(std::sync::atomic::Ordering::SeqCst)
+                    });
+                    let received = r.received();
+                    r.session.close().wait().ok();
+                    Traffic { sent, received }
+                })
+            })
+            .collect();
         let status = wait_bounded(&mut run, Duration::from_secs(900));
         finished.store(true, std::sync::atomic::Ordering::SeqCst);
-        let (sent, received) = flooding.join().unwrap();
-        (sent, received, status)
+        let traffic: Vec<Traffic> = flooding.into_iter().map(|f| f.join().unwrap()).collect();
+        (traffic, status)
     });
     let context = format!(
         "outputs in {}\nstdout:\n{}\nstderr:\n{}",
@@ -292,8 +323,7 @@ fn run_beside_rogue_at(
     Disturbed {
         summary,
         observers_sha256,
-        sent,
-        received,
+        traffic,
     }
 }
 
@@ -350,22 +380,25 @@ fn read_summary(dir: &Path) -> RunSummary {
 
 #[test]
 fn junk_on_every_key_leaves_the_run_passing_with_identical_observers_and_counted_rejects() {
-    let d = run_beside_rogue(
+    let d = run_beside_rogues(
         "hostile-junk",
         &["--no-auth"],
-        |endpoint, session| Rogue::join(endpoint, session, None),
-        |session| target_keys(session, 3),
-        |round| {
-            let mut p = junk(round);
-            if round == 3 {
-                p.push(vec![0xAB; 2 << 20]);
-            }
-            p
-        },
+        vec![RogueSpec::new(
+            |endpoint, session| Rogue::join(endpoint, session, None),
+            |session| target_keys(session, 3),
+            |round| {
+                let mut p = junk(round);
+                if round == 3 {
+                    p.push(vec![0xAB; 2 << 20]);
+                }
+                p
+            },
+        )],
     );
-    assert!(d.sent > 1000, "the rogue sent only {}", d.sent);
+    let t = d.traffic[0];
+    assert!(t.sent > 1000, "the rogue sent only {}", t.sent);
     // On the open bus the rogue reads everything: what authentication takes away.
-    assert!(d.received > 1000, "the rogue received only {}", d.received);
+    assert!(t.received > 1000, "the rogue received only {}", t.received);
     assert_eq!(
         d.observers_sha256,
         undisturbed_sha256(),
@@ -409,77 +442,73 @@ fn junk_on_every_key_leaves_the_run_passing_with_identical_observers_and_counted
     assert!(s.faults_seen.is_empty(), "{:?}", s.faults_seen);
 }
 
+/// Two rogues in one authenticated run (one run, not two: each whole run is ≈ 90 core-seconds
+/// of the default suite): one without credentials, which neither receives nor delivers
+/// anything, and one holding observer O1's credentials, which can publish on O1's own keys and
+/// nowhere else.
 #[test]
-fn a_rogue_without_credentials_neither_receives_nor_delivers_anything() {
-    let d = run_beside_rogue(
-        "hostile-nocred",
+fn rogues_without_credentials_or_with_o1s_reach_nothing_beyond_o1s_own_keys() {
+    let d = run_beside_rogues(
+        "hostile-auth",
         &[],
-        |endpoint, session| Rogue::join(endpoint, session, None),
-        |session| target_keys(session, 3),
-        |round| {
-            let mut p = junk(round);
-            p.push(forged_blackout("O1"));
-            p
-        },
+        vec![
+            RogueSpec::new(
+                |endpoint, session| Rogue::join(endpoint, session, None),
+                |session| target_keys(session, 3),
+                |round| {
+                    let mut p = junk(round);
+                    p.push(forged_blackout("O1"));
+                    p
+                },
+            ),
+            RogueSpec::new(
+                |endpoint, session| {
+                    let file = std::env::temp_dir()
+                        .join(format!("waggle-secrets-{session}"))
+                        .join("observer-O1.credentials");
+                    let line = std::fs::read_to_string(&file)
+                        .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+                    Rogue::join(endpoint, session, Some(&line))
+                },
+                |session| {
+                    let k = proto::Keys::new(session).unwrap();
+                    let o = |s: &str| ObserverId::new(s).unwrap();
+                    vec![
+                        k.sched_cmd(),
+                        k.fault(&o("O1")),
+                        k.fault(&o("O2")),
+                        k.sensor_events(&o("O2")),
+                        k.clock(),
+                        // Its own key: allowed, so the scheduler counts the junk (the rogue is in).
+                        k.observer_status(&o("O1")),
+                    ]
+                },
+                |round| {
+                    let mut p = junk(round);
+                    p.push(forged_blackout("O1"));
+                    p.push(forged_blackout("O2"));
+                    p
+                },
+            ),
+        ],
     );
-    assert!(d.sent > 1000, "the rogue sent only {}", d.sent);
+    let (without, with_o1) = (d.traffic[0], d.traffic[1]);
+    assert!(without.sent > 1000, "the rogue sent only {}", without.sent);
+    assert!(with_o1.sent > 100, "O1's rogue sent only {}", with_o1.sent);
     assert_eq!(
-        d.received, 0,
+        without.received, 0,
         "a rogue without credentials received samples"
     );
-    // The router counted the rogue's refused handshakes (it keeps dialling), and nothing else:
-    // the run's own processes never had a message denied.
-    let r = d.summary.router_refusals;
-    assert!(r.handshake >= 1, "{r:?}");
+    // O1's subscription to the whole session is not among O1's: the router refuses it.
     assert_eq!(
-        (r.certificate, r.no_access_rule, r.denied_messages),
-        (0, 0, 0),
-        "{r:?}"
+        with_o1.received, 0,
+        "O1's credentials read beyond O1's inputs"
     );
     assert_eq!(d.observers_sha256, undisturbed_sha256());
-    assert_eq!(d.summary.rejects_total(), 0, "{:?}", d.summary.rejects);
-    assert!(
-        d.summary.faults_seen.is_empty(),
-        "{:?}",
-        d.summary.faults_seen
-    );
-}
-
-#[test]
-fn a_process_holding_o1_credentials_cannot_publish_outside_its_own_keys() {
-    let d = run_beside_rogue(
-        "hostile-o1",
-        &[],
-        |endpoint, session| {
-            let file = std::env::temp_dir()
-                .join(format!("waggle-secrets-{session}"))
-                .join("observer-O1.credentials");
-            let line = std::fs::read_to_string(&file)
-                .unwrap_or_else(|e| panic!("{}: {e}", file.display()));
-            Rogue::join(endpoint, session, Some(&line))
-        },
-        |session| {
-            let k = proto::Keys::new(session).unwrap();
-            let o = |s: &str| ObserverId::new(s).unwrap();
-            vec![
-                k.sched_cmd(),
-                k.fault(&o("O1")),
-                k.fault(&o("O2")),
-                k.sensor_events(&o("O2")),
-                k.clock(),
-                // Its own key: allowed, so the scheduler counts the junk (the rogue is in).
-                k.observer_status(&o("O1")),
-            ]
-        },
-        |round| {
-            let mut p = junk(round);
-            p.push(forged_blackout("O1"));
-            p.push(forged_blackout("O2"));
-            p
-        },
-    );
-    assert!(d.sent > 100, "the rogue sent only {}", d.sent);
     let s = &d.summary;
+    assert!(s.faults_seen.is_empty(), "{:?}", s.faults_seen);
+    // O1's junk on its own key arrived; nothing else from either rogue did (the one without
+    // credentials flooded every key the run reads, O1's the keys it does not own).
     assert!(
         count(
             s,
@@ -487,34 +516,29 @@ fn a_process_holding_o1_credentials_cannot_publish_outside_its_own_keys() {
             "observer/O1/status",
             RejectReason::Undecodable
         ) > 0,
-        "the rogue's junk on its own key never arrived: {:?}",
+        "the O1 rogue's junk on its own key never arrived: {:?}",
         s.rejects
     );
-    assert_eq!(d.observers_sha256, undisturbed_sha256());
-    assert!(s.faults_seen.is_empty(), "{:?}", s.faults_seen);
-    for (process, key) in [
-        ("sim", "sched/cmd"),
-        ("camera-O1", "fault/O1"),
-        ("camera-O2", "fault/O2"),
-        ("observer-O2", "sensor/O2/events"),
-        ("observer-O2", "clock"),
-        ("launcher", "clock"),
-    ] {
-        for reason in [RejectReason::Undecodable, RejectReason::OutOfContract] {
+    for (process, counts) in &s.rejects {
+        for c in counts {
             assert_eq!(
-                count(s, process, key, reason),
-                0,
-                "{process} got {key} from the rogue"
+                c.key, "observer/O1/status",
+                "{process} got a message from a rogue beyond O1's own keys: {c:?}"
             );
         }
     }
-    // Its subscription to the whole session is not among O1's: the router refuses it.
-    assert_eq!(d.received, 0, "O1's credentials read beyond O1's inputs");
-    // The router counted what it denied: the puts on keys O1 does not own (5 keys, several
-    // payloads, every 250 ms); its allowed puts on its own key are not among them.
+    // The router counted the credential-less rogue's refused handshakes (it keeps dialling)
+    // and O1's puts on keys O1 does not own (5 keys, several payloads, every 250 ms) — not its
+    // allowed puts on its own key; no certificate was refused (there is no TLS here).
     let r = s.router_refusals;
+    assert!(r.handshake >= 1, "{r:?}");
     assert!(r.denied_messages > 100, "{r:?}");
-    assert!(r.denied_messages < d.sent, "{r:?}, {} sent", d.sent);
+    assert!(
+        r.denied_messages < with_o1.sent,
+        "{r:?}, {} sent by O1's rogue",
+        with_o1.sent
+    );
+    assert_eq!(r.certificate, 0, "{r:?}");
 }
 
 /// Over `quic/`, inside a whole run: observer O1's stolen password presented with camera O1's
@@ -529,51 +553,54 @@ fn a_password_with_another_processs_certificate_gets_nothing_in_a_quic_run() {
         .local_addr()
         .unwrap()
         .port();
-    let d = run_beside_rogue_at(
+    let d = run_beside_rogues_at(
         &format!("quic/127.0.0.1:{port}"),
         "hostile-swap",
         &[],
-        |endpoint, session| {
-            let dir = std::env::temp_dir().join(format!("waggle-secrets-{session}"));
-            let line = std::fs::read_to_string(dir.join("observer-O1.credentials"))
-                .unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
-            let tls = RogueTls {
-                ca: dir.join("ca.pem"),
-                cert: dir.join("camera-O1.cert.pem"),
-                key: dir.join("camera-O1.key.pem"),
-            };
-            // Zenoh's QUIC link wants one stream per link here as everywhere in Waggle.
-            let endpoint = bus::single_stream_quic(endpoint);
-            // First a certificate of another CA: refused by the TLS handshake.
-            let foreign_dir = dir.with_extension("foreign");
-            let foreign =
-                bus::SessionSecrets::create_kept(&foreign_dir, &["sim".to_string()]).unwrap();
-            let foreign_tls = RogueTls {
-                ca: foreign_dir.join("ca.pem"),
-                cert: foreign_dir.join("sim.cert.pem"),
-                key: foreign_dir.join("sim.key.pem"),
-            };
-            assert!(
-                !joins_quic(&endpoint, &foreign_tls),
-                "a certificate of another CA was accepted"
-            );
-            drop(foreign);
-            let _ = std::fs::remove_dir_all(&foreign_dir);
-            Rogue::join_with(&endpoint, session, Some(&line), Some(&tls))
-        },
-        |session| {
-            let k = proto::Keys::new(session).unwrap();
-            let o1 = ObserverId::new("O1").unwrap();
-            vec![k.observer_status(&o1), k.sensor_events(&o1), k.clock()]
-        },
-        |round| {
-            let mut p = junk(round);
-            p.push(forged_blackout("O1"));
-            p
-        },
+        vec![RogueSpec::new(
+            |endpoint, session| {
+                let dir = std::env::temp_dir().join(format!("waggle-secrets-{session}"));
+                let line = std::fs::read_to_string(dir.join("observer-O1.credentials"))
+                    .unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+                let tls = RogueTls {
+                    ca: dir.join("ca.pem"),
+                    cert: dir.join("camera-O1.cert.pem"),
+                    key: dir.join("camera-O1.key.pem"),
+                };
+                // Zenoh's QUIC link wants one stream per link here as everywhere in Waggle.
+                let endpoint = bus::single_stream_quic(endpoint);
+                // First a certificate of another CA: refused by the TLS handshake.
+                let foreign_dir = dir.with_extension("foreign");
+                let foreign =
+                    bus::SessionSecrets::create_kept(&foreign_dir, &["sim".to_string()]).unwrap();
+                let foreign_tls = RogueTls {
+                    ca: foreign_dir.join("ca.pem"),
+                    cert: foreign_dir.join("sim.cert.pem"),
+                    key: foreign_dir.join("sim.key.pem"),
+                };
+                assert!(
+                    !joins_quic(&endpoint, &foreign_tls),
+                    "a certificate of another CA was accepted"
+                );
+                drop(foreign);
+                let _ = std::fs::remove_dir_all(&foreign_dir);
+                Rogue::join_with(&endpoint, session, Some(&line), Some(&tls))
+            },
+            |session| {
+                let k = proto::Keys::new(session).unwrap();
+                let o1 = ObserverId::new("O1").unwrap();
+                vec![k.observer_status(&o1), k.sensor_events(&o1), k.clock()]
+            },
+            |round| {
+                let mut p = junk(round);
+                p.push(forged_blackout("O1"));
+                p
+            },
+        )],
     );
-    assert!(d.sent > 100, "the rogue sent only {}", d.sent);
-    assert_eq!(d.received, 0, "the rogue was sent samples");
+    let t = d.traffic[0];
+    assert!(t.sent > 100, "the rogue sent only {}", t.sent);
+    assert_eq!(t.received, 0, "the rogue was sent samples");
     assert_eq!(d.observers_sha256, undisturbed_sha256());
     assert_eq!(d.summary.rejects_total(), 0, "{:?}", d.summary.rejects);
     // The router counted both: the foreign certificate and the link that matched no rule.
