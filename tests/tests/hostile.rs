@@ -204,6 +204,8 @@ struct Disturbed {
     observers_sha256: String,
     /// Per rogue, in the order given: puts it made, and samples it received.
     traffic: Vec<Traffic>,
+    /// The launcher's stderr (it names any process whose reject report never came).
+    stderr: String,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -317,6 +319,7 @@ fn run_beside_rogues_at(
         summary.mission.reasons
     );
     let observers_sha256 = sha256_hex(&std::fs::read(dir.join("observers.json")).unwrap());
+    let stderr = std::fs::read_to_string(log.with_extension("err")).unwrap_or_default();
     let _ = std::fs::remove_dir_all(&dir);
     let _ = std::fs::remove_file(&log);
     let _ = std::fs::remove_file(log.with_extension("err"));
@@ -324,6 +327,7 @@ fn run_beside_rogues_at(
         summary,
         observers_sha256,
         traffic,
+        stderr,
     }
 }
 
@@ -425,8 +429,9 @@ fn junk_on_every_key_leaves_the_run_passing_with_identical_observers_and_counted
     ] {
         assert!(
             count(s, process, key, undecodable) > 0,
-            "{process} counted no undecodable message on {key}: {:?}",
-            s.rejects.get(process)
+            "{process} counted no undecodable message on {key}: {:?}\nlauncher's stderr:\n{}",
+            s.rejects.get(process),
+            d.stderr
         );
     }
     for (process, key) in [
@@ -435,8 +440,10 @@ fn junk_on_every_key_leaves_the_run_passing_with_identical_observers_and_counted
     ] {
         assert!(
             count(s, process, key, RejectReason::UnexpectedKey) > 0,
-            "{process} counted no message on {key} as an unexpected key: {:?}",
-            s.rejects.get(process)
+            "{process} counted no message on {key} as an unexpected key: {:?}\n\
+             launcher's stderr:\n{}",
+            s.rejects.get(process),
+            d.stderr
         );
     }
     assert!(s.faults_seen.is_empty(), "{:?}", s.faults_seen);
