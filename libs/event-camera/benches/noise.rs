@@ -18,7 +18,7 @@ use std::hint::black_box;
 
 use event_camera::synthetic::MovingBlobScene;
 use event_camera::{CameraConfig, EventCamera, EventNoise, Polarity};
-use proto::{FrameChange, PixelRect};
+use proto::FrameChange;
 
 const W: u16 = 640;
 const H: u16 = 480;
@@ -38,42 +38,6 @@ fn cpu_ns() -> u64 {
                 .elapsed()
                 .as_nanos() as u64
         })
-}
-
-/// The renders and, for each, the rectangle that differs from the one before.
-fn renders() -> Vec<(Vec<u8>, FrameChange)> {
-    let scene = MovingBlobScene::new(W, H);
-    let frames: Vec<Vec<u8>> = (0..=SECONDS * 1_000_000_000 / RENDER_NS)
-        .map(|k| scene.frame(k * RENDER_NS))
-        .collect();
-    let w = usize::from(W);
-    let mut out = Vec::with_capacity(frames.len());
-    for (k, rgb) in frames.iter().enumerate() {
-        let change = match k.checked_sub(1).map(|p| &frames[p]) {
-            None => FrameChange::All,
-            Some(prev) => {
-                let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
-                for (i, (a, b)) in rgb.chunks_exact(3).zip(prev.chunks_exact(3)).enumerate() {
-                    if a != b {
-                        let (x, y) = (i % w, i / w);
-                        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
-                    }
-                }
-                if x0 == usize::MAX {
-                    FrameChange::Nothing
-                } else {
-                    FrameChange::Within(PixelRect {
-                        x: x0 as u16,
-                        y: y0 as u16,
-                        width: (x1 - x0 + 1) as u16,
-                        height: (y1 - y0 + 1) as u16,
-                    })
-                }
-            }
-        };
-        out.push((rgb.clone(), change));
-    }
-    out
 }
 
 /// v2e's parameter sets in Waggle's terms (the values of `perturb::preset`).
@@ -151,7 +115,7 @@ fn median(mut v: Vec<u64>) -> u64 {
 }
 
 fn main() {
-    let renders = renders();
+    let renders = MovingBlobScene::new(W, H).renders(SECONDS * 1_000_000_000, RENDER_NS);
     let paths = [
         (
             "ideal",

@@ -4,6 +4,8 @@
 //! anti-aliased two-tone blob sweeping left–right, like the performer seen by an observer: most
 //! pixels repeat exactly from frame to frame, a band around the blob changes.
 
+use proto::{FrameChange, PixelRect};
+
 /// A static background with one moving blob.
 #[derive(Clone)]
 pub struct MovingBlobScene {
@@ -62,6 +64,49 @@ impl MovingBlobScene {
         let mut rgb = self.background.clone();
         self.draw_blob(t_ns, &mut rgb);
         rgb
+    }
+
+    /// The scene every `render_ns` from 0 to `until_ns`, each with the rectangle that differs
+    /// from the render before (`All` for the first, `Nothing` when none differs): what a
+    /// renderer's damage tracking hands the camera, so a camera fed these converts only what
+    /// moved, as in a trial.
+    pub fn renders(&self, until_ns: u64, render_ns: u64) -> Vec<(Vec<u8>, FrameChange)> {
+        let frames: Vec<Vec<u8>> = (0..=until_ns / render_ns.max(1))
+            .map(|k| self.frame(k * render_ns))
+            .collect();
+        let changes: Vec<FrameChange> = frames
+            .iter()
+            .enumerate()
+            .map(|(k, rgb)| match k.checked_sub(1) {
+                None => FrameChange::All,
+                Some(p) => self.changed(&frames[p], rgb),
+            })
+            .collect();
+        frames.into_iter().zip(changes).collect()
+    }
+
+    /// The smallest rectangle holding every pixel that differs between two renders.
+    fn changed(&self, before: &[u8], after: &[u8]) -> FrameChange {
+        let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
+        for (i, (a, b)) in after
+            .chunks_exact(3)
+            .zip(before.chunks_exact(3))
+            .enumerate()
+        {
+            if a != b {
+                let (x, y) = (i % self.width, i / self.width);
+                (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+            }
+        }
+        if x0 == usize::MAX {
+            return FrameChange::Nothing;
+        }
+        FrameChange::Within(PixelRect {
+            x: x0 as u16,
+            y: y0 as u16,
+            width: (x1 - x0 + 1) as u16,
+            height: (y1 - y0 + 1) as u16,
+        })
     }
 
     /// Writes the scene at `t_ns` into `rgb` (must be `width·height·3` bytes).

@@ -3,23 +3,28 @@
 //! with its front end against the same receiver with the front end off, on the same stream (a
 //! ratio from one invocation).
 //!
-//! Run: `cargo bench -p perception --bench noise_front_end`. The stream: the synthetic moving-blob
-//! scene (`event_camera::synthetic`), 640×480 at 100 Hz, 2 s, through a sensor with v2e's
-//! `noisy` shot noise and leak (5 Hz and 0.1 Hz per pixel) — ≈ 3 M noise events. Each figure is
-//! the fastest of 5 repetitions (`WAGGLE_BENCH_REPEATS=N` for N) on one thread.
+//! Run: `cargo bench -p perception --bench noise_front_end`. The stream: the synthetic
+//! moving-blob scene (`event_camera::synthetic`), 640×480 at 100 Hz, 4 s, each render with the
+//! rectangle that changed (as a trial feeds its camera), through the event sensor a trial builds
+//! for the preset `v2e-noisy` (`perturb::Perturbation::with_preset`: every term of v2e's model —
+//! shot noise scaled by brightness, leak with spread and jitter, the photoreceptor cutoff,
+//! linlog, threshold mismatch), ≈ 4 M events. `WAGGLE_BENCH_PRESET=NAME` picks another preset.
+//! Each figure is the fastest of 5 repetitions (`WAGGLE_BENCH_REPEATS=N` for N) on one thread.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use event_camera::synthetic::MovingBlobScene;
-use event_camera::{CameraConfig, EventCamera, EventNoise};
+use event_camera::{CameraConfig, EventCamera};
 use perception::events::{DenoiseConfig, EventReceiver, EventReceiverConfig, NoiseFilter};
 use proto::EventPacket;
 
 const W: u16 = 640;
 const H: u16 = 480;
 const RENDER_NS: u64 = 10_000_000;
-const SECONDS: u64 = 2;
+const SECONDS: u64 = 4;
+/// Renders before generation is timed: one second.
+const WARMUP_RENDERS: usize = 100;
 /// Repetitions of each measurement; `WAGGLE_BENCH_REPEATS` overrides it.
 const REPEATS: usize = 5;
 
@@ -31,20 +36,17 @@ fn repeats() -> usize {
         .unwrap_or(REPEATS)
 }
 
-fn noisy_camera() -> EventCamera {
-    let noise = EventNoise {
-        threshold_sigma: 0.05,
-        refractory_ns: 500_000,
-        leak_hz: 0.1,
-        shot_noise_hz: 5.0,
-        seed: 1,
-        ..EventNoise::default()
-    };
-    EventCamera::new(CameraConfig {
-        noise,
-        ..CameraConfig::paper(W, H)
-    })
-    .expect("camera")
+/// The sensor preset the stream is generated with.
+fn preset() -> String {
+    std::env::var("WAGGLE_BENCH_PRESET").unwrap_or_else(|_| "v2e-noisy".to_owned())
+}
+
+/// A camera with the preset's sensor, as a trial builds it (noise seed 1).
+fn noisy_camera(preset: &str) -> EventCamera {
+    let sensor = perturb::Perturbation::with_preset(Some(preset), &[] as &[&str])
+        .expect("a known preset")
+        .event_sensor(1);
+    EventCamera::new(CameraConfig::paper(W, H).with_model(sensor)).expect("camera")
 }
 
 /// The fastest repetition: on a shared machine the others measure the neighbours too.
@@ -53,22 +55,28 @@ fn best(times: Vec<Duration>) -> Duration {
 }
 
 fn main() {
-    let scene = MovingBlobScene::new(W, H);
-    let frames: Vec<Vec<u8>> = (0..=SECONDS * 1_000_000_000 / RENDER_NS)
-        .map(|k| scene.frame(k * RENDER_NS))
-        .collect();
+    let renders = MovingBlobScene::new(W, H).renders(SECONDS * 1_000_000_000, RENDER_NS);
 
-    let mut packets = Vec::new();
+    let preset = preset();
+    // Generation is timed after a warm-up second: the first render judges every pixel of the
+    // sensor with every term of the model, a start-up cost a 97 s trial spreads thin.
+    let (mut generated, mut packets): (usize, Vec<EventPacket>) = (0, Vec::new());
     let generate = best(
         (0..repeats())
             .map(|_| {
-                let mut camera = noisy_camera();
-                let start = Instant::now();
+                let mut camera = noisy_camera(&preset);
                 let mut out = Vec::new();
-                for (k, rgb) in frames.iter().enumerate() {
-                    out.extend(camera.push_frame(k as u64 * RENDER_NS, rgb).expect("frame"));
-                }
+                let mut push = |k: usize, out: &mut Vec<EventPacket>| {
+                    let (rgb, change) = &renders[k];
+                    let t_ns = k as u64 * RENDER_NS;
+                    out.extend(camera.push_frame_change(t_ns, rgb, *change).expect("frame"));
+                };
+                (0..WARMUP_RENDERS).for_each(|k| push(k, &mut out));
+                let before = out.len();
+                let start = Instant::now();
+                (WARMUP_RENDERS..renders.len()).for_each(|k| push(k, &mut out));
                 let took = start.elapsed();
+                generated = out[before..].iter().map(EventPacket::len).sum();
                 packets = out;
                 took
             })
@@ -114,20 +122,22 @@ fn main() {
 
     let rate = |d: Duration| events as f64 / d.as_secs_f64() / 1e6;
     println!(
-        "stream: {events} events in {SECONDS} s of sensor time ({} packets)",
+        "stream: {events} events in {SECONDS} s of sensor time ({} packets), sensor {preset}",
         packets.len()
     );
+    let generation = generated as f64 / generate.as_secs_f64() / 1e6;
     println!(
-        "noise generation (converter + packets): {:>8.1} M events/s",
-        rate(generate)
+        "noise generation (converter + packets): {generation:>8.1} M events/s (after {} s)",
+        WARMUP_RENDERS as u64 * RENDER_NS / 1_000_000_000
     );
     println!(
         "front end (correlation filter):         {:>8.1} M events/s",
         rate(filter)
     );
+    let per_event = |mega_per_s: f64| 1e-6 / mega_per_s;
     println!(
         "generation + front end:                  {:>8.1} M events/s",
-        rate(generate + filter)
+        1e-6 / (per_event(generation) + per_event(rate(filter)))
     );
     println!(
         "receiver per packet: {:.1} µs with the front end, {:.1} µs without; ratio {:.2}",
