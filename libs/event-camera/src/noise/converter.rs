@@ -6,7 +6,8 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Poisson, StandardNormal};
 
-use super::leak::{LeakModel, LeakSchedule};
+use super::leak::LeakModel;
+use super::schedule::LeakSchedule;
 use super::shot::{ShotDraws, ShotMap};
 use super::state::{Interval, ORDER_HOT, PixelJudge, State};
 use super::{

@@ -1,4 +1,4 @@
-//! The leak of a noisy pixel and the schedule that finds the pixels it is about to fire.
+//! The leak of a noisy pixel (module `schedule` finds the pixels it is about to fire).
 //!
 //! Pixel i's reference drifts down by `C_i·Λ_i(g)`, `g = leak_hz·(t − t_first)` (seconds), with
 //!
@@ -196,109 +196,6 @@ fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// Width of one schedule bucket in leak periods (units of `g`).
-const BUCKETS_PER_G: f64 = 4096.0;
-/// Buckets in the ring: `BUCKETS / BUCKETS_PER_G` = 4 leak periods ahead; later entries wait in
-/// an overflow list.
-const BUCKETS: u64 = 1 << 14;
-
-/// With leak, the pixels grouped by the leak value `g` at which each may next cross upward with
-/// its input unchanged. `g` grows with time (it is `leak_hz` times the time since the first
-/// frame), so a frame at `g1` need judge only the pixels due by `g1` and those whose input
-/// changed. The order in which a frame judges its due pixels does not matter (each is judged by
-/// the exact rule; events are sorted afterwards), so a ring of buckets (a calendar queue) does
-/// what a heap did, without its log-time pops over ≈ 300 000 pixels. Entries are never removed
-/// early: a pixel judged for another reason gets a new entry and its old one is skipped as
-/// stale (its due value no longer lies in that bucket, or it was already handed out).
-#[derive(Clone, Default)]
-pub(super) struct LeakSchedule {
-    /// Due value of each pixel's live entry (∞ once handed out and not yet set again).
-    due: Vec<f64>,
-    ring: Vec<Vec<u32>>,
-    /// Absolute number of the bucket being drained; every earlier bucket is empty.
-    cursor: u64,
-    /// Entries beyond the ring's reach.
-    far: Vec<u32>,
-    /// Entries of the current bucket not yet due, put back once it is drained.
-    later: Vec<u32>,
-}
-
-fn bucket_of(g: f64) -> u64 {
-    (g * BUCKETS_PER_G) as u64
-}
-
-impl LeakSchedule {
-    pub fn new(due: impl Iterator<Item = f64>) -> Self {
-        let mut schedule = Self {
-            ring: vec![Vec::new(); BUCKETS as usize],
-            ..Self::default()
-        };
-        for (i, g) in due.enumerate() {
-            schedule.due.push(0.0);
-            schedule.set(i, g);
-        }
-        schedule
-    }
-
-    /// Asks for pixel i's due value ahead of [`LeakSchedule::set`].
-    #[inline(always)]
-    pub fn prefetch(&self, i: usize) {
-        prefetch(&self.due, i);
-    }
-
-    pub fn set(&mut self, i: usize, g: f64) {
-        let g = g.max(0.0);
-        self.due[i] = g;
-        let b = bucket_of(g).max(self.cursor);
-        if b < self.cursor + BUCKETS {
-            self.ring[(b % BUCKETS) as usize].push(i as u32);
-        } else {
-            self.far.push(i as u32);
-        }
-    }
-
-    /// The next pixel due by `g1` (handed out once), skipping stale entries.
-    pub fn pop_due(&mut self, g1: f64) -> Option<usize> {
-        let last = bucket_of(g1);
-        loop {
-            let slot = (self.cursor % BUCKETS) as usize;
-            while let Some(i) = self.ring[slot].pop() {
-                let d = self.due[i as usize];
-                if !d.is_finite() || bucket_of(d) > self.cursor {
-                    continue;
-                }
-                if d > g1 {
-                    self.later.push(i);
-                    continue;
-                }
-                self.due[i as usize] = f64::INFINITY;
-                return Some(i as usize);
-            }
-            self.ring[slot].append(&mut self.later);
-            if self.cursor >= last {
-                return None;
-            }
-            self.cursor += 1;
-            if self.cursor.is_multiple_of(BUCKETS / 2) && !self.far.is_empty() {
-                for i in std::mem::take(&mut self.far) {
-                    let d = self.due[i as usize];
-                    if d.is_finite() && bucket_of(d) <= self.cursor + BUCKETS / 2 {
-                        // Within reach again: back in the ring (stale ones are dropped).
-                        if bucket_of(d).max(self.cursor) < self.cursor + BUCKETS {
-                            let b = bucket_of(d).max(self.cursor);
-                            self.ring[(b % BUCKETS) as usize].push(i);
-                            continue;
-                        }
-                    }
-                    if d.is_finite() {
-                        self.far.push(i);
-                    }
-                }
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -339,37 +236,6 @@ mod tests {
                 "{g}"
             );
         }
-    }
-
-    #[test]
-    fn the_schedule_hands_out_every_due_pixel_once_and_no_other() {
-        // Dues spread over 10 leak periods (some beyond the ring), a few reset on the way.
-        let n = 5000usize;
-        let due: Vec<f64> = (0..n)
-            .map(|i| (i as f64 * 0.618_034).fract() * 10.0)
-            .collect();
-        let mut schedule = LeakSchedule::new(due.iter().copied());
-        let mut now = due.clone();
-        let mut handed = vec![0u32; n];
-        let mut g = 0.0;
-        while g < 12.0 {
-            g += 0.003_7;
-            while let Some(i) = schedule.pop_due(g) {
-                assert!(now[i] <= g, "{i} handed out at {g}, due {}", now[i]);
-                handed[i] += 1;
-                now[i] = f64::INFINITY;
-            }
-            // Nothing due is left behind.
-            assert!(now.iter().all(|&d| d > g), "at {g}");
-            if ((g * 100.0) as u64).is_multiple_of(37) {
-                let i = (g * 1000.0) as usize % n;
-                if now[i].is_finite() {
-                    now[i] += 0.5; // a pixel judged for another reason gets a later due
-                    schedule.set(i, now[i]);
-                }
-            }
-        }
-        assert!(handed.iter().all(|&h| h == 1), "every pixel once");
     }
 
     #[test]

@@ -79,6 +79,7 @@
 
 mod converter;
 pub mod leak;
+mod schedule;
 mod shot;
 mod state;
 

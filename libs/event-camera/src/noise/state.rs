@@ -3,7 +3,8 @@
 //! ([`PixelJudge`]) and one settled by its key bounds ([`State::settle`]).
 
 use super::LOWPASS_SETTLED;
-use super::leak::{JitterCache, LeakModel, LeakSchedule};
+use super::leak::{JitterCache, LeakModel};
+use super::schedule::LeakSchedule;
 use crate::converter::no_event_bounds;
 use crate::event::Polarity;
 use crate::prefetch::prefetch;
