@@ -144,7 +144,9 @@ impl BaselineStudy {
                 bail!("vary.levels must not be empty");
             }
             for &level in &vary.levels {
-                p.clone().set(&vary.key, level).context("vary")?;
+                let mut at = p.clone();
+                at.set(&vary.key, level).context("vary")?;
+                at.check().context("vary")?;
             }
         }
         MissionOptions {

@@ -25,6 +25,7 @@ pub struct MissionOptions {
 impl MissionOptions {
     /// Refuses perturbation terms a whole mission does not model (yet), naming them.
     pub fn check(&self) -> Result<()> {
+        self.perturbation.check()?;
         for key in [
             "geometry.position_sigma_m",
             "geometry.yaw_sigma_deg",

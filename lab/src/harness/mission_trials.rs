@@ -209,6 +209,7 @@ impl MissionsDefinition {
         for (k, v) in &d.perturb {
             perturbation.set(k, *v).context("run.json: perturb")?;
         }
+        perturbation.check().context("run.json: perturb")?;
         Ok(MissionTrialsOptions {
             case: Case::from_text(&d.case_text, &d.case)?,
             modality: d.modality,

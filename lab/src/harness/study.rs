@@ -334,6 +334,7 @@ impl StudyFile {
                         perturbation.set(key, level).context("vary")?;
                     }
                 }
+                perturbation.check().context("vary")?;
                 let formation = self.formation(&axes)?;
                 let (key, level) = setting[0];
                 let dir = if self.cross {
@@ -504,6 +505,15 @@ levels = [0.0, 0.5]
         let e = parse(&dark).unwrap_err();
         assert!(
             format!("{e:#}").contains("light.lux") && format!("{e:#}").contains("200000"),
+            "{e:#}"
+        );
+        // In range alone, too dark for the event sensor's model: refused before anything flies.
+        let too_dark = GOOD
+            .replace("events.shot_noise_hz\"", "light.lux\"")
+            .replace("[0.0, 0.5]", "[500.0, 0.01]");
+        let e = parse(&too_dark).unwrap_err();
+        assert!(
+            format!("{e:#}").contains("light.lux = 0.01") && format!("{e:#}").contains("1000"),
             "{e:#}"
         );
     }

@@ -141,6 +141,7 @@ impl Perturbation {
         for a in assignments {
             p.assign(a.as_ref())?;
         }
+        p.check()?;
         Ok(p)
     }
 }

@@ -363,6 +363,20 @@ pub enum PerturbError {
         unit: &'static str,
         whole: &'static str,
     },
+    #[error(
+        "perturbation light.lux = {lux}: the event sensor's background activity would be \
+         {shot_hz} Hz per pixel (events.shot_noise_hz = {own_hz} plus darkness's \
+         {dim_hz_lx} Hz·lx / light.lux), above the {max_hz} Hz per pixel the sensor model takes{least}"
+    )]
+    TooDark {
+        lux: f64,
+        own_hz: f64,
+        shot_hz: f64,
+        dim_hz_lx: f64,
+        max_hz: f64,
+        /// ": at least … lx with this events.shot_noise_hz", or what to lower instead.
+        least: String,
+    },
 }
 
 /// The entry of `table` whose name (`name_of`) is `name`, or every name, comma-separated, for
@@ -435,7 +449,43 @@ impl Perturbation {
         for a in assignments {
             p.assign(a.as_ref())?;
         }
+        p.check()?;
         Ok(p)
+    }
+
+    /// Checks what terms mean together once every one is set (each alone is checked by
+    /// [`Perturbation::set`]): under a modelled light level the event sensor's shot noise is
+    /// its own plus darkness's ([`crate::light::event_shot_noise_hz`]), and that sum must stay
+    /// within `events.shot_noise_hz`'s own range — a light level of 0.001 lx alone would ask
+    /// for 10 000 Hz per pixel, hours of events per trial.
+    pub fn check(&self) -> Result<(), PerturbError> {
+        let lux = self.lux();
+        if lux <= 0.0 {
+            return Ok(());
+        }
+        let own_hz = self.get("events.shot_noise_hz");
+        let shot_hz = self.event_shot_noise_hz();
+        let max_hz = parameter("events.shot_noise_hz").map_or(f64::INFINITY, |p| p.max);
+        if shot_hz <= max_hz {
+            return Ok(());
+        }
+        let dim_hz_lx = crate::light::DIM_SHOT_HZ_AT_1LUX;
+        let least = if own_hz < max_hz {
+            format!(
+                ": at least {:.3} lx with this events.shot_noise_hz",
+                dim_hz_lx / (max_hz - own_hz)
+            )
+        } else {
+            String::new()
+        };
+        Err(PerturbError::TooDark {
+            lux,
+            own_hz,
+            shot_hz,
+            dim_hz_lx,
+            max_hz,
+            least,
+        })
     }
 
     /// The value of `key` (its default when not set; NaN for a key not in the table).
@@ -615,6 +665,37 @@ mod tests {
         assert!(matches!(e, PerturbError::NotAnAssignment(_)), "{e}");
         let e = Perturbation::parse(&["rgb.read_noise_grey=lots"]).unwrap_err();
         assert!(e.to_string().contains("lots"), "{e}");
+    }
+
+    #[test]
+    fn a_light_level_too_dark_for_the_event_model_is_refused_naming_it() {
+        // Darkness adds 10 Hz·lx / E: 0.1 lx is the 100 Hz per pixel the term allows.
+        assert!(Perturbation::parse(&["light.lux=0.1"]).is_ok());
+        let e = Perturbation::parse(&["light.lux=0.05"]).unwrap_err();
+        assert!(matches!(e, PerturbError::TooDark { .. }), "{e}");
+        let text = e.to_string();
+        assert!(
+            text.contains("light.lux = 0.05") && text.contains("200"),
+            "{text}"
+        );
+        assert!(text.contains("at least 0.100 lx"), "{text}");
+        // The sensor's own shot noise counts, in either order of the terms.
+        for terms in [
+            ["light.lux=0.2", "events.shot_noise_hz=60"],
+            ["events.shot_noise_hz=60", "light.lux=0.2"],
+        ] {
+            let e = Perturbation::parse(&terms).unwrap_err().to_string();
+            assert!(e.contains("at least 0.250 lx"), "{e}");
+        }
+        assert!(Perturbation::parse(&["events.shot_noise_hz=60", "light.lux=0.25"]).is_ok());
+        // Only the whole set is judged: a later term may bring it back in range.
+        let mut p = Perturbation::parse(&["events.shot_noise_hz=60"]).unwrap();
+        p.set("light.lux", 0.2).unwrap();
+        assert!(p.check().is_err());
+        p.set("events.shot_noise_hz", 0.0).unwrap();
+        assert_eq!(p.check(), Ok(()));
+        let e = Perturbation::parse(&["events.shot_noise_hz=100", "light.lux=1000"]).unwrap_err();
+        assert!(!e.to_string().contains("at least"), "{e}");
     }
 
     #[test]
