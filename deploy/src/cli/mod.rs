@@ -38,7 +38,7 @@ impl FlightsArg {
 /// `--sensor-preset NAME` and `--perturb KEY=VALUE…`, shared by the commands that perturb.
 #[derive(Debug, Clone, clap::Args)]
 pub struct PerturbArgs {
-    /// A named sensor preset (`v2e-clean`, `v2e-default`, `v2e-noisy`): its `events.*` terms,
+    /// A named sensor preset (`v2e-clean`, `v2e-default`, `v2e-noisy`, `dvs-dim`): its `events.*` terms,
     /// under any --perturb given too. None: the paper's ideal sensors.
     #[arg(long = "sensor-preset", value_name = "NAME")]
     pub sensor_preset: Option<String>,

@@ -191,7 +191,8 @@ pub const PARAMETERS: &[Parameter] = &[
         100_000.0,
         false,
         "scene illuminance for both cameras: RGB exposure, photon and read noise, blur; event \
-         bandwidth and background (0 = light not modelled)",
+         bandwidth and background (0 = light not modelled; darkness adds 10 Hz·lx / E of shot \
+         noise, and events.shot_noise_hz with it must stay within 100 Hz per pixel: ≥ 0.1 lx)",
     ),
     p(
         "geometry.position_sigma_m",
