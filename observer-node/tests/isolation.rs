@@ -160,20 +160,27 @@ impl Drop for Killed {
 /// observer O1 (started with `extra` arguments); returns once O1 is ready.
 fn observer_in_a_fake_session(tag: &str, extra: &[String]) -> (Bus, Keys, Killed) {
     let session = format!("iso-{tag}-{}", std::process::id());
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let mut bus = Bus::open(
-        &session,
-        &Endpoints {
-            connect: vec![],
-            listen: vec![endpoint.clone()],
-        },
-    )
-    .unwrap();
+    // A port free when asked can be taken before Zenoh binds it (another test binary runs
+    // beside this one; a clean-clone run saw "Address already in use"): ask again, a few times.
+    let (mut bus, endpoint) = (0..5)
+        .find_map(|_| {
+            let port = std::net::TcpListener::bind("127.0.0.1:0")
+                .unwrap()
+                .local_addr()
+                .unwrap()
+                .port();
+            let endpoint = format!("tcp/127.0.0.1:{port}");
+            let listen = Endpoints {
+                connect: vec![],
+                listen: vec![endpoint.clone()],
+            };
+            match Bus::open(&session, &listen) {
+                Ok(bus) => Some((bus, endpoint)),
+                Err(e) if e.to_string().contains("Address already in use") => None,
+                Err(e) => panic!("opening the test's bus on {endpoint}: {e}"),
+            }
+        })
+        .expect("a free loopback port within 5 tries");
     let keys = Keys::new(&session).unwrap();
     let me = handshake::Process::new(Role::Observer, "O1");
     for p in handshake::mission_processes(2, false) {

@@ -8,6 +8,8 @@
 //!   length) and the cascade controller with its estimate (`flight.cascade`, `flight.estimate_*`).
 //! * [`light`] — one illuminance (`light.lux`) from which both cameras' exposure, noise,
 //!   blur, bandwidth and background activity follow.
+//! * `check` — what terms mean together ([`Perturbation::check`]: the event sensor's shot noise
+//!   with darkness's added stays within its own range).
 //! * [`preset`] — named sensor presets (v2e's `clean`, default and `noisy` values), cited.
 //! * [`seed`] — one trial seed → independent, reproducible streams per term and observer.
 //! * [`stats`] — the Wilson score interval for success rates.
@@ -16,6 +18,7 @@
 //! (ChaCha8 streams, integer seeds).
 
 pub mod attitude;
+mod check;
 pub mod flight;
 pub mod light;
 pub mod link;

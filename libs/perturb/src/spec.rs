@@ -454,41 +454,6 @@ impl Perturbation {
         Ok(p)
     }
 
-    /// Checks what terms mean together once every one is set (each alone is checked by
-    /// [`Perturbation::set`]): under a modelled light level the event sensor's shot noise is
-    /// its own plus darkness's ([`crate::light::event_shot_noise_hz`]), and that sum must stay
-    /// within `events.shot_noise_hz`'s own range — a light level of 0.001 lx alone would ask
-    /// for 10 000 Hz per pixel, hours of events per trial.
-    pub fn check(&self) -> Result<(), PerturbError> {
-        let lux = self.lux();
-        if lux <= 0.0 {
-            return Ok(());
-        }
-        let own_hz = self.get("events.shot_noise_hz");
-        let shot_hz = self.event_shot_noise_hz();
-        let max_hz = parameter("events.shot_noise_hz").map_or(f64::INFINITY, |p| p.max);
-        if shot_hz <= max_hz {
-            return Ok(());
-        }
-        let dim_hz_lx = crate::light::DIM_SHOT_HZ_AT_1LUX;
-        let least = if own_hz < max_hz {
-            format!(
-                ": at least {:.3} lx with this events.shot_noise_hz",
-                dim_hz_lx / (max_hz - own_hz)
-            )
-        } else {
-            String::new()
-        };
-        Err(PerturbError::TooDark {
-            lux,
-            own_hz,
-            shot_hz,
-            dim_hz_lx,
-            max_hz,
-            least,
-        })
-    }
-
     /// The value of `key` (its default when not set; NaN for a key not in the table).
     pub fn get(&self, key: &str) -> f64 {
         match self.set.get(key) {
@@ -571,7 +536,7 @@ impl Perturbation {
     }
 
     /// The event sensor's shot noise: its own, plus darkness's under a modelled light level.
-    fn event_shot_noise_hz(&self) -> f64 {
+    pub(crate) fn event_shot_noise_hz(&self) -> f64 {
         let own = self.get("events.shot_noise_hz");
         match self.lux() {
             lux if lux > 0.0 => crate::light::event_shot_noise_hz(lux, own),
