@@ -10,6 +10,14 @@
 //! shot noise scaled by brightness, leak with spread and jitter, the photoreceptor cutoff,
 //! linlog, threshold mismatch), ≈ 4 M events. `WAGGLE_BENCH_PRESET=NAME` picks another preset.
 //! Each figure is the fastest of 5 repetitions (`WAGGLE_BENCH_REPEATS=N` for N) on one thread.
+//!
+//! Beside them, in the same run, the floor the aim of 50 M events per second per core meets:
+//! the simplest published correlation filter (the causal STCF of Guo & Delbruck, TPAMI 2023,
+//! one time per pixel, over the whole map, no bands) on the same packets, and the simplest
+//! shot-noise generator (uniform pixels and times from SplitMix64, sorted by a counting sort
+//! per 10 ms render) making as many events. Neither is what the receiver or the sensor could
+//! use (the receiver's filter is two-sided with two times per pixel and borders; v2e's shot
+//! noise has a per-pixel rate map): they measure what is left for everything else.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -52,6 +60,91 @@ fn noisy_camera(preset: &str) -> EventCamera {
 /// The fastest repetition: on a shared machine the others measure the neighbours too.
 fn best(times: Vec<Duration>) -> Duration {
     times.into_iter().min().expect("at least one repetition")
+}
+
+/// The causal STCF's time: every event of `packets` judged against the latest time of each of
+/// its 8 neighbours (±15 ms, two of them), in stream order. Returns the events kept (so the work
+/// cannot be dropped) and the time taken.
+fn causal_stcf(packets: &[EventPacket]) -> (usize, Duration) {
+    const WINDOW_US: u32 = 15_000;
+    let stride = usize::from(W) + 2;
+    let never = 0u32.wrapping_sub(1 << 30);
+    let mut map = vec![never; stride * (usize::from(H) + 2)];
+    let mut kept = 0;
+    let start = Instant::now();
+    for p in packets {
+        for i in 0..p.len() {
+            let (x, y) = (usize::from(p.xs[i]), usize::from(p.ys[i]));
+            if x >= usize::from(W) || y >= usize::from(H) {
+                continue;
+            }
+            let t = ((p.start_ns + u64::from(p.dt_ns[i])) / 1_000) as u32;
+            let c = (y + 1) * stride + x + 1;
+            let support: u32 = [
+                c - stride - 1,
+                c - stride,
+                c - stride + 1,
+                c - 1,
+                c + 1,
+                c + stride - 1,
+                c + stride,
+                c + stride + 1,
+            ]
+            .iter()
+            .map(|&n| u32::from(t.wrapping_sub(map[n]) <= WINDOW_US))
+            .sum();
+            kept += usize::from(support >= 2);
+            map[c] = t;
+        }
+    }
+    (kept, start.elapsed())
+}
+
+/// SplitMix64 (Steele, Lea & Flood 2014): the cheapest well-mixed 64-bit stream.
+fn splitmix64(state: &mut u64) -> u64 {
+    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The simplest shot noise: `events` events spread evenly over `renders` renders of 10 ms, each
+/// at a uniform pixel and microsecond from one draw, each render's keys sorted by time with a
+/// counting sort (as the sensor sorts its shot events). Returns a checksum and the time taken.
+fn uniform_shot_noise(events: usize, renders: usize) -> (u64, Duration) {
+    let pixels = u64::from(W) * u64::from(H);
+    let render_us = RENDER_NS / 1_000;
+    let per_render = events.div_ceil(renders.max(1));
+    let (mut keys, mut sorted) = (Vec::with_capacity(per_render), vec![0u64; per_render]);
+    let mut counts = vec![0u32; render_us as usize + 1];
+    let (mut state, mut checksum) = (1u64, 0u64);
+    let start = Instant::now();
+    for _ in 0..renders {
+        keys.clear();
+        for _ in 0..per_render {
+            let a = splitmix64(&mut state);
+            let t_us = ((a >> 32) * render_us) >> 32;
+            let pixel = ((a & 0xFFFF_FFFF) * pixels) >> 32;
+            keys.push((t_us << 32) | pixel);
+        }
+        counts.fill(0);
+        for &k in &keys {
+            counts[(k >> 32) as usize + 1] += 1;
+        }
+        let mut total = 0;
+        for c in &mut counts {
+            total += *c;
+            *c = total;
+        }
+        for &k in &keys {
+            let slot = &mut counts[(k >> 32) as usize];
+            sorted[*slot as usize] = k;
+            *slot += 1;
+        }
+        checksum = checksum.wrapping_add(sorted[per_render / 2]);
+    }
+    (checksum, start.elapsed())
 }
 
 fn main() {
@@ -117,6 +210,21 @@ fn main() {
                 .collect(),
         )
     };
+    let (floor_kept, floor_filter) = {
+        let runs: Vec<_> = (0..repeats()).map(|_| causal_stcf(&packets)).collect();
+        (runs[0].0, best(runs.into_iter().map(|(_, d)| d).collect()))
+    };
+    let floor_generate = best(
+        (0..repeats())
+            .map(|_| {
+                let (checksum, took) =
+                    uniform_shot_noise(generated, renders.len() - WARMUP_RENDERS);
+                black_box(checksum);
+                took
+            })
+            .collect(),
+    );
+
     let with = receive(DenoiseConfig::receiver());
     let without = receive(DenoiseConfig::off());
 
@@ -138,6 +246,20 @@ fn main() {
     println!(
         "generation + front end:                  {:>8.1} M events/s",
         1e-6 / (per_event(generation) + per_event(rate(filter)))
+    );
+    let floor_generation = generated as f64 / floor_generate.as_secs_f64() / 1e6;
+    println!(
+        "floor: uniform shot noise (SplitMix64, counting sort): {floor_generation:>6.1} M events/s ({:.1}× the sensor's)",
+        floor_generation / generation
+    );
+    println!(
+        "floor: causal STCF, one time per pixel (kept {floor_kept}): {:>8.1} M events/s ({:.1}× the front end's)",
+        rate(floor_filter),
+        rate(floor_filter) / rate(filter)
+    );
+    println!(
+        "floor: generation + filter together:     {:>8.1} M events/s",
+        1e-6 / (per_event(floor_generation) + per_event(rate(floor_filter)))
     );
     println!(
         "receiver per packet: {:.1} µs with the front end, {:.1} µs without; ratio {:.2}",
