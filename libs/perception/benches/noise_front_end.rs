@@ -27,6 +27,13 @@ use event_camera::{CameraConfig, EventCamera};
 use perception::events::{DenoiseConfig, EventReceiver, EventReceiverConfig, NoiseFilter};
 use proto::EventPacket;
 
+#[path = "../tests/support/causal_stcf.rs"]
+mod causal_stcf;
+use causal_stcf::causal_stcf;
+#[path = "../tests/support/rng.rs"]
+mod rng;
+use rng::Rng;
+
 const W: u16 = 640;
 const H: u16 = 480;
 const RENDER_NS: u64 = 10_000_000;
@@ -62,51 +69,12 @@ fn best(times: Vec<Duration>) -> Duration {
     times.into_iter().min().expect("at least one repetition")
 }
 
-/// The causal STCF's time: every event of `packets` judged against the latest time of each of
-/// its 8 neighbours (±15 ms, two of them), in stream order. Returns the events kept (so the work
-/// cannot be dropped) and the time taken.
-fn causal_stcf(packets: &[EventPacket]) -> (usize, Duration) {
-    const WINDOW_US: u32 = 15_000;
-    let stride = usize::from(W) + 2;
-    let never = 0u32.wrapping_sub(1 << 30);
-    let mut map = vec![never; stride * (usize::from(H) + 2)];
-    let mut kept = 0;
+/// The causal STCF over `packets` (module `causal_stcf`, the ROC's definition): the events kept
+/// (so the work cannot be dropped) and the time taken.
+fn time_causal_stcf(packets: &[EventPacket]) -> (u64, Duration) {
     let start = Instant::now();
-    for p in packets {
-        for i in 0..p.len() {
-            let (x, y) = (usize::from(p.xs[i]), usize::from(p.ys[i]));
-            if x >= usize::from(W) || y >= usize::from(H) {
-                continue;
-            }
-            let t = ((p.start_ns + u64::from(p.dt_ns[i])) / 1_000) as u32;
-            let c = (y + 1) * stride + x + 1;
-            let support: u32 = [
-                c - stride - 1,
-                c - stride,
-                c - stride + 1,
-                c - 1,
-                c + 1,
-                c + stride - 1,
-                c + stride,
-                c + stride + 1,
-            ]
-            .iter()
-            .map(|&n| u32::from(t.wrapping_sub(map[n]) <= WINDOW_US))
-            .sum();
-            kept += usize::from(support >= 2);
-            map[c] = t;
-        }
-    }
+    let (_, kept) = causal_stcf(packets, (W, H), 15_000, 2);
     (kept, start.elapsed())
-}
-
-/// SplitMix64 (Steele, Lea & Flood 2014): the cheapest well-mixed 64-bit stream.
-fn splitmix64(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
 }
 
 /// The simplest shot noise: `events` events spread evenly over `renders` renders of 10 ms, each
@@ -118,12 +86,12 @@ fn uniform_shot_noise(events: usize, renders: usize) -> (u64, Duration) {
     let per_render = events.div_ceil(renders.max(1));
     let (mut keys, mut sorted) = (Vec::with_capacity(per_render), vec![0u64; per_render]);
     let mut counts = vec![0u32; render_us as usize + 1];
-    let (mut state, mut checksum) = (1u64, 0u64);
+    let (mut rng, mut checksum) = (Rng(1), 0u64);
     let start = Instant::now();
     for _ in 0..renders {
         keys.clear();
         for _ in 0..per_render {
-            let a = splitmix64(&mut state);
+            let a = rng.next();
             let t_us = ((a >> 32) * render_us) >> 32;
             let pixel = ((a & 0xFFFF_FFFF) * pixels) >> 32;
             keys.push((t_us << 32) | pixel);
@@ -211,7 +179,7 @@ fn main() {
         )
     };
     let (floor_kept, floor_filter) = {
-        let runs: Vec<_> = (0..repeats()).map(|_| causal_stcf(&packets)).collect();
+        let runs: Vec<_> = (0..repeats()).map(|_| time_causal_stcf(&packets)).collect();
         (runs[0].0, best(runs.into_iter().map(|(_, d)| d).collect()))
     };
     let floor_generate = best(

@@ -7,6 +7,10 @@ mod scene;
 
 #[path = "support/rng.rs"]
 mod rng;
+
+#[path = "support/causal_stcf.rs"]
+mod causal_stcf;
+use causal_stcf::causal_stcf;
 use perception::events::{DenoiseConfig, NoiseFilter};
 use proto::{EventPacket, Polarity};
 use rng::Rng;
@@ -93,39 +97,6 @@ fn pass(config: DenoiseConfig, packets: &[EventPacket]) -> (u64, u64) {
     }
     let c = filter.counts();
     (c.seen, c.seen - c.removed)
-}
-
-/// (events seen, events kept) of `packets` through the causal STCF as Guo & Delbruck publish it
-/// (one time per pixel, a neighbour counts when it fired within `window_ns` *before* the event,
-/// keep with `k` distinct neighbours): not the receiver's filter, the comparison it is measured
-/// against (the cost floor in `benches/noise_front_end.rs` runs the same rule).
-fn pass_causal(window_ns: u64, k: u32, packets: &[EventPacket]) -> (u64, u64) {
-    let stride = usize::from(WIDTH) + 2;
-    let mut map = vec![u64::MAX; stride * (usize::from(HEIGHT) + 2)];
-    let (mut seen, mut kept) = (0, 0);
-    for p in packets {
-        for i in 0..p.len() {
-            let t = p.start_ns + u64::from(p.dt_ns[i]);
-            let c = (usize::from(p.ys[i]) + 1) * stride + usize::from(p.xs[i]) + 1;
-            let support: u32 = [
-                c - stride - 1,
-                c - stride,
-                c - stride + 1,
-                c - 1,
-                c + 1,
-                c + stride - 1,
-                c + stride,
-                c + stride + 1,
-            ]
-            .iter()
-            .map(|&n| u32::from(map[n] != u64::MAX && t - map[n] <= window_ns))
-            .sum();
-            seen += 1;
-            kept += u64::from(support >= k);
-            map[c] = t;
-        }
-    }
-    (seen, kept)
 }
 
 fn fraction((seen, kept): (u64, u64)) -> f64 {
@@ -368,9 +339,9 @@ fn roc_of_the_correlation_filter() {
     println!("causal STCF: window_ms k | noise removed | target kept");
     for window_ms in [5, 10, 15, 30] {
         for k in 1..=4 {
-            let window_ns = window_ms * 1_000_000;
-            let removed = 1.0 - fraction(pass_causal(window_ns, k, &noise));
-            let kept = fraction(pass_causal(window_ns, k, &signal));
+            let causal = |packets| causal_stcf(packets, (WIDTH, HEIGHT), window_ms * 1_000, k);
+            let removed = 1.0 - fraction(causal(&noise));
+            let kept = fraction(causal(&signal));
             println!("causal {window_ms:>2} {k} | {removed:.4} | {kept:.4}");
             assert!(
                 !(removed >= 0.999 && kept >= 0.945),
