@@ -138,7 +138,7 @@ fn shards_resumed_after_a_kill_merge_to_the_single_run_byte_for_byte() {
             let ran = 4 - recorded;
             assert!(
                 text.contains(&format!(
-                    "4 trials in this part: {ran} ran now, {recorded} were recorded"
+                    "4 trials in this part: {ran} ran now, {recorded} already recorded"
                 )) && text.contains("1 damaged records set aside and rerun"),
                 "{text}"
             );
@@ -157,7 +157,7 @@ fn shards_resumed_after_a_kill_merge_to_the_single_run_byte_for_byte() {
         "shard 1/3 again",
     );
     assert!(
-        String::from_utf8_lossy(&again.stdout).contains("0 ran now, 4 were recorded"),
+        String::from_utf8_lossy(&again.stdout).contains("0 ran now, 4 already recorded"),
         "{}",
         String::from_utf8_lossy(&again.stdout)
     );
@@ -282,7 +282,8 @@ fn trials_shards_merge_to_the_single_run_and_a_rerun_resumes() {
     std::fs::write(&rec, text.replacen("\"tokens\":", "\"tokens\": 1", 1)).unwrap();
     let out = run(&[], &single);
     assert!(
-        String::from_utf8_lossy(&out.stdout).contains("1 trials ran, 2 were recorded, 1 damaged"),
+        String::from_utf8_lossy(&out.stdout)
+            .contains("1 trials ran, 2 already recorded, 1 damaged"),
         "{}",
         String::from_utf8_lossy(&out.stdout)
     );
@@ -489,7 +490,7 @@ fn a_baselines_study_in_shards_merges_to_the_single_run_byte_for_byte() {
     );
     let out = waggle(&["study", s(&file), "--out", s(&single)], "rerun");
     assert!(
-        String::from_utf8_lossy(&out.stdout).contains("0 flown now, 8 were recorded"),
+        String::from_utf8_lossy(&out.stdout).contains("0 flown now, 8 already recorded"),
         "{}",
         String::from_utf8_lossy(&out.stdout)
     );
@@ -578,7 +579,7 @@ fn case_trials_in_shards_merge_to_the_single_run() {
     run(&[], &single);
     let again = run(&[], &single);
     assert!(
-        String::from_utf8_lossy(&again.stdout).contains("0 missions flown, 3 were recorded"),
+        String::from_utf8_lossy(&again.stdout).contains("0 missions flown, 3 already recorded"),
         "{}",
         String::from_utf8_lossy(&again.stdout)
     );

@@ -117,8 +117,8 @@ pub struct ClusterArgs {
     /// Memory per task (Slurm syntax: 8G).
     #[arg(long, default_value = "8G")]
     mem: String,
-    /// CPUs per task (also each shard's --jobs).
-    #[arg(long, default_value_t = 2)]
+    /// CPUs per task (also each shard's --jobs; at least 1).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..))]
     cpus_per_task: u32,
     /// With --slurm: submit at once (runs DIR/slurm/submit.sh).
     #[arg(long, requires = "slurm")]

@@ -32,7 +32,7 @@ pub struct StudyArgs {
     #[arg(long, required_unless_present = "print")]
     out: Option<PathBuf>,
     /// Trials at once (threads; default: the machine's cores).
-    #[arg(long)]
+    #[arg(long, value_parser = super::parse_jobs)]
     jobs: Option<usize>,
     /// Override the study's trials per point (e.g. a quick look before the real run).
     #[arg(long)]
@@ -129,7 +129,7 @@ fn run_baseline_study(
     bar.finish_and_clear();
     let what = shard.map_or_else(|| "study".to_owned(), |s| format!("shard {s} of the study"));
     println!(
-        "{what} {}: {} missions in this part: {} flown now, {} were recorded{}; {:.0} s wall \
+        "{what} {}: {} missions in this part: {} flown now, {} already recorded{}; {:.0} s wall \
          ({jobs} jobs)",
         study.name,
         counts.part,
@@ -206,7 +206,7 @@ fn run_link_study(
     bar.finish_and_clear();
     let what = shard.map_or_else(|| "study".to_owned(), |s| format!("shard {s} of the study"));
     println!(
-        "{what} {}: {} trials in this part: {} ran now, {} were recorded{}; {} shared flight(s){}; \
+        "{what} {}: {} trials in this part: {} ran now, {} already recorded{}; {} shared flight(s){}; \
          {:.0} s wall ({jobs} jobs)",
         study.name,
         counts.part,

@@ -18,7 +18,7 @@ pub struct SweepArgs {
     out: PathBuf,
     /// Runs in parallel (default: half the cores, at least 1 — one mission already keeps two
     /// cores busy, so 1 on a 2-core machine).
-    #[arg(long)]
+    #[arg(long, value_parser = super::parse_jobs)]
     jobs: Option<usize>,
     /// Only these cases (built-in names or case files); repeatable. Default: the paper's seven
     /// functional cases (add e.g. `--case eight-observers`).

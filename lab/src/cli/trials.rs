@@ -58,7 +58,7 @@ pub struct TrialsArgs {
     #[command(flatten)]
     perturb: super::PerturbArgs,
     /// Trials at once (threads; default: the machine's cores).
-    #[arg(long)]
+    #[arg(long, value_parser = super::parse_jobs)]
     jobs: Option<usize>,
     /// Fly the acquisition sweep before the first offer: `true` or `false` (default: only for
     /// event cameras, as in the paper).
@@ -202,7 +202,7 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     }
     .add_to(&args.out)?;
     println!(
-        "this run: {} trials ran, {already} were recorded{}; {} flight(s){} {:.1} s, trials \
+        "this run: {} trials ran, {already} already recorded{}; {} flight(s){} {:.1} s, trials \
          {:.1} s ({:.2} s per trial at {} jobs), renders held {:.1} MB",
         cost.trials_run,
         if damaged > 0 {
@@ -351,7 +351,7 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
     }
     .add_to(&args.out)?;
     println!(
-        "this run: {} missions flown, {already} were recorded; {:.1} s wall ({} jobs)",
+        "this run: {} missions flown, {already} already recorded; {:.1} s wall ({} jobs)",
         flown.len(),
         started.elapsed().as_secs_f64(),
         opts.jobs
