@@ -398,7 +398,13 @@ fn config(rng: &mut Rng) -> DenoiseConfig {
 
 /// One packet's events: background, edges sweeping across, a hot pixel, dense patches, events
 /// off the sensor; in time order, or shuffled now and then (the filter must not care how).
-fn events(rng: &mut Rng, (w, h): (u16, u16), period_ns: u64) -> Vec<(u16, u16, u32, Polarity)> {
+/// A `quiet` packet has no background and no hot pixel (a noiseless sensor: support 0).
+fn events(
+    rng: &mut Rng,
+    (w, h): (u16, u16),
+    period_ns: u64,
+    quiet: bool,
+) -> Vec<(u16, u16, u32, Polarity)> {
     let span = u32::try_from(period_ns.max(1)).unwrap_or(u32::MAX);
     let mut out = Vec::new();
     let polarity = |rng: &mut Rng| {
@@ -408,7 +414,11 @@ fn events(rng: &mut Rng, (w, h): (u16, u16), period_ns: u64) -> Vec<(u16, u16, u
             Polarity::Off
         }
     };
-    let noise = rng.below(4 * u64::from(w) * u64::from(h) / 10 + 1);
+    let noise = if quiet {
+        0
+    } else {
+        rng.below(4 * u64::from(w) * u64::from(h) / 10 + 1)
+    };
     for _ in 0..noise {
         let (x, y) = (
             rng.below(u64::from(w)) as u16,
@@ -429,7 +439,7 @@ fn events(rng: &mut Rng, (w, h): (u16, u16), period_ns: u64) -> Vec<(u16, u16, u
             }
         }
     }
-    if rng.chance(0.3) {
+    if !quiet && rng.chance(0.3) {
         let (x, y) = (
             rng.below(u64::from(w)) as u16,
             rng.below(u64::from(h)) as u16,
@@ -488,7 +498,10 @@ fn next_start(rng: &mut Rng, start_ns: u64, period_ns: u64) -> u64 {
     }
 }
 
-fn same_output(seed: u64, size: (u16, u16), packets: usize) {
+/// Checks the filter against the reference on one seeded stream; returns how many packets were
+/// judged at support 0 right after one at a higher support, and the reverse (the quiet
+/// patterns' coverage).
+fn same_output(seed: u64, size: (u16, u16), packets: usize) -> (u32, u32) {
     let mut rng = Rng(seed);
     let config = config(&mut rng);
     let mut fast = NoiseFilter::new(config, size.0, size.1).expect("valid settings");
@@ -500,8 +513,17 @@ fn same_output(seed: u64, size: (u16, u16), packets: usize) {
     let period_ns =
         [1_000_000, 10_000_000, 40_000_000, 40_000_000, 100_000_000][rng.below(5) as usize];
     let mut start_ns = rng.below(1 << 45);
+    // Noisy throughout, quiet for the first half (support 0, then rising), or quiet and noisy
+    // in turns of three packets (support falling back to 0 and rising again).
+    let pattern = rng.below(3);
+    let (mut transitions, mut last_support) = ((0, 0), 0);
     for k in 0..packets {
-        let events = events(&mut rng, size, period_ns);
+        let quiet = match pattern {
+            0 => false,
+            1 => k < packets / 2,
+            _ => (k / 3) % 2 == 0,
+        };
+        let events = events(&mut rng, size, period_ns, quiet);
         let packet =
             EventPacket::from_events(k as u64, (start_ns, start_ns + period_ns), size, &events);
         fast.filter(&packet, &mut a);
@@ -530,17 +552,35 @@ fn same_output(seed: u64, size: (u16, u16), packets: usize) {
             "seed {seed}, packet {k}"
         );
         assert_eq!(fast.counts(), slow.counts(), "seed {seed}, packet {k}");
+        let support = fast.support_now();
+        if k > 0 && (support == 0) != (last_support == 0) {
+            if support == 0 {
+                transitions.0 += 1;
+            } else {
+                transitions.1 += 1;
+            }
+        }
+        last_support = support;
         start_ns = next_start(&mut rng, start_ns, period_ns);
     }
+    transitions
 }
 
 #[test]
 fn the_filter_keeps_exactly_what_the_reference_keeps_on_small_sensors() {
+    let (mut to_zero, mut from_zero) = (0, 0);
     for seed in 0..400 {
         let mut rng = Rng(seed ^ 0xA5A5);
         let size = (1 + rng.below(48) as u16, 1 + rng.below(90) as u16);
-        same_output(seed, size, 12);
+        let (down, up) = same_output(seed, size, 12);
+        (to_zero, from_zero) = (to_zero + down, from_zero + up);
     }
+    // Support 0 keeps everything without counting: the streams must go in and out of it.
+    println!("support fell to 0 {to_zero} times and rose from it {from_zero} times");
+    assert!(
+        to_zero >= 10 && from_zero >= 10,
+        "{to_zero} falls to support 0, {from_zero} rises from it"
+    );
 }
 
 #[test]

@@ -278,10 +278,14 @@ impl NoiseFilter {
     fn judge(&mut self, k: u32) {
         let n = self.on_sensor.len();
         self.keep.clear();
+        if k == 0 {
+            self.keep_all();
+            return;
+        }
         self.keep.resize(n, false);
         self.core.clear();
         self.core.resize(n, false);
-        let borders = self.config.border && k > 0;
+        let borders = self.config.border;
         let bands = self.bands.count();
         for b in 0..=bands {
             if b < bands {
@@ -289,6 +293,26 @@ impl NoiseFilter {
             }
             if borders && b > 0 {
                 self.border_band(b - 1);
+            }
+        }
+    }
+
+    /// Support 0 (no background measured: a noiseless sensor) keeps every event on the sensor,
+    /// so nothing is counted: only the past times that later packets count are recorded, every
+    /// copy in band order as the forward pass records them. Nothing else that counting touches
+    /// outlives the packet: the later-event scratch is cleared after each band (cells it does
+    /// not touch keep an older unreachable time, as in any packet), and support 0 records no
+    /// core time (it runs no border pass). `tests/denoise_equivalence.rs` checks streams that
+    /// go quiet and noisy again.
+    fn keep_all(&mut self) {
+        self.keep.extend_from_slice(&self.on_sensor);
+        for b in 0..self.bands.count() {
+            let (entries, base) = self.bands.band(b);
+            for j in entries {
+                let e = self.bands.entry(j);
+                let own = &mut self.times.past[e.cell(base)];
+                own.copy_within(..MAX_DEPTH - 1, 1);
+                own[0] = e.t;
             }
         }
     }
