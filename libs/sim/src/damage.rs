@@ -132,7 +132,7 @@ impl Bounds {
 /// The perspective camera `mjr_render` uses for a mono view: the average of the scene's two
 /// cameras, a `glFrustum` whose half-width follows the viewport's aspect unless set, and
 /// `mjr_lookAt`'s right/up/forward frame.
-struct View {
+pub(crate) struct View {
     pos: [f64; 3],
     right: [f64; 3],
     up: [f64; 3],
@@ -146,7 +146,7 @@ struct View {
 }
 
 impl View {
-    fn new(cameras: &[MjvGLCamera; 2], width: u16, height: u16) -> Option<View> {
+    pub(crate) fn new(cameras: &[MjvGLCamera; 2], width: u16, height: u16) -> Option<View> {
         let [a, b] = cameras;
         if a.orthographic != 0 || b.orthographic != 0 {
             return None;
@@ -187,6 +187,23 @@ impl View {
             sy: near / (top - bottom) * h,
             oy: (1.0 - (top + bottom) / (top - bottom)) * 0.5 * h,
         })
+    }
+
+    /// The same pinhole, for the Rust renderer.
+    pub(crate) fn camera(&self, width: u16, height: u16) -> raster::Camera {
+        raster::Camera {
+            pos_m: self.pos,
+            right: self.right,
+            up: self.up,
+            forward: self.forward,
+            near_m: self.near,
+            sx: self.sx,
+            ox: self.ox,
+            sy: self.sy,
+            oy: self.oy,
+            width_px: width,
+            height_px: height,
+        }
     }
 
     /// The window box of `g`'s bounding sphere; `None` when it cannot be bounded (no model

@@ -7,7 +7,8 @@
 //!   seeded Dryden turbulence, Crazyflie rotor drag), counts drone–drone contact steps and
 //!   keeps each drone's tracking error.
 //! - [`noise`] is the seeded Gaussian source of those random processes.
-//! - [`render`] renders observer cameras headlessly (EGL; Mesa's CPU rasteriser here).
+//! - [`render`] renders observer cameras headlessly: by the Rust renderer ([`raster`], fed by
+//!   [`raster_view`]) or, as the reference, by MuJoCo's renderer in EGL (Mesa's CPU rasteriser).
 //! - [`lockstep`] is the simulator's side of the lockstep (published truth, a camera's mirror
 //!   of it, one tick's extrapolated references), shared by `sim-node` and `waggle mission`.
 //!
@@ -23,6 +24,7 @@ pub mod estimate;
 pub mod lockstep;
 pub mod mjcf;
 pub mod noise;
+pub mod raster_view;
 pub mod render;
 pub mod sensor;
 mod vec3;

@@ -1,11 +1,13 @@
-//! Headless rendering of observer cameras through MuJoCo's renderer in an EGL context
-//! (Mesa's CPU rasteriser here), full-frame or damage-limited ([`RenderPath`]).
+//! Headless rendering of observer cameras ([`RenderPath`]): by the Rust renderer ([`raster`],
+//! no GL at all), or by MuJoCo's renderer in an EGL context (Mesa's CPU rasteriser here),
+//! full-frame or damage-limited — the reference the paper used.
 //!
-//! The damage path keeps each camera's last frame. Before drawing it compares the new scene
-//! with the one the last frame was drawn from ([`crate::damage`]): nothing changed, the frame is
-//! reused; some geoms moved under a still camera, only their rectangle is cleared, rasterised
-//! (a held GL scissor, [`offscreen::scissor`]) and read back into the kept frame; anything
-//! else, the whole frame is drawn. Every frame equals the full render's, byte for byte.
+//! Both damage-limited paths keep each camera's last frame. Before drawing they compare the new
+//! scene with the one the last frame was drawn from ([`crate::damage`]): nothing changed, the
+//! frame is reused; some geoms moved under a still camera, only their rectangle is drawn again
+//! (MuJoCo: a held GL scissor, [`offscreen::scissor`], and a read-back; Rust: only that
+//! rectangle's pixels and the geoms reaching it); anything else, the whole frame is drawn. On
+//! either renderer every frame equals its own full render, byte for byte.
 
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_rendering::MjrRectangle;
@@ -31,6 +33,8 @@ pub enum RenderError {
     Render(String),
     #[error("no camera for observer index {0}")]
     NoCamera(usize),
+    #[error("{0}")]
+    Mesh(String),
 }
 
 /// One rendered frame and how it differs from the same camera's previous frame.
@@ -57,15 +61,25 @@ struct Kept {
     snapshot: Option<Snapshot>,
 }
 
+/// Who draws the pixels.
+enum Backend {
+    /// MuJoCo's `mjr_render` in an EGL context; `scratch` holds read-back rows.
+    Mujoco {
+        offscreen: Offscreen,
+        scratch: Vec<u8>,
+    },
+    /// The Rust renderer, over the model's meshes.
+    Raster(raster::Renderer),
+}
+
 /// Renders any observer camera of one [`World`] into 640×480 RGB.
 pub struct CameraRenderer {
     scene: MjvScene,
-    offscreen: Offscreen,
+    backend: Backend,
     option: MjvOption,
     camera_ids: Vec<usize>,
     path: RenderPath,
     kept: Vec<Kept>,
-    scratch: Vec<u8>,
     counts: RenderCounts,
 }
 
@@ -80,9 +94,17 @@ impl CameraRenderer {
                     .ok_or(RenderError::NoCamera(i))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let offscreen =
-            Offscreen::new(model, u32::from(IMAGE_WIDTH_PX), u32::from(IMAGE_HEIGHT_PX))
-                .map_err(|e| RenderError::Init(e.to_string()))?;
+        let backend = if path.is_mujoco() {
+            let offscreen =
+                Offscreen::new(model, u32::from(IMAGE_WIDTH_PX), u32::from(IMAGE_HEIGHT_PX))
+                    .map_err(|e| RenderError::Init(e.to_string()))?;
+            Backend::Mujoco {
+                offscreen,
+                scratch: Vec::new(),
+            }
+        } else {
+            Backend::Raster(raster::Renderer::new(crate::raster_view::meshes(model)?))
+        };
         // The model's geoms plus MuJoCo's usual headroom for decorations.
         let scene = MjvScene::new(model, model.ffi().ngeom as usize + 100);
         let kept = camera_ids
@@ -94,12 +116,11 @@ impl CameraRenderer {
             .collect();
         Ok(Self {
             scene,
-            offscreen,
+            backend,
             option: MjvOption::default(),
             camera_ids,
             path,
             kept,
-            scratch: Vec::new(),
             counts: RenderCounts::default(),
         })
     }
@@ -110,6 +131,23 @@ impl CameraRenderer {
 
     pub fn counts(&self) -> RenderCounts {
         self.counts
+    }
+
+    /// The Rust renderer draws every mesh at this level of detail (0: the full mesh), or by its
+    /// projected size with `None` (the default); MuJoCo's paths always draw full meshes.
+    pub fn force_level_of_detail(&mut self, level: Option<usize>) {
+        if let Backend::Raster(r) = &mut self.backend {
+            r.force_level(level);
+        }
+    }
+
+    /// The level-of-detail meshes' digest ([`raster::MeshLods::digest`]); `None` on MuJoCo's
+    /// paths.
+    pub fn mesh_digest(&self) -> Option<u64> {
+        match &self.backend {
+            Backend::Raster(r) => Some(raster::MeshLods::digest(r.meshes())),
+            Backend::Mujoco { .. } => None,
+        }
     }
 
     /// Draws the observers' own airframes too (hidden by default: they are never in another
@@ -140,43 +178,54 @@ impl CameraRenderer {
             &MjvPerturb::default(),
             &mut camera,
         );
-        let ffi = self.scene.ffi();
+        let cameras = self.scene.ffi().camera.clone();
         let snapshot = Snapshot::new(
-            ffi.camera.clone(),
+            cameras.clone(),
             offscreen::scene::lights(&self.scene),
             offscreen::scene::geoms(&self.scene),
         );
         let kept = &mut self.kept[observer];
         let change = match self.path {
             RenderPath::Full => FrameChange::All,
-            RenderPath::Damage => change(kept.snapshot.as_ref(), &snapshot, W as u16, H as u16),
+            RenderPath::Damage | RenderPath::Raster => {
+                change(kept.snapshot.as_ref(), &snapshot, W as u16, H as u16)
+            }
         };
-        self.offscreen
-            .make_current()
-            .map_err(|e| RenderError::Render(e.to_string()))?;
-        let full = MjrRectangle::new(0, 0, W as i32, H as i32);
         match change {
             FrameChange::Nothing => self.counts.skipped += 1,
-            FrameChange::All => {
-                self.scene.render(&full, self.offscreen.mjr());
-                read(&self.offscreen, &mut self.scratch, full)?;
-                paste(&self.scratch, &mut kept.rgb, full);
-                self.counts.full += 1;
-            }
+            FrameChange::All => self.counts.full += 1,
             FrameChange::Within(r) => {
-                let gl = GlRect {
-                    left: i32::from(r.x),
-                    bottom: (H - usize::from(r.y) - usize::from(r.height)) as i32,
-                    width: i32::from(r.width),
-                    height: i32::from(r.height),
-                };
-                let (scene, mjr) = (&mut self.scene, self.offscreen.mjr());
-                offscreen::scissor::hold(gl, || scene.render(&full, mjr));
-                let rect = MjrRectangle::new(gl.left, gl.bottom, gl.width, gl.height);
-                read(&self.offscreen, &mut self.scratch, rect)?;
-                paste(&self.scratch, &mut kept.rgb, rect);
                 self.counts.damage += 1;
                 self.counts.damage_px += r.area_px() as u64;
+            }
+        }
+        match &mut self.backend {
+            Backend::Mujoco { offscreen, scratch } => {
+                draw_mujoco(&mut self.scene, offscreen, scratch, &mut kept.rgb, change)?;
+            }
+            Backend::Raster(renderer) => {
+                let rect = match change {
+                    FrameChange::Nothing => None,
+                    FrameChange::All => Some(raster::Rect::full(W as u16, H as u16)),
+                    FrameChange::Within(r) => Some(raster::Rect {
+                        x: r.x,
+                        y: r.y,
+                        width: r.width,
+                        height: r.height,
+                    }),
+                };
+                if let Some(rect) = rect {
+                    let scene = crate::raster_view::scene(
+                        &cameras,
+                        offscreen::scene::lights(&self.scene),
+                        offscreen::scene::geoms(&self.scene),
+                        W as u16,
+                        H as u16,
+                    )?;
+                    renderer
+                        .render(&scene, rect, &mut kept.rgb)
+                        .map_err(|e| RenderError::Render(e.to_string()))?;
+                }
             }
         }
         kept.snapshot = Some(snapshot);
@@ -185,6 +234,42 @@ impl CameraRenderer {
             change,
         })
     }
+}
+
+/// Draws `change` of the current scene with MuJoCo's renderer into the kept frame `rgb`.
+fn draw_mujoco(
+    scene: &mut MjvScene,
+    offscreen: &Offscreen,
+    scratch: &mut Vec<u8>,
+    rgb: &mut [u8],
+    change: FrameChange,
+) -> Result<(), RenderError> {
+    offscreen
+        .make_current()
+        .map_err(|e| RenderError::Render(e.to_string()))?;
+    let full = MjrRectangle::new(0, 0, W as i32, H as i32);
+    match change {
+        FrameChange::Nothing => {}
+        FrameChange::All => {
+            scene.render(&full, offscreen.mjr());
+            read(offscreen, scratch, full)?;
+            paste(scratch, rgb, full);
+        }
+        FrameChange::Within(r) => {
+            let gl = GlRect {
+                left: i32::from(r.x),
+                bottom: (H - usize::from(r.y) - usize::from(r.height)) as i32,
+                width: i32::from(r.width),
+                height: i32::from(r.height),
+            };
+            let mjr = offscreen.mjr();
+            offscreen::scissor::hold(gl, || scene.render(&full, mjr));
+            let rect = MjrRectangle::new(gl.left, gl.bottom, gl.width, gl.height);
+            read(offscreen, scratch, rect)?;
+            paste(scratch, rgb, rect);
+        }
+    }
+    Ok(())
 }
 
 /// Whether damage renders rasterise only their rectangle in this process (MuJoCo's GL loader

@@ -73,8 +73,10 @@ impl From<Modality> for Receiver {
     }
 }
 
-/// How observer cameras render. Both paths deliver bit-identical sensor output; `Full` is the
-/// reference the damage path is checked against.
+/// How observer cameras render. `Raster` is Waggle's own renderer (CPU, no GL, the same bytes on
+/// any machine); `Damage` and `Full` are MuJoCo's renderer (the paper's), by damage rectangles
+/// or whole frames, which deliver bit-identical sensor output to each other (`Full` is the
+/// reference the damage path is checked against; `mujoco` names `Damage`).
 #[derive(
     Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
 )]
@@ -86,29 +88,42 @@ pub enum RenderPath {
     /// Re-render only the rectangle the moved bodies can cover; skip a render in which nothing
     /// the camera can see changed.
     #[default]
+    #[cfg_attr(feature = "clap", value(alias = "mujoco"))]
     Damage,
+    /// Waggle's renderer: only the damage rectangle's pixels, only the bodies reaching it, each
+    /// at a level of detail for its size.
+    Raster,
 }
 
 impl RenderPath {
-    pub const ALL: [RenderPath; 2] = [RenderPath::Full, RenderPath::Damage];
+    pub const ALL: [RenderPath; 3] = [RenderPath::Full, RenderPath::Damage, RenderPath::Raster];
 
     pub fn as_str(self) -> &'static str {
         match self {
             RenderPath::Full => "full",
             RenderPath::Damage => "damage",
+            RenderPath::Raster => "raster",
         }
+    }
+
+    /// Whether MuJoCo's renderer (EGL) draws this path.
+    pub fn is_mujoco(self) -> bool {
+        matches!(self, RenderPath::Full | RenderPath::Damage)
     }
 }
 
 impl std::str::FromStr for RenderPath {
     type Err = UnknownName;
     fn from_str(s: &str) -> Result<Self, UnknownName> {
+        if s == "mujoco" {
+            return Ok(RenderPath::Damage);
+        }
         parse_name(
             &RenderPath::ALL,
             RenderPath::as_str,
             s,
             "render path",
-            "full, damage",
+            "full, damage (or mujoco), raster",
         )
     }
 }

@@ -1,0 +1,352 @@
+//! One frame, or one rectangle of it: cull the instances whose bounding spheres miss the
+//! rectangle, choose each mesh's level from its projected size, light every corner as the
+//! fixed-function pipeline does (per vertex, clamped, then interpolated), transform, clip,
+//! cull back faces and fill.
+
+use crate::clip::{ClipVertex, Frustum, Polygon};
+use crate::fill::{self, SUBPIXEL, ScreenVertex, Target};
+use crate::mesh::MeshLods;
+use crate::scene::{Camera, Instance, Light, Rect, Scene, Shape, dot, rotate};
+
+/// Pixels added around a projected bounding sphere before it is tested against the rectangle:
+/// covers the snapping of vertices to 1/256 px.
+const CULL_MARGIN_PX: f64 = 1.0;
+
+/// What one render did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RenderStats {
+    pub instances_drawn: u64,
+    pub instances_culled: u64,
+    pub triangles_submitted: u64,
+    pub pixels_written: u64,
+}
+
+impl std::ops::AddAssign for RenderStats {
+    fn add_assign(&mut self, o: RenderStats) {
+        self.instances_drawn += o.instances_drawn;
+        self.instances_culled += o.instances_culled;
+        self.triangles_submitted += o.triangles_submitted;
+        self.pixels_written += o.pixels_written;
+    }
+}
+
+/// Why a render was refused.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum RenderError {
+    #[error("frame buffer holds {got} bytes, a {width}×{height} RGB frame needs {want}")]
+    FrameSize {
+        got: usize,
+        want: usize,
+        width: u16,
+        height: u16,
+    },
+    #[error("rectangle {rect:?} is not inside the {width}×{height} frame")]
+    Rect { rect: Rect, width: u16, height: u16 },
+    #[error("instance {index} names mesh {mesh}, the scene has {meshes}")]
+    NoMesh {
+        index: usize,
+        mesh: usize,
+        meshes: usize,
+    },
+}
+
+/// The renderer: the scene's meshes and the scratch space of its renders.
+pub struct Renderer {
+    meshes: Vec<MeshLods>,
+    depth: Vec<f32>,
+    camera_space: Vec<[f64; 3]>,
+    /// Forced level of detail (tests and benches); `None`: chosen per instance.
+    forced_level: Option<usize>,
+}
+
+impl Renderer {
+    pub fn new(meshes: Vec<MeshLods>) -> Renderer {
+        Renderer {
+            meshes,
+            depth: Vec::new(),
+            camera_space: Vec::new(),
+            forced_level: None,
+        }
+    }
+
+    pub fn meshes(&self) -> &[MeshLods] {
+        &self.meshes
+    }
+
+    /// Draw every mesh at this level (clamped to its coarsest), or `None` to choose by size.
+    pub fn force_level(&mut self, level: Option<usize>) {
+        self.forced_level = level;
+    }
+
+    /// Renders the pixels of `rect` of `scene` into `rgb` (the whole frame, row-major RGB, top
+    /// row first); pixels outside `rect` are left as they are.
+    pub fn render(
+        &mut self,
+        scene: &Scene,
+        rect: Rect,
+        rgb: &mut [u8],
+    ) -> Result<RenderStats, RenderError> {
+        let cam = &scene.camera;
+        let (w, h) = (cam.width_px, cam.height_px);
+        let want = usize::from(w) * usize::from(h) * 3;
+        if rgb.len() != want {
+            return Err(RenderError::FrameSize {
+                got: rgb.len(),
+                want,
+                width: w,
+                height: h,
+            });
+        }
+        if u32::from(rect.x) + u32::from(rect.width) > u32::from(w)
+            || u32::from(rect.y) + u32::from(rect.height) > u32::from(h)
+        {
+            return Err(RenderError::Rect {
+                rect,
+                width: w,
+                height: h,
+            });
+        }
+        for (index, inst) in scene.instances.iter().enumerate() {
+            if let Shape::Mesh(mesh) = inst.shape
+                && mesh >= self.meshes.len()
+            {
+                return Err(RenderError::NoMesh {
+                    index,
+                    mesh,
+                    meshes: self.meshes.len(),
+                });
+            }
+        }
+        let mut stats = RenderStats::default();
+        if rect.area_px() == 0 {
+            return Ok(stats);
+        }
+        let stride = usize::from(w);
+        for row in usize::from(rect.y)..usize::from(rect.y) + usize::from(rect.height) {
+            let start = (row * stride + usize::from(rect.x)) * 3;
+            for px in rgb[start..start + usize::from(rect.width) * 3].chunks_exact_mut(3) {
+                px.copy_from_slice(&scene.background);
+            }
+        }
+        self.depth.clear();
+        self.depth.resize(rect.area_px(), 0.0);
+        let frustum = Frustum::new(cam);
+        let mut target = Target {
+            rgb,
+            stride_px: stride,
+            depth: &mut self.depth,
+            rect,
+        };
+        for inst in &scene.instances {
+            let level = match visible_level(cam, inst, rect) {
+                None => {
+                    stats.instances_culled += 1;
+                    continue;
+                }
+                Some(radius_px) => radius_px,
+            };
+            stats.instances_drawn += 1;
+            let mut draw = Draw {
+                cam,
+                frustum: &frustum,
+                target: &mut target,
+                stats: &mut stats,
+            };
+            match inst.shape {
+                Shape::Plane { half_m } => {
+                    let [x, y] = half_m;
+                    let quad = [[-x, -y, 0.0], [x, -y, 0.0], [x, y, 0.0], [-x, y, 0.0]];
+                    draw.face(inst, &scene.lights, quad, [0.0, 0.0, 1.0]);
+                }
+                Shape::Box { half_m } => {
+                    for (normal, quad) in box_faces(half_m) {
+                        draw.face(inst, &scene.lights, quad, normal);
+                    }
+                }
+                Shape::Mesh(m) => {
+                    let lods = &self.meshes[m];
+                    let k = match (self.forced_level, level) {
+                        (Some(k), _) => k.min(lods.levels().len() - 1),
+                        (None, Some(radius_px)) => lods.level_for(radius_px),
+                        (None, None) => 0,
+                    };
+                    draw.mesh(inst, &scene.lights, lods, k, &mut self.camera_space);
+                }
+            }
+        }
+        Ok(stats)
+    }
+}
+
+/// `None`: the instance's bounding sphere misses `rect`. `Some(Some(r))`: drawn, appearing
+/// `r` px in radius; `Some(None)`: drawn, size unknown (unbounded, or reaching the near plane).
+fn visible_level(cam: &Camera, inst: &Instance, rect: Rect) -> Option<Option<f64>> {
+    let Some(radius_m) = inst.bound_m else {
+        return Some(None);
+    };
+    let Some(b) = cam.sphere_box(inst.pos_m, radius_m) else {
+        return Some(None);
+    };
+    let m = CULL_MARGIN_PX;
+    if !rect.touches([b[0] - m, b[1] - m, b[2] + m, b[3] + m]) {
+        return None;
+    }
+    let depth_m = cam.to_camera(inst.pos_m)[2];
+    Some(Some(cam.projected_radius_px(radius_m, depth_m)))
+}
+
+/// A box's six faces: outward normal and corners counter-clockwise seen from outside.
+fn box_faces(half_m: [f64; 3]) -> [([f64; 3], [[f64; 3]; 4]); 6] {
+    let [x, y, z] = half_m;
+    [
+        (
+            [1.0, 0.0, 0.0],
+            [[x, -y, -z], [x, y, -z], [x, y, z], [x, -y, z]],
+        ),
+        (
+            [-1.0, 0.0, 0.0],
+            [[-x, y, -z], [-x, -y, -z], [-x, -y, z], [-x, y, z]],
+        ),
+        (
+            [0.0, 1.0, 0.0],
+            [[x, y, -z], [-x, y, -z], [-x, y, z], [x, y, z]],
+        ),
+        (
+            [0.0, -1.0, 0.0],
+            [[-x, -y, -z], [x, -y, -z], [x, -y, z], [-x, -y, z]],
+        ),
+        (
+            [0.0, 0.0, 1.0],
+            [[-x, -y, z], [x, -y, z], [x, y, z], [-x, y, z]],
+        ),
+        (
+            [0.0, 0.0, -1.0],
+            [[-x, y, -z], [x, y, -z], [x, -y, -z], [-x, -y, -z]],
+        ),
+    ]
+}
+
+/// The fixed-function lit colour of a surface of colour `rgb` with world normal `n`, clamped.
+pub fn lit(inst: &Instance, lights: &[Light], n: [f64; 3]) -> [f64; 3] {
+    let base = inst.rgb.map(f64::from);
+    let mut c = base.map(|b| f64::from(inst.emission) * b);
+    for l in lights {
+        let diffuse = dot(n, l.to_light).max(0.0);
+        for k in 0..3 {
+            c[k] += base[k] * (f64::from(l.ambient[k]) + f64::from(l.diffuse[k]) * diffuse);
+        }
+    }
+    c.map(|v| v.clamp(0.0, 1.0))
+}
+
+struct Draw<'a, 'b> {
+    cam: &'a Camera,
+    frustum: &'a Frustum,
+    target: &'a mut Target<'b>,
+    stats: &'a mut RenderStats,
+}
+
+impl Draw<'_, '_> {
+    /// A flat quad (local corners, local normal): one colour, two triangles.
+    fn face(&mut self, inst: &Instance, lights: &[Light], quad: [[f64; 3]; 4], normal: [f64; 3]) {
+        let rgb = lit(inst, lights, rotate(&inst.rot, normal));
+        let cs = quad.map(|p| {
+            let r = rotate(&inst.rot, p);
+            self.cam.to_camera([
+                r[0] + inst.pos_m[0],
+                r[1] + inst.pos_m[1],
+                r[2] + inst.pos_m[2],
+            ])
+        });
+        let v = cs.map(|p| ClipVertex { p, rgb });
+        let flat = Some(rgb.map(fill::to_u8));
+        self.triangle([v[0], v[1], v[2]], flat);
+        self.triangle([v[0], v[2], v[3]], flat);
+    }
+
+    fn mesh(
+        &mut self,
+        inst: &Instance,
+        lights: &[Light],
+        lods: &MeshLods,
+        level: usize,
+        camera_space: &mut Vec<[f64; 3]>,
+    ) {
+        let mesh = &lods.levels()[level];
+        camera_space.clear();
+        camera_space.extend(mesh.positions_m().iter().map(|p| {
+            let r = rotate(&inst.rot, p.map(f64::from));
+            self.cam.to_camera([
+                r[0] + inst.pos_m[0],
+                r[1] + inst.pos_m[1],
+                r[2] + inst.pos_m[2],
+            ])
+        }));
+        for (t, normals) in mesh.triangles().iter().zip(mesh.normals()) {
+            let p = t.map(|v| camera_space[v as usize]);
+            // Back faces never reach the lighting. (right, up, forward) is a left-handed frame,
+            // so this cross product is minus the true normal: front faces have n · p > 0.
+            let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+            let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+            let n = [
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            ];
+            if dot(n, p[0]) <= 0.0 {
+                continue;
+            }
+            let rgb = normals.map(|nm| lit(inst, lights, rotate(&inst.rot, nm.map(f64::from))));
+            let flat = (rgb[0] == rgb[1] && rgb[1] == rgb[2]).then(|| rgb[0].map(fill::to_u8));
+            self.triangle(
+                [0, 1, 2].map(|k| ClipVertex {
+                    p: p[k],
+                    rgb: rgb[k],
+                }),
+                flat,
+            );
+        }
+    }
+
+    fn triangle(&mut self, v: [ClipVertex; 3], flat: Option<[u8; 3]>) {
+        self.stats.triangles_submitted += 1;
+        let h = f64::from(self.cam.height_px);
+        let project = |c: &ClipVertex| {
+            let inv_d = 1.0 / c.p[2];
+            let x = self.cam.sx * c.p[0] * inv_d + self.cam.ox;
+            let y = h - (self.cam.sy * c.p[1] * inv_d + self.cam.oy);
+            ScreenVertex {
+                x: (x * SUBPIXEL as f64).round() as i64,
+                y: (y * SUBPIXEL as f64).round() as i64,
+                inv_d,
+                rgb: c.rgb,
+            }
+        };
+        if self.frustum.holds(&v) {
+            let s = v.map(|c| project(&c));
+            if front(&s) {
+                self.stats.pixels_written += fill::triangle(self.target, s, flat);
+            }
+            return;
+        }
+        let mut poly = Polygon::default();
+        self.frustum.clip(v, &mut poly);
+        let vs = poly.vertices();
+        if vs.len() < 3 {
+            return;
+        }
+        let s: Vec<ScreenVertex> = vs.iter().map(project).collect();
+        for k in 1..s.len() - 1 {
+            let tri = [s[0], s[k], s[k + 1]];
+            if front(&tri) {
+                self.stats.pixels_written += fill::triangle(self.target, tri, flat);
+            }
+        }
+    }
+}
+
+/// Counter-clockwise in window coordinates (y up) is clockwise in the image's (y down).
+fn front(s: &[ScreenVertex; 3]) -> bool {
+    let [a, b, c] = s;
+    (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x) < 0
+}
