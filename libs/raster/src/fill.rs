@@ -10,6 +10,9 @@ use crate::scene::Rect;
 /// Sub-pixel steps per pixel (8 bits).
 pub const SUBPIXEL: i64 = 256;
 
+/// Up to this many columns a row is tested pixel by pixel rather than solved as a span.
+const NARROW_PX: i64 = 12;
+
 /// A projected vertex: image position (x right, y down) in 1/256 px, 1/d and its colour.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScreenVertex {
@@ -122,17 +125,24 @@ pub fn triangle(target: &mut Target<'_>, v: [ScreenVertex; 3], flat: Option<[u8;
     let width = col1 - col0;
     let mut written = 0u64;
     for row in row0..row1 {
-        let mut lo = 0;
-        let mut hi = width;
-        for e in &edges {
-            let (l, h) = e.span(width);
-            lo = lo.max(l);
-            hi = hi.min(h);
+        let (mut lo, mut hi) = (0, width);
+        if width > NARROW_PX {
+            for e in &edges {
+                let (l, h) = e.span(width);
+                lo = lo.max(l);
+                hi = hi.min(h);
+            }
         }
         let rgb_row = row as usize * target.stride_px;
         let depth_row = (row - i64::from(rect.y)) as usize * usize::from(rect.width);
         for k in lo..hi {
-            let w = edges.map(|e| (e.row + k * e.step_x) as f64 * inv_area);
+            let e = edges.map(|e| e.row + k * e.step_x);
+            // Narrow rows are tested pixel by pixel (the span's divisions cost more there);
+            // the test is the same inequality the span solves.
+            if width <= NARROW_PX && !(0..3).all(|i| e[i] >= edges[i].least) {
+                continue;
+            }
+            let w = e.map(|v| v as f64 * inv_area);
             let inv_d = w[0] * z[0] + w[1] * z[1] + w[2] * z[2];
             let col = (col0 + k) as usize;
             let di = depth_row + (col - usize::from(rect.x));

@@ -38,6 +38,10 @@ pub struct Mesh {
     positions_m: Vec<[f32; 3]>,
     triangles: Vec<[u32; 3]>,
     normals: Vec<[[f32; 3]; 3]>,
+    /// The distinct corner normals (first-use order) and each corner's index into them: a
+    /// render lights each distinct normal once.
+    distinct_normals: Vec<[f32; 3]>,
+    corner_normal: Vec<[u32; 3]>,
 }
 
 impl Mesh {
@@ -89,11 +93,44 @@ impl Mesh {
                 });
             }
         }
-        Ok(Mesh {
+        Ok(Mesh::assemble(positions_m, triangles, normals))
+    }
+
+    fn assemble(
+        positions_m: Vec<[f32; 3]>,
+        triangles: Vec<[u32; 3]>,
+        normals: Vec<[[f32; 3]; 3]>,
+    ) -> Mesh {
+        let mut index: std::collections::BTreeMap<[u32; 3], u32> = Default::default();
+        let mut distinct_normals = Vec::new();
+        let corner_normal = normals
+            .iter()
+            .map(|corners| {
+                corners.map(|n| {
+                    *index.entry(n.map(f32::to_bits)).or_insert_with(|| {
+                        distinct_normals.push(n);
+                        (distinct_normals.len() - 1) as u32
+                    })
+                })
+            })
+            .collect();
+        Mesh {
             positions_m,
             triangles,
             normals,
-        })
+            distinct_normals,
+            corner_normal,
+        }
+    }
+
+    /// The distinct corner normals.
+    pub fn distinct_normals(&self) -> &[[f32; 3]] {
+        &self.distinct_normals
+    }
+
+    /// Each triangle's corners as indices into [`Mesh::distinct_normals`].
+    pub fn corner_normal(&self) -> &[[u32; 3]] {
+        &self.corner_normal
     }
 
     pub fn positions_m(&self) -> &[[f32; 3]] {
@@ -178,11 +215,11 @@ fn compact(positions_m: &[[f32; 3]], normals: &[Vec<[f32; 3]>], next: &[u32]) ->
             })
         })
         .collect();
-    Mesh {
-        positions_m: kept.iter().map(|&v| positions_m[v as usize]).collect(),
+    Mesh::assemble(
+        kept.iter().map(|&v| positions_m[v as usize]).collect(),
         triangles,
-        normals: corner_normals,
-    }
+        corner_normals,
+    )
 }
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -200,6 +237,9 @@ const MIN_LEVEL_TRIANGLES: usize = 48;
 /// meshoptimizer's error bound, relative to the mesh's extent: generous, since the triangle
 /// count is what each level aims at.
 const SIMPLIFY_ERROR: f32 = 0.05;
+
+/// Pixels of a body's bounding disc per triangle of the level drawn ([`MeshLods::level_for`]).
+pub const PX_PER_TRIANGLE: f64 = 4.0;
 
 /// A mesh at several levels of detail, finest first.
 #[derive(Debug, Clone, PartialEq)]
@@ -256,13 +296,14 @@ impl MeshLods {
     }
 
     /// The level to draw for a body whose bounding sphere appears `radius_px` wide: the
-    /// coarsest level with at least as many triangles as half the pixels of that disc, so that
-    /// every level shown keeps about two pixels per triangle or finer.
+    /// coarsest level with at least one triangle per [`PX_PER_TRIANGLE`] pixels of that disc.
+    /// A body covers a fraction of its bounding disc and shows about half its triangles, so
+    /// this keeps about one visible triangle per covered pixel or finer.
     pub fn level_for(&self, radius_px: f64) -> usize {
         let disc_px = std::f64::consts::PI * radius_px * radius_px;
         let mut chosen = 0;
         for (k, level) in self.levels.iter().enumerate() {
-            if level.triangles.len() as f64 >= 0.5 * disc_px {
+            if level.triangles.len() as f64 * PX_PER_TRIANGLE >= disc_px {
                 chosen = k;
             }
         }

@@ -54,9 +54,11 @@ pub enum RenderError {
 pub struct Renderer {
     meshes: Vec<MeshLods>,
     depth: Vec<f32>,
-    camera_space: Vec<[f64; 3]>,
+    scratch: Scratch,
     /// Forced level of detail (tests and benches); `None`: chosen per instance.
     forced_level: Option<usize>,
+    /// Every render's statistics, added up.
+    total: RenderStats,
 }
 
 impl Renderer {
@@ -64,9 +66,15 @@ impl Renderer {
         Renderer {
             meshes,
             depth: Vec::new(),
-            camera_space: Vec::new(),
+            scratch: Scratch::default(),
             forced_level: None,
+            total: RenderStats::default(),
         }
+    }
+
+    /// Every render's statistics so far, added up.
+    pub fn total(&self) -> RenderStats {
+        self.total
     }
 
     pub fn meshes(&self) -> &[MeshLods] {
@@ -170,10 +178,11 @@ impl Renderer {
                         (None, Some(radius_px)) => lods.level_for(radius_px),
                         (None, None) => 0,
                     };
-                    draw.mesh(inst, &scene.lights, lods, k, &mut self.camera_space);
+                    draw.mesh(inst, &scene.lights, lods, k, &mut self.scratch);
                 }
             }
         }
+        self.total += stats;
         Ok(stats)
     }
 }
@@ -246,22 +255,70 @@ struct Draw<'a, 'b> {
     stats: &'a mut RenderStats,
 }
 
+/// An instance's pose composed with the camera: camera coordinates = `m` · local + `t`.
+struct Pose {
+    m: [f64; 9],
+    t: [f64; 3],
+}
+
+impl Pose {
+    fn new(cam: &Camera, inst: &Instance) -> Pose {
+        let rows = [cam.right, cam.up, cam.forward];
+        let r = &inst.rot;
+        let mut m = [0.0; 9];
+        for (i, row) in rows.iter().enumerate() {
+            for j in 0..3 {
+                m[3 * i + j] = row[0] * r[j] + row[1] * r[3 + j] + row[2] * r[6 + j];
+            }
+        }
+        Pose {
+            m,
+            t: cam.to_camera(inst.pos_m),
+        }
+    }
+
+    fn apply(&self, p: [f64; 3]) -> [f64; 3] {
+        let m = &self.m;
+        [
+            m[0] * p[0] + m[1] * p[1] + m[2] * p[2] + self.t[0],
+            m[3] * p[0] + m[4] * p[1] + m[5] * p[2] + self.t[1],
+            m[6] * p[0] + m[7] * p[1] + m[8] * p[2] + self.t[2],
+        ]
+    }
+}
+
+/// The lights turned into an instance's own frame (`rotᵀ · to_light`), so that a local normal
+/// is lit without being rotated.
+fn local_lights(inst: &Instance, lights: &[Light]) -> Vec<Light> {
+    let r = &inst.rot;
+    lights
+        .iter()
+        .map(|l| {
+            let d = l.to_light;
+            Light {
+                to_light: [
+                    r[0] * d[0] + r[3] * d[1] + r[6] * d[2],
+                    r[1] * d[0] + r[4] * d[1] + r[7] * d[2],
+                    r[2] * d[0] + r[5] * d[1] + r[8] * d[2],
+                ],
+                ..*l
+            }
+        })
+        .collect()
+}
+
 impl Draw<'_, '_> {
     /// A flat quad (local corners, local normal): one colour, two triangles.
     fn face(&mut self, inst: &Instance, lights: &[Light], quad: [[f64; 3]; 4], normal: [f64; 3]) {
         let rgb = lit(inst, lights, rotate(&inst.rot, normal));
-        let cs = quad.map(|p| {
-            let r = rotate(&inst.rot, p);
-            self.cam.to_camera([
-                r[0] + inst.pos_m[0],
-                r[1] + inst.pos_m[1],
-                r[2] + inst.pos_m[2],
-            ])
+        let pose = Pose::new(self.cam, inst);
+        let v = quad.map(|p| ClipVertex {
+            p: pose.apply(p),
+            rgb,
         });
-        let v = cs.map(|p| ClipVertex { p, rgb });
         let flat = Some(rgb.map(fill::to_u8));
-        self.triangle([v[0], v[1], v[2]], flat);
-        self.triangle([v[0], v[2], v[3]], flat);
+        self.triangle([v[0], v[1], v[2]], flat, true);
+        self.triangle([v[0], v[2], v[3]], flat, true);
     }
 
     fn mesh(
@@ -270,21 +327,27 @@ impl Draw<'_, '_> {
         lights: &[Light],
         lods: &MeshLods,
         level: usize,
-        camera_space: &mut Vec<[f64; 3]>,
+        scratch: &mut Scratch,
     ) {
         let mesh = &lods.levels()[level];
-        camera_space.clear();
-        camera_space.extend(mesh.positions_m().iter().map(|p| {
-            let r = rotate(&inst.rot, p.map(f64::from));
-            self.cam.to_camera([
-                r[0] + inst.pos_m[0],
-                r[1] + inst.pos_m[1],
-                r[2] + inst.pos_m[2],
-            ])
-        }));
-        for (t, normals) in mesh.triangles().iter().zip(mesh.normals()) {
-            let p = t.map(|v| camera_space[v as usize]);
-            // Back faces never reach the lighting. (right, up, forward) is a left-handed frame,
+        let pose = Pose::new(self.cam, inst);
+        scratch.camera_space.clear();
+        scratch
+            .camera_space
+            .extend(mesh.positions_m().iter().map(|p| pose.apply(p.map(f64::from))));
+        let local = local_lights(inst, lights);
+        scratch.lit.clear();
+        scratch.lit.extend(
+            mesh.distinct_normals()
+                .iter()
+                .map(|n| lit(inst, &local, n.map(f64::from))),
+        );
+        // Whether the whole instance lies inside the frustum: then no triangle needs clipping.
+        let inside = inst.bound_m.is_some_and(|r| sphere_inside(self.cam, pose.t, r));
+        let (cs, lit_rgb) = (&scratch.camera_space, &scratch.lit);
+        for (t, corners) in mesh.triangles().iter().zip(mesh.corner_normal()) {
+            let p = t.map(|v| cs[v as usize]);
+            // Back faces never reach the fill. (right, up, forward) is a left-handed frame,
             // so this cross product is minus the true normal: front faces have n · p > 0.
             let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
             let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
@@ -296,7 +359,7 @@ impl Draw<'_, '_> {
             if dot(n, p[0]) <= 0.0 {
                 continue;
             }
-            let rgb = normals.map(|nm| lit(inst, lights, rotate(&inst.rot, nm.map(f64::from))));
+            let rgb = corners.map(|c| lit_rgb[c as usize]);
             let flat = (rgb[0] == rgb[1] && rgb[1] == rgb[2]).then(|| rgb[0].map(fill::to_u8));
             self.triangle(
                 [0, 1, 2].map(|k| ClipVertex {
@@ -304,11 +367,12 @@ impl Draw<'_, '_> {
                     rgb: rgb[k],
                 }),
                 flat,
+                !inside,
             );
         }
     }
 
-    fn triangle(&mut self, v: [ClipVertex; 3], flat: Option<[u8; 3]>) {
+    fn triangle(&mut self, v: [ClipVertex; 3], flat: Option<[u8; 3]>, may_clip: bool) {
         self.stats.triangles_submitted += 1;
         let h = f64::from(self.cam.height_px);
         let project = |c: &ClipVertex| {
@@ -316,13 +380,13 @@ impl Draw<'_, '_> {
             let x = self.cam.sx * c.p[0] * inv_d + self.cam.ox;
             let y = h - (self.cam.sy * c.p[1] * inv_d + self.cam.oy);
             ScreenVertex {
-                x: (x * SUBPIXEL as f64).round() as i64,
-                y: (y * SUBPIXEL as f64).round() as i64,
+                x: snap(x),
+                y: snap(y),
                 inv_d,
                 rgb: c.rgb,
             }
         };
-        if self.frustum.holds(&v) {
+        if !may_clip || self.frustum.holds(&v) {
             let s = v.map(|c| project(&c));
             if front(&s) {
                 self.stats.pixels_written += fill::triangle(self.target, s, flat);
@@ -343,6 +407,39 @@ impl Draw<'_, '_> {
             }
         }
     }
+}
+
+/// Per-render scratch of a mesh: its vertices in camera coordinates, its lit normals.
+#[derive(Default)]
+pub(crate) struct Scratch {
+    camera_space: Vec<[f64; 3]>,
+    lit: Vec<[f64; 3]>,
+}
+
+/// A pixel coordinate in 1/256 px, rounded half up (no libm call: exact for |v| < 2⁴⁴ px).
+fn snap(v: f64) -> i64 {
+    let s = v * SUBPIXEL as f64 + 0.5;
+    let t = s as i64;
+    t - i64::from((t as f64) > s)
+}
+
+/// Whether a sphere of `radius_m` at camera coordinates `c` lies inside the near plane and the
+/// guard band, with a pixel to spare.
+fn sphere_inside(cam: &Camera, c: [f64; 3], radius_m: f64) -> bool {
+    let (x, y, d) = (c[0], c[1], c[2]);
+    let r = radius_m;
+    if !(d - r > cam.near_m) {
+        return false;
+    }
+    let g = crate::clip::GUARD_PX - 1.0;
+    let (w, h) = (f64::from(cam.width_px), f64::from(cam.height_px));
+    // The sphere's extreme ratios lie between (c ± r)/(d ± r).
+    let lo = |c: f64| ((c - r) / (d - r)).min((c - r) / (d + r));
+    let hi = |c: f64| ((c + r) / (d - r)).max((c + r) / (d + r));
+    let xs = [cam.sx * lo(x) + cam.ox, cam.sx * hi(x) + cam.ox];
+    let ys = [cam.sy * lo(y) + cam.oy, cam.sy * hi(y) + cam.oy];
+    let within = |v: f64, size: f64| v > -g && v < size + g;
+    xs.iter().all(|&v| within(v, w)) && ys.iter().all(|&v| within(v, h))
 }
 
 /// Counter-clockwise in window coordinates (y up) is clockwise in the image's (y down).

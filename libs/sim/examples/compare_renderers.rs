@@ -11,6 +11,9 @@ const W: usize = IMAGE_WIDTH_PX as usize;
 const H: usize = IMAGE_HEIGHT_PX as usize;
 
 fn main() -> anyhow::Result<()> {
+    if std::env::var_os("DRIFT").is_some() {
+        return drift();
+    }
     let out = std::env::args().nth(1).map(std::path::PathBuf::from);
     let mut world = World::new(3)?;
     let mut mj = CameraRenderer::new(&world, RenderPath::Full)?;
@@ -35,6 +38,7 @@ fn main() -> anyhow::Result<()> {
                 &b[o..o + 3]
             );
         }
+        println!("O{}: raster so far {:?}, counts {:?}", i + 1, rs.raster_stats(), rs.counts());
         let differ = a.chunks(3).zip(b.chunks(3)).filter(|(p, q)| p != q).count();
         println!("O{}: {differ} pixels differ", i + 1);
         if let Some(dir) = &out {
@@ -49,6 +53,22 @@ fn main() -> anyhow::Result<()> {
                 )?;
             }
         }
+    }
+    Ok(())
+}
+
+/// Prints what the Rust renderer does per render while the performer drifts (the bench's
+/// common case).
+#[allow(dead_code)]
+fn drift() -> anyhow::Result<()> {
+    let mut world = World::new(3)?;
+    let mut rs = CameraRenderer::new(&world, RenderPath::Raster)?;
+    for k in 1..=5u64 {
+        let p = proto::scene::PERFORMER_HOVER_M;
+        world.set_pose(0, [1e-3 * k as f64, p[1], p[2]], [1.0, 0.0, 0.0, 0.0]);
+        world.forward_at(k * 10_000_000);
+        rs.render(&mut world, 0)?;
+        println!("{k}: {:?} {:?}", rs.counts(), rs.raster_stats());
     }
     Ok(())
 }

@@ -141,6 +141,14 @@ impl CameraRenderer {
         }
     }
 
+    /// What the Rust renderer has drawn so far; `None` on MuJoCo's paths.
+    pub fn raster_stats(&self) -> Option<raster::RenderStats> {
+        match &self.backend {
+            Backend::Raster(r) => Some(r.total()),
+            Backend::Mujoco { .. } => None,
+        }
+    }
+
     /// The level-of-detail meshes' digest ([`raster::MeshLods::digest`]); `None` on MuJoCo's
     /// paths.
     pub fn mesh_digest(&self) -> Option<u64> {
