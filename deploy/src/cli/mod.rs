@@ -57,11 +57,13 @@ impl PerturbArgs {
     }
 }
 
-/// `--render damage|full`, shared by every command that renders cameras.
+/// `--render damage|full|raster`, shared by every command that renders cameras.
 #[derive(Debug, Clone, Copy, clap::Args)]
 pub struct RenderArg {
-    /// How cameras render: `damage` redraws only what moved since a camera's last frame, `full`
-    /// redraws every pixel (the reference). Both give byte-identical sensor data.
+    /// How cameras render: `damage` (alias `mujoco`) is MuJoCo's renderer redrawing only what
+    /// moved since a camera's last frame, `full` MuJoCo's renderer redrawing every pixel (the
+    /// reference; byte-identical to `damage`); `raster` is Waggle's CPU renderer (no GL; only
+    /// the moved bodies' rectangle, each body at a level of detail for its size).
     #[arg(long = "render", value_enum, default_value_t)]
     pub path: proto::RenderPath,
 }

@@ -4,7 +4,7 @@
 //! `cargo bench -p sim --bench sim` (both paths in one run).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use raster::{Camera, Instance, Light, Mesh, MeshLods, Rect, Renderer, Scene, Shape};
+use raster::{Camera, Instance, Light, Mesh, MeshLods, RasterScene, Rect, Renderer, Shape};
 
 fn sphere(n: usize) -> Mesh {
     let mut p = Vec::new();
@@ -41,7 +41,7 @@ fn sphere(n: usize) -> Mesh {
     .unwrap()
 }
 
-fn scene() -> Scene {
+fn scene() -> RasterScene {
     let camera = Camera {
         pos_m: [0.0, -1.3, 1.0],
         right: [1.0, 0.0, 0.0],
@@ -63,7 +63,7 @@ fn scene() -> Scene {
         emission: 0.0,
         bound_m: None,
     };
-    Scene {
+    RasterScene {
         camera,
         lights: vec![Light {
             to_light: [0.0, -0.6, 0.8],

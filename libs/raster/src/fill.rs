@@ -148,7 +148,9 @@ pub fn triangle(target: &mut Target<'_>, v: [ScreenVertex; 3], flat: Option<[u8;
             let di = depth_row + (col - usize::from(rect.x));
             // GL_LEQUAL on depth: nearer or equal wins (larger 1/d is nearer).
             let inv_d32 = inv_d as f32;
-            if !(inv_d32 >= target.depth[di]) {
+            // Written so that a NaN depth never passes.
+            let passes = inv_d32 >= target.depth[di];
+            if !passes {
                 continue;
             }
             target.depth[di] = inv_d32;

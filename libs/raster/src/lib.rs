@@ -26,7 +26,7 @@ pub mod scene;
 
 pub use mesh::{Mesh, MeshError, MeshLods};
 pub use render::{RenderStats, Renderer};
-pub use scene::{Camera, Instance, Light, Rect, Scene, Shape};
+pub use scene::{Camera, Instance, Light, RasterScene, Rect, Shape};
 
 /// The renderer's name in cache keys and provenance; bumped whenever its bytes may change.
 pub const RENDERER_ID: &str = "waggle-raster/1";

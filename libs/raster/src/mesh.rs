@@ -211,7 +211,13 @@ fn compact(positions_m: &[[f32; 3]], normals: &[Vec<[f32; 3]>], next: &[u32]) ->
                         best = *n;
                     }
                 }
-                best
+                // As MuJoCo shades: a corner normal far from its face gives way to the face's.
+                let len = (face[0] * face[0] + face[1] * face[1] + face[2] * face[2]).sqrt();
+                if len > 0.0 && best_dot / len < SHARP_COS {
+                    face.map(|c| (c / len) as f32)
+                } else {
+                    best
+                }
             })
         })
         .collect();
@@ -230,13 +236,17 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     ]
 }
 
+/// A corner normal whose cosine with its face's normal is below this is replaced by the face's
+/// (MuJoCo's renderer does the same to the full mesh).
+pub const SHARP_COS: f64 = 0.8;
+
 /// Each simplified level aims at this fraction of the previous one's triangles.
 const LEVEL_RATIO: usize = 3;
 /// No level is made below this many triangles.
 const MIN_LEVEL_TRIANGLES: usize = 48;
-/// meshoptimizer's error bound, relative to the mesh's extent: generous, since the triangle
-/// count is what each level aims at.
-const SIMPLIFY_ERROR: f32 = 0.05;
+/// meshoptimizer's error bound, relative to the mesh's extent: a level stops short of its
+/// triangle count rather than move the silhouette by more than this.
+const SIMPLIFY_ERROR: f32 = 0.01;
 
 /// Pixels of a body's bounding disc per triangle of the level drawn ([`MeshLods::level_for`]).
 pub const PX_PER_TRIANGLE: f64 = 4.0;

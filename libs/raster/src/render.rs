@@ -6,7 +6,7 @@
 use crate::clip::{ClipVertex, Frustum, Polygon};
 use crate::fill::{self, SUBPIXEL, ScreenVertex, Target};
 use crate::mesh::MeshLods;
-use crate::scene::{Camera, Instance, Light, Rect, Scene, Shape, dot, rotate};
+use crate::scene::{Camera, Instance, Light, RasterScene, Rect, Shape, dot, rotate};
 
 /// Pixels added around a projected bounding sphere before it is tested against the rectangle:
 /// covers the snapping of vertices to 1/256 px.
@@ -32,7 +32,7 @@ impl std::ops::AddAssign for RenderStats {
 
 /// Why a render was refused.
 #[derive(Debug, thiserror::Error, PartialEq)]
-pub enum RenderError {
+pub enum RasterError {
     #[error("frame buffer holds {got} bytes, a {width}×{height} RGB frame needs {want}")]
     FrameSize {
         got: usize,
@@ -90,15 +90,15 @@ impl Renderer {
     /// row first); pixels outside `rect` are left as they are.
     pub fn render(
         &mut self,
-        scene: &Scene,
+        scene: &RasterScene,
         rect: Rect,
         rgb: &mut [u8],
-    ) -> Result<RenderStats, RenderError> {
+    ) -> Result<RenderStats, RasterError> {
         let cam = &scene.camera;
         let (w, h) = (cam.width_px, cam.height_px);
         let want = usize::from(w) * usize::from(h) * 3;
         if rgb.len() != want {
-            return Err(RenderError::FrameSize {
+            return Err(RasterError::FrameSize {
                 got: rgb.len(),
                 want,
                 width: w,
@@ -108,7 +108,7 @@ impl Renderer {
         if u32::from(rect.x) + u32::from(rect.width) > u32::from(w)
             || u32::from(rect.y) + u32::from(rect.height) > u32::from(h)
         {
-            return Err(RenderError::Rect {
+            return Err(RasterError::Rect {
                 rect,
                 width: w,
                 height: h,
@@ -118,7 +118,7 @@ impl Renderer {
             if let Shape::Mesh(mesh) = inst.shape
                 && mesh >= self.meshes.len()
             {
-                return Err(RenderError::NoMesh {
+                return Err(RasterError::NoMesh {
                     index,
                     mesh,
                     meshes: self.meshes.len(),
@@ -332,9 +332,11 @@ impl Draw<'_, '_> {
         let mesh = &lods.levels()[level];
         let pose = Pose::new(self.cam, inst);
         scratch.camera_space.clear();
-        scratch
-            .camera_space
-            .extend(mesh.positions_m().iter().map(|p| pose.apply(p.map(f64::from))));
+        scratch.camera_space.extend(
+            mesh.positions_m()
+                .iter()
+                .map(|p| pose.apply(p.map(f64::from))),
+        );
         let local = local_lights(inst, lights);
         scratch.lit.clear();
         scratch.lit.extend(
@@ -343,7 +345,9 @@ impl Draw<'_, '_> {
                 .map(|n| lit(inst, &local, n.map(f64::from))),
         );
         // Whether the whole instance lies inside the frustum: then no triangle needs clipping.
-        let inside = inst.bound_m.is_some_and(|r| sphere_inside(self.cam, pose.t, r));
+        let inside = inst
+            .bound_m
+            .is_some_and(|r| sphere_inside(self.cam, pose.t, r));
         let (cs, lit_rgb) = (&scratch.camera_space, &scratch.lit);
         for (t, corners) in mesh.triangles().iter().zip(mesh.corner_normal()) {
             let p = t.map(|v| cs[v as usize]);
@@ -428,7 +432,8 @@ fn snap(v: f64) -> i64 {
 fn sphere_inside(cam: &Camera, c: [f64; 3], radius_m: f64) -> bool {
     let (x, y, d) = (c[0], c[1], c[2]);
     let r = radius_m;
-    if !(d - r > cam.near_m) {
+    let clear_of_near = d - r > cam.near_m;
+    if !clear_of_near {
         return false;
     }
     let g = crate::clip::GUARD_PX - 1.0;

@@ -112,7 +112,7 @@ pub struct Instance {
 
 /// A frame's content.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Scene {
+pub struct RasterScene {
     pub camera: Camera,
     pub lights: Vec<Light>,
     pub instances: Vec<Instance>,

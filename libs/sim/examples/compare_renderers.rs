@@ -38,7 +38,12 @@ fn main() -> anyhow::Result<()> {
                 &b[o..o + 3]
             );
         }
-        println!("O{}: raster so far {:?}, counts {:?}", i + 1, rs.raster_stats(), rs.counts());
+        println!(
+            "O{}: raster so far {:?}, counts {:?}",
+            i + 1,
+            rs.raster_stats(),
+            rs.counts()
+        );
         let differ = a.chunks(3).zip(b.chunks(3)).filter(|(p, q)| p != q).count();
         println!("O{}: {differ} pixels differ", i + 1);
         if let Some(dir) = &out {

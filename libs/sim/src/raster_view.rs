@@ -5,17 +5,22 @@
 
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_visualization::{MjvGLCamera, MjvGeom, MjvLight};
-use raster::{Instance, Light, Mesh, MeshLods, Scene, Shape};
+use raster::{Instance, Light, Mesh, MeshLods, RasterScene, Shape};
 
 use crate::damage::View;
-use crate::render::RenderError;
+
+/// Why MuJoCo's model or scene cannot be handed to the Rust renderer (what it does not draw, or
+/// a mesh compiled inconsistently), naming the light, geom or mesh.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct ViewError(pub String);
 
 /// The colour of pixels no geom covers (MuJoCo clears to black).
 pub const BACKGROUND: [u8; 3] = [0, 0, 0];
 
 /// Every mesh of `model` at every level of detail; a mesh MuJoCo compiled inconsistently is
 /// refused naming it.
-pub fn meshes(model: &MjModel) -> Result<Vec<MeshLods>, RenderError> {
+pub fn meshes(model: &MjModel) -> Result<Vec<MeshLods>, ViewError> {
     let n = usize::try_from(model.ffi().nmesh).unwrap_or(0);
     let (vert, face, normal, face_normal) = (
         model.mesh_vert(),
@@ -32,7 +37,7 @@ pub fn meshes(model: &MjModel) -> Result<Vec<MeshLods>, RenderError> {
                 let (a, k) = (usize::try_from(adr).ok()?, usize::try_from(num).ok()?);
                 (a + k <= len).then_some(a..a + k)
             };
-            let bad = || RenderError::Mesh(format!("mesh {name}: address out of range"));
+            let bad = || ViewError(format!("mesh {name}: address out of range"));
             let verts = range(model.mesh_vertadr()[m], model.mesh_vertnum()[m], vert.len())
                 .ok_or_else(bad)?;
             let faces = range(model.mesh_faceadr()[m], model.mesh_facenum()[m], face.len())
@@ -43,7 +48,7 @@ pub fn meshes(model: &MjModel) -> Result<Vec<MeshLods>, RenderError> {
                 normal.len(),
             )
             .ok_or_else(bad)?;
-            let corner = |i: i32| -> Result<[f32; 3], RenderError> {
+            let corner = |i: i32| -> Result<[f32; 3], ViewError> {
                 usize::try_from(i)
                     .ok()
                     .and_then(|i| normal[normals.clone()].get(i).copied())
@@ -64,9 +69,9 @@ pub fn meshes(model: &MjModel) -> Result<Vec<MeshLods>, RenderError> {
                         None => corners,
                     })
                 })
-                .collect::<Result<Vec<_>, RenderError>>()?;
+                .collect::<Result<Vec<_>, ViewError>>()?;
             let mesh = Mesh::new(&name, vert[verts].to_vec(), triangles, corner_normals)
-                .map_err(|e| RenderError::Mesh(e.to_string()))?;
+                .map_err(|e| ViewError(e.to_string()))?;
             Ok(MeshLods::build(mesh))
         })
         .collect()
@@ -105,19 +110,19 @@ pub fn scene(
     geoms: &[MjvGeom],
     width: u16,
     height: u16,
-) -> Result<Scene, RenderError> {
+) -> Result<RasterScene, ViewError> {
     let camera = View::new(cameras, width, height)
-        .ok_or_else(|| RenderError::Render("the camera is not a perspective pinhole".into()))?
+        .ok_or_else(|| ViewError("the camera is not a perspective pinhole".into()))?
         .camera(width, height);
     let lights = lights
         .iter()
         .map(light)
-        .collect::<Result<Vec<_>, RenderError>>()?;
+        .collect::<Result<Vec<_>, ViewError>>()?;
     let instances = geoms
         .iter()
         .map(instance)
-        .collect::<Result<Vec<_>, RenderError>>()?;
-    Ok(Scene {
+        .collect::<Result<Vec<_>, ViewError>>()?;
+    Ok(RasterScene {
         camera,
         lights,
         instances,
@@ -125,9 +130,9 @@ pub fn scene(
     })
 }
 
-fn light(l: &MjvLight) -> Result<Light, RenderError> {
+fn light(l: &MjvLight) -> Result<Light, ViewError> {
     if l.type_ != MjtLightType::mjLIGHT_DIRECTIONAL as i32 {
-        return Err(RenderError::Render(format!(
+        return Err(ViewError(format!(
             "light {} is not directional (type {}): the Rust renderer draws directional lights only",
             l.id, l.type_
         )));
@@ -135,10 +140,7 @@ fn light(l: &MjvLight) -> Result<Light, RenderError> {
     let d = l.dir.map(f64::from);
     let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     if !(n.is_finite() && n > 0.0) {
-        return Err(RenderError::Render(format!(
-            "light {} has no direction",
-            l.id
-        )));
+        return Err(ViewError(format!("light {} has no direction", l.id)));
     }
     Ok(Light {
         to_light: d.map(|c| -c / n),
@@ -147,7 +149,7 @@ fn light(l: &MjvLight) -> Result<Light, RenderError> {
     })
 }
 
-fn instance(g: &MjvGeom) -> Result<Instance, RenderError> {
+fn instance(g: &MjvGeom) -> Result<Instance, ViewError> {
     use mujoco_rs::mujoco_c::mjtGeom::*;
     let size = g.size.map(f64::from);
     let shape = match g.type_ {
@@ -159,21 +161,21 @@ fn instance(g: &MjvGeom) -> Result<Instance, RenderError> {
         t if t == mjGEOM_MESH as i32 => match usize::try_from(g.dataid) {
             Ok(d) if d % 2 == 0 => Shape::Mesh(d / 2),
             _ => {
-                return Err(RenderError::Render(format!(
+                return Err(ViewError(format!(
                     "mesh geom {} is drawn as a convex hull or has no mesh (data {})",
                     g.objid, g.dataid
                 )));
             }
         },
         t => {
-            return Err(RenderError::Render(format!(
+            return Err(ViewError(format!(
                 "geom {} is of type {t}: the Rust renderer draws planes, boxes and meshes",
                 g.objid
             )));
         }
     };
     if g.transparent != 0 || g.rgba[3] < 1.0 || g.texid >= 0 || g.reflectance > 0.0 {
-        return Err(RenderError::Render(format!(
+        return Err(ViewError(format!(
             "geom {} is transparent, textured or reflective: the Rust renderer draws opaque plain \
              colours",
             g.objid

@@ -33,8 +33,8 @@ pub enum RenderError {
     Render(String),
     #[error("no camera for observer index {0}")]
     NoCamera(usize),
-    #[error("{0}")]
-    Mesh(String),
+    #[error(transparent)]
+    View(#[from] crate::raster_view::ViewError),
 }
 
 /// One rendered frame and how it differs from the same camera's previous frame.
@@ -81,6 +81,8 @@ pub struct CameraRenderer {
     path: RenderPath,
     kept: Vec<Kept>,
     counts: RenderCounts,
+    /// Applied to every scene the Rust renderer draws (tests break the renderer with it).
+    edit: Option<fn(&mut raster::RasterScene)>,
 }
 
 impl CameraRenderer {
@@ -122,6 +124,7 @@ impl CameraRenderer {
             path,
             kept,
             counts: RenderCounts::default(),
+            edit: None,
         })
     }
 
@@ -139,6 +142,12 @@ impl CameraRenderer {
         if let Backend::Raster(r) = &mut self.backend {
             r.force_level(level);
         }
+    }
+
+    /// Every scene the Rust renderer draws is first passed through `edit` (the reference
+    /// comparison's tests build broken renderers with it); `None` draws scenes as they are.
+    pub fn edit_raster_scene(&mut self, edit: Option<fn(&mut raster::RasterScene)>) {
+        self.edit = edit;
     }
 
     /// What the Rust renderer has drawn so far; `None` on MuJoCo's paths.
@@ -223,13 +232,16 @@ impl CameraRenderer {
                     }),
                 };
                 if let Some(rect) = rect {
-                    let scene = crate::raster_view::scene(
+                    let mut scene = crate::raster_view::scene(
                         &cameras,
                         offscreen::scene::lights(&self.scene),
                         offscreen::scene::geoms(&self.scene),
                         W as u16,
                         H as u16,
                     )?;
+                    if let Some(edit) = self.edit {
+                        edit(&mut scene);
+                    }
                     renderer
                         .render(&scene, rect, &mut kept.rgb)
                         .map_err(|e| RenderError::Render(e.to_string()))?;
