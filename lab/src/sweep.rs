@@ -46,6 +46,8 @@ pub struct SweepOptions {
     pub cases: Vec<String>,
     /// Skip the sensor-comparison figure.
     pub no_sensor_figure: bool,
+    /// How every run's cameras render (each `waggle run --render`).
+    pub render: proto::RenderPath,
 }
 
 /// Default parallelism: one run per two cores.
@@ -116,7 +118,7 @@ struct Running {
     interrupted_at: Option<Instant>,
 }
 
-fn start(exe: &Path, out: &Path, job: &Job) -> Result<Child> {
+fn start(exe: &Path, out: &Path, job: &Job, render: proto::RenderPath) -> Result<Child> {
     let dir = out.join(&job.dir);
     if dir.exists() {
         std::fs::remove_dir_all(&dir).with_context(|| format!("clearing {}", dir.display()))?;
@@ -128,6 +130,8 @@ fn start(exe: &Path, out: &Path, job: &Job) -> Result<Child> {
             &job.case,
             "--modality",
             job.modality,
+            "--render",
+            render.as_str(),
             "--quiet",
             "--out",
         ])
@@ -193,7 +197,7 @@ fn execute(args: &SweepOptions, jobs: &[Job]) -> Result<SweepManifest> {
             bar.set_style(spinner.clone());
             bar.set_prefix(job.dir.clone());
             bar.set_message("running");
-            match start(&exe, &args.out, job) {
+            match start(&exe, &args.out, job, args.render) {
                 Ok(child) => running.push(Running {
                     index: next,
                     child,
@@ -408,6 +412,7 @@ mod tests {
             jobs: Some(1),
             cases: cases.iter().map(|s| s.to_string()).collect(),
             no_sensor_figure: true,
+            render: proto::RenderPath::default(),
         };
         let (all, skipped) = plan(&args(SweepModality::Both, &[])).unwrap();
         assert_eq!(all.len(), 13, "six cases × 2 + dropout-o2 events");

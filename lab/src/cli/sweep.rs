@@ -27,6 +27,8 @@ pub struct SweepArgs {
     /// Skip the sensor-comparison figure (≈ 20 s wall).
     #[arg(long)]
     no_sensor_figure: bool,
+    #[command(flatten)]
+    render: super::RenderArg,
 }
 
 pub fn run(args: SweepArgs) -> Result<()> {
@@ -35,6 +37,7 @@ pub fn run(args: SweepArgs) -> Result<()> {
         out: args.out,
         jobs: args.jobs,
         cases: args.cases,
+        render: args.render.path,
         no_sensor_figure: args.no_sensor_figure,
     })
 }

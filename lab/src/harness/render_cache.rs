@@ -410,6 +410,22 @@ mod tests {
         spec
     }
 
+    /// A flight rendered by one renderer is never served to a request for another.
+    #[test]
+    fn the_renderer_is_part_of_the_key() {
+        let mut keys: Vec<String> = RenderPath::ALL
+            .iter()
+            .map(|&render| {
+                let mut s = spec(1_500_000_000);
+                s.render = render;
+                RenderCache::key(&s).unwrap()
+            })
+            .collect();
+        keys.sort();
+        keys.dedup();
+        assert_eq!(keys.len(), RenderPath::ALL.len());
+    }
+
     fn same(a: &RenderedFlight, b: &RenderedFlight) {
         assert_eq!(a.tracks, b.tracks);
         assert_eq!(

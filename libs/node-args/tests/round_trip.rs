@@ -68,7 +68,11 @@ fn command() -> impl Strategy<Value = NodeCommand> {
             modality(),
             any::<bool>(),
             proptest::option::of(any::<u64>()),
-            prop_oneof![Just(RenderPath::Damage), Just(RenderPath::Full)],
+            prop_oneof![
+                Just(RenderPath::Damage),
+                Just(RenderPath::Full),
+                Just(RenderPath::Raster)
+            ],
             (sensor(), any::<bool>()),
             proptest::collection::vec((any::<u64>(), 0u16..=1000, any::<u32>()), 0..3),
         )
