@@ -35,9 +35,11 @@ impl Camera {
         ]
     }
 
-    /// The image box (x right, y down from the top row, in pixels, unclipped) that a sphere of
-    /// `radius_m` at world `centre_m` covers; `None` when the sphere reaches the near plane.
-    pub fn sphere_box(&self, centre_m: [f64; 3], radius_m: f64) -> Option<[f64; 4]> {
+    /// The window box (x right, y up from the bottom row, in pixels, unclipped) that a sphere
+    /// of `radius_m` at world `centre_m` covers, as `[x0, y0, x1, y1]`; `None` when the sphere
+    /// reaches the near plane or is not finite. The damage rule (`sim::damage`) bounds MuJoCo's
+    /// frames with it too.
+    pub fn sphere_window_box(&self, centre_m: [f64; 3], radius_m: f64) -> Option<[f64; 4]> {
         let [x, y, d] = self.to_camera(centre_m);
         let r = radius_m;
         if !(x.is_finite() && y.is_finite() && r.is_finite() && d - r > self.near_m) {
@@ -59,13 +61,20 @@ impl Camera {
         };
         let (tx0, tx1) = extremes(x);
         let (ty0, ty1) = extremes(y);
-        let h = f64::from(self.height_px);
         Some([
             self.sx * tx0 + self.ox,
-            h - (self.sy * ty1 + self.oy),
+            self.sy * ty0 + self.oy,
             self.sx * tx1 + self.ox,
-            h - (self.sy * ty0 + self.oy),
+            self.sy * ty1 + self.oy,
         ])
+    }
+
+    /// [`Camera::sphere_window_box`] in image coordinates (x right, y down from the top row),
+    /// as `[x0, y0, x1, y1]`.
+    pub fn sphere_box(&self, centre_m: [f64; 3], radius_m: f64) -> Option<[f64; 4]> {
+        let [x0, y0, x1, y1] = self.sphere_window_box(centre_m, radius_m)?;
+        let h = f64::from(self.height_px);
+        Some([x0, h - y1, x1, h - y0])
     }
 
     /// The radius in pixels a sphere of `radius_m` at camera depth `depth_m` appears with.

@@ -1,112 +1,20 @@
-//! The renderer against its own definitions, on scenes built here: a rectangle equals the same
+//! The renderer against its own definitions, on the synthetic scene of `support/scene.rs`: a rectangle equals the same
 //! pixels of a whole frame; an instance is culled exactly when its projected sphere misses the
 //! rectangle, and culling changes no pixel; the level of detail follows its rule; bad meshes
 //! and bad calls are refused naming what is wrong.
 
 use raster::render::RasterError;
-use raster::{
-    Camera, Instance, Light, Mesh, MeshError, MeshLods, RasterScene, Rect, Renderer, Shape,
-};
+use raster::{Mesh, MeshError, MeshLods, RasterScene, Rect, Renderer, Shape};
 
 const W: u16 = 160;
 const H: u16 = 120;
 
-/// A closed octahedron-like sphere of `n`×`n` quads on a latitude–longitude grid.
-fn ball(n: usize, radius_m: f32) -> Mesh {
-    let mut p = Vec::new();
-    for i in 0..=n {
-        for j in 0..=n {
-            let (th, ph) = (
-                std::f64::consts::PI * i as f64 / n as f64,
-                2.0 * std::f64::consts::PI * j as f64 / n as f64,
-            );
-            p.push([
-                (th.sin() * ph.cos()) as f32,
-                (th.sin() * ph.sin()) as f32,
-                th.cos() as f32,
-            ]);
-        }
-    }
-    let id = |i: usize, j: usize| (i * (n + 1) + j) as u32;
-    let mut t = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
-            t.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            t.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    let normals = t.iter().map(|tri| tri.map(|v| p[v as usize])).collect();
-    let scaled = p.iter().map(|q| q.map(|c| c * radius_m)).collect();
-    Mesh::new("ball", scaled, t, normals).expect("mesh")
-}
-
-fn camera() -> Camera {
-    Camera {
-        pos_m: [0.0, -2.0, 1.0],
-        right: [1.0, 0.0, 0.0],
-        up: [0.0, 0.0, 1.0],
-        forward: [0.0, 1.0, 0.0],
-        near_m: 0.05,
-        sx: 150.0,
-        ox: 80.0,
-        sy: 150.0,
-        oy: 60.0,
-        width_px: W,
-        height_px: H,
-    }
-}
-
-fn at(shape: Shape, pos_m: [f64; 3], rgb: [f32; 3], bound_m: Option<f64>) -> Instance {
-    Instance {
-        shape,
-        pos_m,
-        rot: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-        rgb,
-        emission: 0.0,
-        bound_m,
-    }
-}
+#[path = "support/scene.rs"]
+mod support;
+use support::{ball, scene as scene_of};
 
 fn scene() -> RasterScene {
-    RasterScene {
-        camera: camera(),
-        lights: vec![
-            Light {
-                to_light: [0.0, -1.0, 0.0],
-                ambient: [0.45; 3],
-                diffuse: [0.5; 3],
-            },
-            Light {
-                to_light: [-0.19, -0.28, 0.94],
-                ambient: [0.0; 3],
-                diffuse: [0.35; 3],
-            },
-        ],
-        instances: vec![
-            at(
-                Shape::Plane { half_m: [7.0, 7.0] },
-                [0.0; 3],
-                [0.35, 0.36, 0.38],
-                Some(9.9),
-            ),
-            at(
-                Shape::Box {
-                    half_m: [7.0, 0.05, 3.0],
-                },
-                [0.0, 7.0, 3.0],
-                [0.45, 0.53, 0.62],
-                Some(7.7),
-            ),
-            at(Shape::Mesh(0), [0.0, 0.0, 1.0], [0.9; 3], Some(0.101)),
-            at(
-                Shape::Mesh(0),
-                [0.6, 0.5, 0.7],
-                [0.3, 0.3, 0.3],
-                Some(0.101),
-            ),
-        ],
-        background: [0; 3],
-    }
+    scene_of(W, H, 150.0, 2.0)
 }
 
 fn renderer() -> Renderer {

@@ -59,7 +59,7 @@ pub fn change(before: Option<&Snapshot>, now: &Snapshot, width: u16, height: u16
     if !(cameras_same && lights_same) || before.geoms.len() != now.geoms.len() {
         return FrameChange::All;
     }
-    let view = View::new(&now.cameras, width, height);
+    let view = pinhole(&now.cameras, width, height);
     let mut bounds: Option<Bounds> = None;
     for (a, b) in before.geoms.iter().zip(&now.geoms) {
         if same_geom(a, b) {
@@ -72,7 +72,7 @@ pub fn change(before: Option<&Snapshot>, now: &Snapshot, width: u16, height: u16
             let Some(view) = &view else {
                 return FrameChange::All;
             };
-            let Some(bound) = view.project(g) else {
+            let Some(bound) = project(view, g) else {
                 return FrameChange::All;
             };
             bounds = Some(bounds.map_or(bound, |u| u.union(bound)));
@@ -129,124 +129,70 @@ impl Bounds {
     }
 }
 
-/// The perspective camera `mjr_render` uses for a mono view: the average of the scene's two
-/// cameras, a `glFrustum` whose half-width follows the viewport's aspect unless set, and
-/// `mjr_lookAt`'s right/up/forward frame.
-pub(crate) struct View {
-    pos: [f64; 3],
-    right: [f64; 3],
-    up: [f64; 3],
-    forward: [f64; 3],
-    near: f64,
-    /// Window x = sx · (x/d) + ox; window y = sy · (y/d) + oy (d: depth along `forward`).
-    sx: f64,
-    ox: f64,
-    sy: f64,
-    oy: f64,
+/// The perspective camera `mjr_render` uses for a mono view, as a pinhole of `width`×`height`:
+/// the average of the scene's two cameras, a `glFrustum` whose half-width follows the viewport's
+/// aspect unless set, and `mjr_lookAt`'s right/up/forward frame. The Rust renderer draws with
+/// the same pinhole. `None`: orthographic or degenerate.
+pub(crate) fn pinhole(
+    cameras: &[MjvGLCamera; 2],
+    width: u16,
+    height: u16,
+) -> Option<raster::Camera> {
+    let [a, b] = cameras;
+    if a.orthographic != 0 || b.orthographic != 0 {
+        return None;
+    }
+    let avg =
+        |p: [f32; 3], q: [f32; 3]| [0, 1, 2].map(|k| 0.5 * (f64::from(p[k]) + f64::from(q[k])));
+    let forward = normalize(avg(a.forward, b.forward))?;
+    let up_hint = normalize(avg(a.up, b.up))?;
+    let right = normalize(cross(forward, up_hint))?;
+    let up = cross(right, forward);
+    let mid = |p: f32, q: f32| 0.5 * (f64::from(p) + f64::from(q));
+    let (w, h) = (f64::from(width), f64::from(height));
+    let (bottom, top) = (
+        mid(a.frustum_bottom, b.frustum_bottom),
+        mid(a.frustum_top, b.frustum_top),
+    );
+    let frustum_width = mid(a.frustum_width, b.frustum_width);
+    let half_width = if frustum_width != 0.0 {
+        frustum_width
+    } else {
+        0.5 * w / h * (top - bottom)
+    };
+    let center = mid(a.frustum_center, b.frustum_center);
+    let (l, r) = (center - half_width, center + half_width);
+    let near = mid(a.frustum_near, b.frustum_near);
+    if !(near > 0.0 && r > l && top > bottom) {
+        return None;
+    }
+    // NDC x = 2n/(r−l)·(x/d) − (r+l)/(r−l); window x = (NDC x + 1)·w/2 (same for y).
+    Some(raster::Camera {
+        pos_m: avg(a.pos, b.pos),
+        right,
+        up,
+        forward,
+        near_m: near,
+        sx: near / (r - l) * w,
+        ox: (1.0 - (r + l) / (r - l)) * 0.5 * w,
+        sy: near / (top - bottom) * h,
+        oy: (1.0 - (top + bottom) / (top - bottom)) * 0.5 * h,
+        width_px: width,
+        height_px: height,
+    })
 }
 
-impl View {
-    pub(crate) fn new(cameras: &[MjvGLCamera; 2], width: u16, height: u16) -> Option<View> {
-        let [a, b] = cameras;
-        if a.orthographic != 0 || b.orthographic != 0 {
-            return None;
-        }
-        let avg =
-            |p: [f32; 3], q: [f32; 3]| [0, 1, 2].map(|k| 0.5 * (f64::from(p[k]) + f64::from(q[k])));
-        let forward = normalize(avg(a.forward, b.forward))?;
-        let up_hint = normalize(avg(a.up, b.up))?;
-        let right = normalize(cross(forward, up_hint))?;
-        let up = cross(right, forward);
-        let mid = |p: f32, q: f32| 0.5 * (f64::from(p) + f64::from(q));
-        let (w, h) = (f64::from(width), f64::from(height));
-        let (bottom, top) = (
-            mid(a.frustum_bottom, b.frustum_bottom),
-            mid(a.frustum_top, b.frustum_top),
-        );
-        let frustum_width = mid(a.frustum_width, b.frustum_width);
-        let half_width = if frustum_width != 0.0 {
-            frustum_width
-        } else {
-            0.5 * w / h * (top - bottom)
-        };
-        let center = mid(a.frustum_center, b.frustum_center);
-        let (l, r) = (center - half_width, center + half_width);
-        let near = mid(a.frustum_near, b.frustum_near);
-        if !(near > 0.0 && r > l && top > bottom) {
-            return None;
-        }
-        // NDC x = 2n/(r−l)·(x/d) − (r+l)/(r−l); window x = (NDC x + 1)·w/2 (same for y).
-        Some(View {
-            pos: avg(a.pos, b.pos),
-            right,
-            up,
-            forward,
-            near,
-            sx: near / (r - l) * w,
-            ox: (1.0 - (r + l) / (r - l)) * 0.5 * w,
-            sy: near / (top - bottom) * h,
-            oy: (1.0 - (top + bottom) / (top - bottom)) * 0.5 * h,
-        })
+/// The window box of `g`'s bounding sphere; `None` when it cannot be bounded (no model sphere,
+/// or the sphere reaches the near plane).
+fn project(camera: &raster::Camera, g: &MjvGeom) -> Option<Bounds> {
+    let radius = f64::from(g.modelrbound);
+    if !(radius.is_finite() && radius > 0.0) {
+        return None;
     }
-
-    /// The same pinhole, for the Rust renderer.
-    pub(crate) fn camera(&self, width: u16, height: u16) -> raster::Camera {
-        raster::Camera {
-            pos_m: self.pos,
-            right: self.right,
-            up: self.up,
-            forward: self.forward,
-            near_m: self.near,
-            sx: self.sx,
-            ox: self.ox,
-            sy: self.sy,
-            oy: self.oy,
-            width_px: width,
-            height_px: height,
-        }
-    }
-
-    /// The window box of `g`'s bounding sphere; `None` when it cannot be bounded (no model
-    /// sphere, or the sphere reaches the near plane).
-    fn project(&self, g: &MjvGeom) -> Option<Bounds> {
-        let radius = f64::from(g.modelrbound);
-        if !(radius.is_finite() && radius > 0.0) {
-            return None;
-        }
-        // Slack for the f32 pose and MuJoCo's own rounding of the bounding radius.
-        let radius = radius * 1.01 + 1e-4;
-        let rel = [0, 1, 2].map(|k| f64::from(g.pos[k]) - self.pos[k]);
-        let (x, y, d) = (
-            dot(rel, self.right),
-            dot(rel, self.up),
-            dot(rel, self.forward),
-        );
-        if !(x.is_finite() && y.is_finite() && d - radius > self.near) {
-            return None;
-        }
-        // The sphere lies in the box x±R, y±R, d±R with d−R > 0, where x/d is monotonic in each
-        // coordinate: its extremes are at the box's corners.
-        let extremes = |c: f64| {
-            let ratios = [
-                (c - radius) / (d - radius),
-                (c - radius) / (d + radius),
-                (c + radius) / (d - radius),
-                (c + radius) / (d + radius),
-            ];
-            (
-                ratios.iter().copied().fold(f64::INFINITY, f64::min),
-                ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-            )
-        };
-        let (tx0, tx1) = extremes(x);
-        let (ty0, ty1) = extremes(y);
-        Some(Bounds {
-            x0: self.sx * tx0 + self.ox,
-            x1: self.sx * tx1 + self.ox,
-            y0: self.sy * ty0 + self.oy,
-            y1: self.sy * ty1 + self.oy,
-        })
-    }
+    // Slack for the f32 pose and MuJoCo's own rounding of the bounding radius.
+    let radius = radius * 1.01 + 1e-4;
+    let [x0, y0, x1, y1] = camera.sphere_window_box(g.pos.map(f64::from), radius)?;
+    Some(Bounds { x0, x1, y0, y1 })
 }
 
 fn normalize(a: [f64; 3]) -> Option<[f64; 3]> {

@@ -7,7 +7,7 @@ use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_visualization::{MjvGLCamera, MjvGeom, MjvLight};
 use raster::{Instance, Light, Mesh, MeshLods, RasterScene, Shape};
 
-use crate::damage::View;
+use crate::damage::pinhole;
 
 /// Why MuJoCo's model or scene cannot be handed to the Rust renderer (what it does not draw, or
 /// a mesh compiled inconsistently), naming the light, geom or mesh.
@@ -111,9 +111,8 @@ pub fn scene(
     width: u16,
     height: u16,
 ) -> Result<RasterScene, ViewError> {
-    let camera = View::new(cameras, width, height)
-        .ok_or_else(|| ViewError("the camera is not a perspective pinhole".into()))?
-        .camera(width, height);
+    let camera = pinhole(cameras, width, height)
+        .ok_or_else(|| ViewError("the camera is not a perspective pinhole".into()))?;
     let lights = lights
         .iter()
         .map(light)
