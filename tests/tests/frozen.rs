@@ -1,15 +1,15 @@
-//! Frozen behaviour: `waggle run` reproduces, byte for byte, what the tree did before the crate
-//! restructure.
+//! Frozen behaviour: `waggle run` reproduces, byte for byte, its golden runs.
 //!
 //! `tests/golden/frozen.toml` holds, per (case, modality), the SHA-256 of `observers.json` (every
 //! token with its confirmation time, every frame, every decision) and the summary's
-//! `sensor_digests` (a digest of every sensor packet each camera published), recorded with the
-//! pre-restructure tree, whose cameras rendered every full frame. Any change to physics,
-//! rendering, the event camera, perception, the scheduler or the wire shows up here. The default
-//! runs render by damage rectangles and must still match; `only-a` is also run with
-//! `--render full` in both modalities, so the two render paths are checked equal on whole runs.
-//! The four `only-a` runs (≈ 1 min each) are in the default suite; the whole missions are
-//! `#[ignore]`d (`deploy/test.sh --full`).
+//! `sensor_digests` (a digest of every sensor packet each camera published), for each renderer:
+//! `[[run]]` for the default (Waggle's renderer), `[[reference]]` for MuJoCo's, recorded when
+//! its cameras rendered every full frame. Any change to physics, rendering, the event camera,
+//! perception, the scheduler or the wire shows up here. MuJoCo's damage path must match the
+//! reference, and `only-a` is also run with `--render full` in both modalities, so MuJoCo's two
+//! render paths are checked equal on whole runs. In the default suite: `only-a` in both
+//! modalities with the default renderer (≈ 20 s each) and with MuJoCo's damage path in events
+//! (≈ 1 min); the rest is `#[ignore]`d (`deploy/test.sh --full`).
 //!
 //! `waggle mission` runs the same observer core in one process and must write the very same
 //! `observers.json` as the processes: `only-a` with event cameras in the default suite, the
@@ -30,7 +30,7 @@ use proto::RenderPath;
 use waggle_tests::waggle_with_nodes;
 
 mod golden_runs;
-use golden_runs::{golden, golden_entry, sha256_hex};
+use golden_runs::{golden_entry, golden_entry_of, golden_of, sha256_hex};
 
 /// One run at a time: each already keeps both cores busy, and two at once would only invite the
 /// wall-clock grace period into a test that must be exact.
@@ -39,7 +39,7 @@ static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 /// Runs `waggle run CASE --modality M` and compares its outputs with the golden entry. The output
 /// directory is kept when they differ, for a diff against a run of the old tree.
 fn assert_frozen(case: &str, modality: &str, render: RenderPath) {
-    let want = golden_entry(case, modality);
+    let want = golden_entry_of(render, case, modality);
     let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir: PathBuf = std::env::temp_dir().join(format!(
         "waggle-frozen-{}-{case}-{modality}-{render}",
@@ -86,7 +86,7 @@ fn assert_frozen(case: &str, modality: &str, render: RenderPath) {
                 "{o}: {r:?}\n{}",
                 context()
             ),
-            // Not frozen here (the goldens are MuJoCo's), but held to the same shortcuts.
+            // Raster's damage renders are not scissored (it touches only the rectangle's pixels).
             RenderPath::Raster => assert!(
                 r.damage > 0 && r.skipped + r.damage > r.full,
                 "{o}: {r:?}\n{}",
@@ -223,63 +223,97 @@ const TESTED: [(&str, &str); 5] = [
 
 #[test]
 fn every_golden_run_has_a_test() {
-    let mut listed: Vec<(String, String)> = golden()
-        .iter()
-        .map(|r| {
-            (
-                r["case"].as_str().unwrap().to_string(),
-                r["modality"].as_str().unwrap().to_string(),
-            )
-        })
-        .collect();
     let mut tested: Vec<(String, String)> = TESTED
         .iter()
         .map(|(c, m)| (c.to_string(), m.to_string()))
         .collect();
-    listed.sort();
     tested.sort();
-    assert_eq!(listed, tested);
+    // Both renderers' tables hold the same runs, each with a test of its own below.
+    for render in [RenderPath::Raster, RenderPath::Damage] {
+        let mut listed: Vec<(String, String)> = golden_of(render)
+            .iter()
+            .map(|r| {
+                (
+                    r["case"].as_str().unwrap().to_string(),
+                    r["modality"].as_str().unwrap().to_string(),
+                )
+            })
+            .collect();
+        listed.sort();
+        assert_eq!(listed, tested, "{render}");
+    }
     assert_eq!(sha256_hex(b"abc")[..16], *"ba7816bf8f01cfea");
 }
 
 #[test]
 fn only_a_events_is_frozen() {
-    assert_frozen("only-a", "events", RenderPath::Damage);
+    assert_frozen("only-a", "events", RenderPath::Raster);
 }
 
 #[test]
 fn only_a_rgb_is_frozen() {
+    assert_frozen("only-a", "rgb", RenderPath::Raster);
+}
+
+#[test]
+fn only_a_events_with_mujoco_is_frozen() {
+    assert_frozen("only-a", "events", RenderPath::Damage);
+}
+
+#[test]
+#[ignore = "MuJoCo's renderer as processes, ≈ 1 min: deploy/test.sh --full"]
+fn only_a_rgb_with_mujoco_is_frozen() {
     assert_frozen("only-a", "rgb", RenderPath::Damage);
 }
 
 #[test]
-#[ignore = "the reference render path as processes, ≈ 45 s (libs/sim/tests/damage.rs checks the \
-            damage path against it frame by frame in the default suite): deploy/test.sh --full"]
+#[ignore = "MuJoCo's whole-frame reference path as processes, ≈ 45 s (libs/sim/tests/damage.rs \
+            checks the damage path against it frame by frame in the default suite): \
+            deploy/test.sh --full"]
 fn only_a_events_full_render_is_frozen() {
     assert_frozen("only-a", "events", RenderPath::Full);
 }
 
 #[test]
-#[ignore = "the reference render path as processes, ≈ 45 s (libs/sim/tests/damage.rs checks the \
-            damage path against it frame by frame in the default suite): deploy/test.sh --full"]
+#[ignore = "MuJoCo's whole-frame reference path as processes, ≈ 45 s (libs/sim/tests/damage.rs \
+            checks the damage path against it frame by frame in the default suite): \
+            deploy/test.sh --full"]
 fn only_a_rgb_full_render_is_frozen() {
     assert_frozen("only-a", "rgb", RenderPath::Full);
 }
 
 #[test]
-#[ignore = "whole mission, ≈ 5 min: deploy/test.sh --full"]
+#[ignore = "whole mission, ≈ 2 min: deploy/test.sh --full"]
 fn nominal_3_events_is_frozen() {
+    assert_frozen("nominal-3", "events", RenderPath::Raster);
+}
+
+#[test]
+#[ignore = "whole mission, ≈ 1.5 min: deploy/test.sh --full"]
+fn nominal_3_rgb_is_frozen() {
+    assert_frozen("nominal-3", "rgb", RenderPath::Raster);
+}
+
+#[test]
+#[ignore = "whole mission, ≈ 1 min: deploy/test.sh --full"]
+fn dropout_o2_events_is_frozen() {
+    assert_frozen("dropout-o2", "events", RenderPath::Raster);
+}
+
+#[test]
+#[ignore = "whole mission with MuJoCo's renderer, ≈ 5 min: deploy/test.sh --full"]
+fn nominal_3_events_with_mujoco_is_frozen() {
     assert_frozen("nominal-3", "events", RenderPath::Damage);
 }
 
 #[test]
-#[ignore = "whole mission, ≈ 5 min: deploy/test.sh --full"]
-fn nominal_3_rgb_is_frozen() {
+#[ignore = "whole mission with MuJoCo's renderer, ≈ 5 min: deploy/test.sh --full"]
+fn nominal_3_rgb_with_mujoco_is_frozen() {
     assert_frozen("nominal-3", "rgb", RenderPath::Damage);
 }
 
 #[test]
-#[ignore = "whole mission, ≈ 5 min: deploy/test.sh --full"]
-fn dropout_o2_events_is_frozen() {
+#[ignore = "whole mission with MuJoCo's renderer, ≈ 4 min: deploy/test.sh --full"]
+fn dropout_o2_events_with_mujoco_is_frozen() {
     assert_frozen("dropout-o2", "events", RenderPath::Damage);
 }

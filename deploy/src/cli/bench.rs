@@ -1,11 +1,11 @@
-//! `waggle bench`: a case run both ways in one invocation, printed side by side
+//! `waggle bench`: a case run once per render path in one invocation, printed side by side
 //! ([`crate::launch::bench`]).
 
 use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::Args;
-use proto::Modality;
+use proto::{Modality, RenderPath};
 
 use crate::launch::bench::{BenchOptions, print_report, run_bench};
 
@@ -17,7 +17,10 @@ pub struct BenchArgs {
     /// Observer sensor modality (default: events when the case applies to it).
     #[arg(long, value_enum)]
     modality: Option<Modality>,
-    /// Runs per render path (they alternate: full, damage, full, …).
+    /// The render paths to compare, the first the baseline the others are divided by.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [RenderPath::Damage, RenderPath::Raster])]
+    paths: Vec<RenderPath>,
+    /// Runs per render path (they alternate: damage, raster, damage, …).
     #[arg(long, default_value_t = 1)]
     repeat: usize,
     /// Directory for each run's directory and bench.json.
@@ -38,6 +41,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let report = run_bench(&BenchOptions {
         case: args.case,
         modality: args.modality,
+        paths: args.paths,
         repeat: args.repeat,
         out: args.out,
         bin_dir: args.bin_dir,
@@ -49,7 +53,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         print_report(&report);
     }
     if !report.digests_equal {
-        bail!("the render paths published different sensor bytes");
+        bail!("two runs of one renderer published different sensor bytes");
     }
     if let Some(run) = report.runs.iter().find(|r| !r.pass) {
         bail!(

@@ -57,13 +57,13 @@ impl PerturbArgs {
     }
 }
 
-/// `--render damage|full|raster`, shared by every command that renders cameras.
+/// `--render raster|damage|full`, shared by every command that renders cameras.
 #[derive(Debug, Clone, Copy, clap::Args)]
 pub struct RenderArg {
-    /// How cameras render: `damage` (alias `mujoco`) is MuJoCo's renderer redrawing only what
-    /// moved since a camera's last frame, `full` MuJoCo's renderer redrawing every pixel (the
-    /// reference; byte-identical to `damage`); `raster` is Waggle's CPU renderer (no GL; only
-    /// the moved bodies' rectangle, each body at a level of detail for its size).
+    /// How cameras render: `raster` (the default) is Waggle's CPU renderer (no GL; only the
+    /// moved bodies' rectangle, each body at a level of detail for its size); `damage` (alias
+    /// `mujoco`) is MuJoCo's renderer, the paper's, redrawing only what moved since a camera's
+    /// last frame, `full` MuJoCo's renderer redrawing every pixel (byte-identical to `damage`).
     #[arg(long = "render", value_enum, default_value_t)]
     pub path: proto::RenderPath,
 }

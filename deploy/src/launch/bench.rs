@@ -1,7 +1,8 @@
 //! `waggle bench`: one case run as processes once per render path in a single invocation, so
 //! the figures are a side-by-side ratio on the same machine in the same minutes rather than an
-//! absolute time. Runs alternate (full, damage, full, damage, …) so slow drift in the machine's
-//! load falls on both paths alike.
+//! absolute time. Runs alternate (damage, raster, damage, raster, …) so slow drift in the
+//! machine's load falls on every path alike; each path's figures are divided by the first
+//! path's (the baseline, MuJoCo's damage path unless `--paths` says otherwise).
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -22,7 +23,9 @@ pub struct BenchOptions {
     /// Built-in case name or case file.
     pub case: String,
     pub modality: Option<Modality>,
-    /// Pairs of runs (one per path each).
+    /// The render paths compared, the first the baseline (at least two, none twice).
+    pub paths: Vec<RenderPath>,
+    /// Rounds of runs (one per path each).
     pub repeat: usize,
     /// Each run's directory goes under here, `bench.json` too.
     pub out: PathBuf,
@@ -83,20 +86,24 @@ impl BenchRun {
     }
 }
 
-/// Both paths' runs and the damage/full ratios of their means.
+/// Every path's runs and the ratios of their means to the baseline's.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct BenchReport {
     pub case: String,
     pub modality: Modality,
     pub machine: MachineState,
+    /// The path the others are divided by.
+    pub baseline: RenderPath,
     pub runs: Vec<BenchRun>,
     /// Mean over the runs of each path.
     pub wall_over_sim: BTreeMap<RenderPath, f64>,
     pub camera_cpu_per_sim_s: BTreeMap<RenderPath, f64>,
-    /// damage ÷ full.
-    pub wall_over_sim_ratio: f64,
-    pub camera_cpu_ratio: f64,
-    /// Every run published the same sensor bytes.
+    /// Each path's mean ÷ the baseline's.
+    pub wall_over_sim_ratio: BTreeMap<RenderPath, f64>,
+    pub camera_cpu_ratio: BTreeMap<RenderPath, f64>,
+    /// Every run of one renderer published the same sensor bytes: MuJoCo's full and damage
+    /// paths among themselves, Waggle's renderer among its own runs (the two renderers draw
+    /// different pixels, so their digests are not compared with each other).
     pub digests_equal: bool,
 }
 
@@ -113,6 +120,16 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
     if opts.repeat == 0 {
         bail!("--repeat must be at least 1");
     }
+    if opts.paths.len() < 2 {
+        bail!("--paths needs at least two render paths to compare");
+    }
+    if let Some(p) = opts
+        .paths
+        .iter()
+        .find(|p| opts.paths.iter().filter(|q| q == p).count() > 1)
+    {
+        bail!("--paths names {p} twice");
+    }
     let case = Case::load(&opts.case)?;
     let modality = run_modality(&case, opts.modality)?;
     std::fs::create_dir_all(&opts.out)
@@ -120,13 +137,13 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
     let load_before = load_average();
     let mut runs = Vec::new();
     for k in 0..opts.repeat {
-        for render in [RenderPath::Full, RenderPath::Damage] {
+        for &render in &opts.paths {
             let dir = opts.out.join(format!("{}-{k}", render.as_str()));
             if !opts.quiet {
                 eprintln!(
                     "bench: run {} of {} — {} {} --render {render}",
                     runs.len() + 1,
-                    2 * opts.repeat,
+                    opts.paths.len() * opts.repeat,
                     case.name,
                     modality.as_str()
                 );
@@ -161,7 +178,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
             runs.push(BenchRun::of(&done.summary, render, dir));
         }
     }
-    let report = compare(&case.name, modality, runs, load_before);
+    let report = compare(&case.name, modality, opts.paths[0], runs, load_before);
     let path = opts.out.join(BENCH_FILE);
     std::fs::write(&path, serde_json::to_string_pretty(&report)?)
         .with_context(|| format!("writing {}", path.display()))?;
@@ -171,25 +188,29 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
 fn compare(
     case: &str,
     modality: Modality,
+    baseline: RenderPath,
     runs: Vec<BenchRun>,
     load_before: [f32; 3],
 ) -> BenchReport {
-    let mean = |path: RenderPath, f: fn(&BenchRun) -> f64| {
-        let v: Vec<f64> = runs.iter().filter(|r| r.render == path).map(f).collect();
-        v.iter().sum::<f64>() / v.len() as f64
-    };
     let per_path = |f: fn(&BenchRun) -> f64| -> BTreeMap<RenderPath, f64> {
-        RenderPath::ALL
-            .into_iter()
-            .map(|p| (p, mean(p, f)))
-            .collect()
+        let mut sums: BTreeMap<RenderPath, (f64, f64)> = BTreeMap::new();
+        for r in &runs {
+            let e = sums.entry(r.render).or_default();
+            *e = (e.0 + f(r), e.1 + 1.0);
+        }
+        sums.into_iter().map(|(p, (s, n))| (p, s / n)).collect()
     };
     let wall_over_sim = per_path(|r| r.wall_over_sim);
     let camera_cpu_per_sim_s = per_path(|r| r.camera_cpu_per_sim_s);
-    let ratio = |m: &BTreeMap<RenderPath, f64>| m[&RenderPath::Damage] / m[&RenderPath::Full];
-    let digests_equal = runs
-        .windows(2)
-        .all(|w| w[0].sensor_digests == w[1].sensor_digests);
+    let ratio = |m: &BTreeMap<RenderPath, f64>| -> BTreeMap<RenderPath, f64> {
+        m.iter().map(|(p, v)| (*p, v / m[&baseline])).collect()
+    };
+    let digests_equal = [true, false].into_iter().all(|mujoco| {
+        let mut of_renderer = runs.iter().filter(|r| r.render.is_mujoco() == mujoco);
+        of_renderer
+            .next()
+            .is_none_or(|first| of_renderer.all(|r| r.sensor_digests == first.sensor_digests))
+    });
     BenchReport {
         case: case.to_string(),
         modality,
@@ -198,6 +219,7 @@ fn compare(
             load_before,
             load_after: load_average(),
         },
+        baseline,
         wall_over_sim_ratio: ratio(&wall_over_sim),
         camera_cpu_ratio: ratio(&camera_cpu_per_sim_s),
         wall_over_sim,
@@ -237,21 +259,26 @@ pub fn print_report(r: &BenchReport) {
             routes[2]
         );
     }
-    println!(
-        "damage ÷ full: wall/sim {:.3} ({:.3} vs {:.3}) · camera CPU {:.3} ({:.3} vs {:.3} CPU-s per sim-s)",
-        r.wall_over_sim_ratio,
-        r.wall_over_sim[&RenderPath::Damage],
-        r.wall_over_sim[&RenderPath::Full],
-        r.camera_cpu_ratio,
-        r.camera_cpu_per_sim_s[&RenderPath::Damage],
-        r.camera_cpu_per_sim_s[&RenderPath::Full],
-    );
+    for (path, ratio) in &r.wall_over_sim_ratio {
+        if *path == r.baseline {
+            continue;
+        }
+        println!(
+            "{path} ÷ {}: wall/sim {ratio:.3} ({:.3} vs {:.3}) · camera CPU {:.3} ({:.3} vs {:.3} CPU-s per sim-s)",
+            r.baseline,
+            r.wall_over_sim[path],
+            r.wall_over_sim[&r.baseline],
+            r.camera_cpu_ratio[path],
+            r.camera_cpu_per_sim_s[path],
+            r.camera_cpu_per_sim_s[&r.baseline],
+        );
+    }
     println!(
         "sensor digests {}",
         if r.digests_equal {
-            "equal in every run"
+            "equal in every run of each renderer"
         } else {
-            "DIFFER between runs"
+            "DIFFER between runs of one renderer"
         }
     );
 }
@@ -276,19 +303,42 @@ mod tests {
     }
 
     #[test]
-    fn ratios_are_damage_over_full_of_the_means_and_digests_must_all_agree() {
+    fn ratios_are_over_the_baselines_mean_and_digests_agree_within_a_renderer() {
         let runs = vec![
-            run(RenderPath::Full, 0.6, 1.0, "d"),
-            run(RenderPath::Damage, 0.3, 0.4, "d"),
-            run(RenderPath::Full, 0.8, 1.2, "d"),
-            run(RenderPath::Damage, 0.3, 0.44, "d"),
+            run(RenderPath::Damage, 0.6, 1.0, "d"),
+            run(RenderPath::Full, 0.9, 2.0, "d"),
+            run(RenderPath::Raster, 0.3, 0.1, "r"),
+            run(RenderPath::Damage, 0.8, 1.2, "d"),
+            run(RenderPath::Full, 1.1, 2.4, "d"),
+            run(RenderPath::Raster, 0.3, 0.12, "r"),
         ];
-        let r = compare("c", Modality::Events, runs.clone(), [0.0; 3]);
-        assert!((r.wall_over_sim_ratio - 0.3 / 0.7).abs() < 1e-12);
-        assert!((r.camera_cpu_ratio - 0.42 / 1.1).abs() < 1e-12);
-        assert!(r.digests_equal);
+        let r = compare(
+            "c",
+            Modality::Events,
+            RenderPath::Damage,
+            runs.clone(),
+            [0.0; 3],
+        );
+        let near = |a: f64, b: f64| (a - b).abs() < 1e-12;
+        assert!(near(r.wall_over_sim_ratio[&RenderPath::Damage], 1.0));
+        assert!(near(r.wall_over_sim_ratio[&RenderPath::Raster], 0.3 / 0.7));
+        assert!(near(r.wall_over_sim_ratio[&RenderPath::Full], 1.0 / 0.7));
+        assert!(near(r.camera_cpu_ratio[&RenderPath::Raster], 0.11 / 1.1));
+        assert!(
+            r.digests_equal,
+            "raster's bytes are not compared with MuJoCo's"
+        );
+        let mut differ = runs.clone();
+        differ[4] = run(RenderPath::Full, 1.1, 2.4, "e");
+        assert!(
+            !compare("c", Modality::Events, RenderPath::Damage, differ, [0.0; 3]).digests_equal,
+            "MuJoCo's full and damage paths must agree"
+        );
         let mut differ = runs;
-        differ[3] = run(RenderPath::Damage, 0.3, 0.44, "e");
-        assert!(!compare("c", Modality::Events, differ, [0.0; 3]).digests_equal);
+        differ[5] = run(RenderPath::Raster, 0.3, 0.12, "s");
+        assert!(
+            !compare("c", Modality::Events, RenderPath::Damage, differ, [0.0; 3]).digests_equal,
+            "two raster runs must agree"
+        );
     }
 }

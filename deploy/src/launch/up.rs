@@ -301,7 +301,7 @@ fn host_record(
     })
 }
 
-/// How the cameras render (their `--render` argument; damage when none says).
+/// How the cameras render (their `--render` argument; the default when none says).
 fn render_path(compose: &Compose) -> Result<RenderPath> {
     for n in &compose.nodes {
         if let NodeCommand::Camera(c) = n.line()?.command {

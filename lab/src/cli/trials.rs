@@ -158,8 +158,12 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     .claim(&args.out)?;
     eprintln!("trials: {}", criterion(&opts));
     let range = shard.map_or(0..opts.trials, |s| s.range(opts.trials));
-    let (found, damaged) =
-        recorded::<crate::harness::trials_out::TrialRecord>(&args.out, ".", opts.trials)?;
+    let (found, damaged) = recorded::<crate::harness::trials_out::TrialRecord>(
+        &args.out,
+        ".",
+        opts.trials,
+        opts.render,
+    )?;
     let missing: Vec<u64> = range
         .clone()
         .filter(|i| !found.records.contains_key(i))
@@ -321,7 +325,7 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
     .claim(&args.out)?;
     eprintln!("trials: {}", mission_criterion(&opts));
     let range = shard.map_or(0..opts.trials, |s| s.range(opts.trials));
-    let (found, _) = recorded::<MissionTrial>(&args.out, ".", opts.trials)?;
+    let (found, _) = recorded::<MissionTrial>(&args.out, ".", opts.trials, opts.render)?;
     let missing: Vec<u64> = range
         .clone()
         .filter(|i| !found.records.contains_key(i))
@@ -335,7 +339,7 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
         &opts,
         &missing,
         &stop,
-        |t| write_record(&args.out, ".", t),
+        |t| write_record(&args.out, ".", opts.render, t),
         |done, successes| {
             bar.set_position(already + done);
             bar.set_message(format!("{successes} of this run's missions passed"));

@@ -114,7 +114,8 @@ pub fn run_part(
     for (p, indices) in parts {
         let point = &points[p];
         let dir = out.join(&point.dir);
-        let (found, damaged) = recorded::<MissionTrial>(&dir, &point.dir, study.trials)?;
+        let (found, damaged) =
+            recorded::<MissionTrial>(&dir, &point.dir, study.trials, point.opts.render)?;
         counts.damaged += damaged;
         let missing: Vec<u64> = indices
             .into_iter()
@@ -135,7 +136,7 @@ pub fn run_part(
             &point.opts,
             &missing,
             stop,
-            |t| write_record(&dir, &point.dir, t),
+            |t| write_record(&dir, &point.dir, point.opts.render, t),
             |_, _| progress(done.fetch_add(1, Ordering::SeqCst) + 1, counts.part),
         )
         .with_context(|| format!("point {}", point.dir))?;

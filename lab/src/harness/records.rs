@@ -17,6 +17,8 @@ use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
+use proto::RenderPath;
+
 use crate::harness::trials_out::TrialRecord;
 
 /// The records' directory inside a point's directory.
@@ -28,31 +30,35 @@ pub const MANIFEST_FILE: &str = "run.json";
 /// The format tag of a record file.
 const RECORD_FORMAT: &str = "waggle-trial-1";
 
-/// Which binary on which host made a record. Rendering is llvmpipe on the CPU, whose results may
-/// depend on the CPU's instruction set; the version decides everything else.
+/// Which binary on which host made a record, with which renderer. MuJoCo's renderer is
+/// llvmpipe on the CPU, whose results may depend on Mesa's version and the CPU's instruction
+/// set; Waggle's renderer is named by its identifier, whose bytes depend on neither; the version
+/// decides everything else.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct Provenance {
     /// The package version and the first 16 hex digits of the executable's SHA-256.
     pub version: String,
     /// `model name` from /proc/cpuinfo.
     pub cpu: String,
-    /// The offscreen renderer (EGL through Mesa, its package version and any driver override).
+    /// The cameras' renderer: Waggle's (`waggle-raster/N`), or MuJoCo's render path on EGL
+    /// through Mesa (its package version and any driver override).
     pub renderer: String,
 }
 
 impl Provenance {
-    /// This process's provenance (computed once: hashing the executable takes ≈ 0.1 s).
-    pub fn here() -> Result<&'static Self> {
-        static HERE: OnceLock<std::result::Result<Provenance, String>> = OnceLock::new();
-        HERE.get_or_init(|| {
-            Ok(Self {
-                version: binary_version().map_err(|e| format!("{e:#}"))?,
-                cpu: cpu_model(),
-                renderer: renderer(),
-            })
+    /// This process's provenance for cameras rendered by `render` (the binary's digest is
+    /// computed once: hashing the executable takes ≈ 0.1 s).
+    pub fn here(render: RenderPath) -> Result<Self> {
+        static HERE: OnceLock<std::result::Result<(String, String), String>> = OnceLock::new();
+        let (version, cpu) = HERE
+            .get_or_init(|| Ok((binary_version().map_err(|e| format!("{e:#}"))?, cpu_model())))
+            .as_ref()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        Ok(Self {
+            version: version.clone(),
+            cpu: cpu.clone(),
+            renderer: renderer(render),
         })
-        .as_ref()
-        .map_err(|e| anyhow::anyhow!("{e}"))
     }
 }
 
@@ -86,32 +92,39 @@ fn cpu_model() -> String {
         .unwrap_or_else(|| "unknown".into())
 }
 
-/// Mesa's EGL package version (Debian) and the driver overrides that change which rasteriser
-/// draws. The lab holds no GL context of its own (no `unsafe`), so this names the stack rather
-/// than asking it.
-fn renderer() -> String {
-    // A relocatable bundle carries its own Mesa and says which (deploy/relocatable.sh).
-    let bundled = std::env::var("WAGGLE_MESA_VERSION")
-        .ok()
-        .filter(|v| !v.is_empty());
-    let mesa = bundled.unwrap_or_else(|| {
-        crate::host_command("dpkg-query")
-            .args(["-W", "-f=${Version}", "libegl-mesa0"])
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .map_or_else(
-                || "unknown".to_owned(),
-                |o| String::from_utf8_lossy(&o.stdout).trim().to_owned(),
-            )
-    });
-    let mut s = format!("EGL, Mesa {mesa}");
-    for var in ["GALLIUM_DRIVER", "LIBGL_ALWAYS_SOFTWARE", "EGL_PLATFORM"] {
-        if let Ok(v) = std::env::var(var) {
-            s.push_str(&format!(", {var}={v}"));
-        }
+/// The renderer `render` names: Waggle's by its identifier; MuJoCo's by Mesa's EGL package
+/// version (Debian) and the driver overrides that change which rasteriser draws. The lab holds no
+/// GL context of its own (no `unsafe`), so this names the stack rather than asking it.
+fn renderer(render: RenderPath) -> String {
+    if !render.is_mujoco() {
+        return sim::render::RASTER_RENDERER_ID.to_owned();
     }
-    s
+    static MESA: OnceLock<String> = OnceLock::new();
+    let stack = MESA.get_or_init(|| {
+        // A relocatable bundle carries its own Mesa and says which (deploy/relocatable.sh).
+        let bundled = std::env::var("WAGGLE_MESA_VERSION")
+            .ok()
+            .filter(|v| !v.is_empty());
+        let mesa = bundled.unwrap_or_else(|| {
+            crate::host_command("dpkg-query")
+                .args(["-W", "-f=${Version}", "libegl-mesa0"])
+                .output()
+                .ok()
+                .filter(|o| o.status.success())
+                .map_or_else(
+                    || "unknown".to_owned(),
+                    |o| String::from_utf8_lossy(&o.stdout).trim().to_owned(),
+                )
+        });
+        let mut s = format!("EGL, Mesa {mesa}");
+        for var in ["GALLIUM_DRIVER", "LIBGL_ALWAYS_SOFTWARE", "EGL_PLATFORM"] {
+            if let Ok(v) = std::env::var(var) {
+                s.push_str(&format!(", {var}={v}"));
+            }
+        }
+        s
+    });
+    format!("MuJoCo {render}, {stack}")
 }
 
 /// A trial's outcome as a record holds it: a link trial ([`TrialRecord`]) or a whole mission
@@ -191,13 +204,19 @@ pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T> {
         .with_context(|| format!("{}: not the expected JSON", path.display()))
 }
 
-/// Records trial `record` of point `point` (its directory name) in `point_dir`.
-pub fn write_record<R: Recordable>(point_dir: &Path, point: &str, record: &R) -> Result<()> {
+/// Records trial `record` of point `point` (its directory name) in `point_dir`, its cameras
+/// rendered by `render`.
+pub fn write_record<R: Recordable>(
+    point_dir: &Path,
+    point: &str,
+    render: RenderPath,
+    record: &R,
+) -> Result<()> {
     let body = Body {
         format: RECORD_FORMAT.into(),
         point: point.into(),
         index: record.record_index(),
-        provenance: Provenance::here()?.clone(),
+        provenance: Provenance::here(render)?,
         record: record.clone(),
     };
     let stored = StoredTrial {
@@ -293,24 +312,43 @@ pub fn scan<R: Recordable>(point_dir: &Path, point: &str, requested: u64) -> Res
 }
 
 /// Reads a point's recorded trials, setting damaged ones aside (they are rerun), and refuses
-/// records made by another binary.
+/// records made by another binary or with another renderer than `render`'s.
 pub fn recorded<R: Recordable>(
     dir: &Path,
     point: &str,
     requested: u64,
+    render: RenderPath,
 ) -> Result<(RecordScan<R>, u64)> {
     let mut found = scan::<R>(dir, point, requested)?;
     for (path, why) in &found.damaged {
         eprintln!("damaged record {}: {why}; running it again", path.display());
         set_aside(path)?;
     }
-    let here = &Provenance::here()?.version;
-    if let Some((i, (_, p))) = found.records.iter().find(|(_, (_, p))| &p.version != here) {
+    let here = Provenance::here(render)?;
+    if let Some((i, (_, p))) = found
+        .records
+        .iter()
+        .find(|(_, (_, p))| p.version != here.version)
+    {
         bail!(
-            "{}: trial {i} was recorded by waggle {}, this is {here}: results of different \
+            "{}: trial {i} was recorded by waggle {}, this is {}: results of different \
              binaries are not mixed; rerun with that binary or into another --out",
             dir.display(),
-            p.version
+            p.version,
+            here.version
+        );
+    }
+    if let Some((i, (_, p))) = found
+        .records
+        .iter()
+        .find(|(_, (_, p))| p.renderer != here.renderer)
+    {
+        bail!(
+            "{}: trial {i} was rendered by {}, this run renders by {}: results of different \
+             renderers are not mixed; rerun with that --render or into another --out",
+            dir.display(),
+            p.renderer,
+            here.renderer
         );
     }
     let damaged = found.damaged.len() as u64;
@@ -344,7 +382,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("waggle-records-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         for i in 0..4 {
-            write_record(&dir, "rgb-0", &record(i)).unwrap();
+            write_record(&dir, "rgb-0", RenderPath::default(), &record(i)).unwrap();
         }
         let s = scan::<TrialRecord>(&dir, "rgb-0", 4).unwrap();
         assert_eq!(s.records.len(), 4);
@@ -361,7 +399,7 @@ mod tests {
         .unwrap();
         let p2 = record_path(&dir, 2);
         std::fs::write(&p2, &std::fs::read(&p2).unwrap()[..40]).unwrap();
-        write_record(&dir, "rgb-9", &record(0)).unwrap();
+        write_record(&dir, "rgb-9", RenderPath::default(), &record(0)).unwrap();
         let s = scan::<TrialRecord>(&dir, "rgb-0", 3).unwrap();
         let why: Vec<&str> = s.damaged.iter().map(|(_, w)| w.as_str()).collect();
         assert_eq!(

@@ -121,7 +121,7 @@ impl RenderCache {
     ///
     /// When this binary's provenance cannot be computed.
     pub fn key(spec: &FlightSpec) -> Result<String> {
-        let p = Provenance::here()?;
+        let p = Provenance::here(spec.render)?;
         let mut h = Sha256::new();
         for part in [
             FORMAT,
@@ -250,7 +250,7 @@ fn encode(flight: &RenderedFlight, key: &str) -> Result<Vec<u8>> {
         format: FORMAT.into(),
         key: key.into(),
         spec: format!("{:?}", flight.spec),
-        provenance: Provenance::here()?.clone(),
+        provenance: Provenance::here(flight.spec.render)?,
         ideal: flight.ideal.clone(),
         sim_ns: flight.sim_ns,
         performer_max_tracking_error_m: flight.performer_max_tracking_error_m,

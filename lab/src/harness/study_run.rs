@@ -82,7 +82,7 @@ pub fn run_point(
         cache,
         missing,
         stop,
-        |r| write_record(dir, name, r),
+        |r| write_record(dir, name, opts.render, r),
         progress,
     )?;
     let path = dir.join(HEADER_FILE);
@@ -141,8 +141,12 @@ pub fn run_study_part(
     for (p, indices) in &parts {
         let point = &points[*p];
         let dir = out.join(&point.dir);
-        let (found, damaged) =
-            recorded::<crate::harness::trials_out::TrialRecord>(&dir, &point.dir, study.trials)?;
+        let (found, damaged) = recorded::<crate::harness::trials_out::TrialRecord>(
+            &dir,
+            &point.dir,
+            study.trials,
+            point.options.render,
+        )?;
         counts.damaged += damaged;
         let missing: Vec<u64> = indices
             .iter()

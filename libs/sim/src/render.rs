@@ -20,6 +20,7 @@ use crate::mjcf::camera_name;
 use crate::world::World;
 pub use proto::RenderPath;
 pub use proto::{FrameChange, PixelRect};
+pub use raster::RENDERER_ID as RASTER_RENDERER_ID;
 
 const W: usize = IMAGE_WIDTH_PX as usize;
 const H: usize = IMAGE_HEIGHT_PX as usize;

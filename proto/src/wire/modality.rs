@@ -73,10 +73,11 @@ impl From<Modality> for Receiver {
     }
 }
 
-/// How observer cameras render. `Raster` is Waggle's own renderer (CPU, no GL, the same bytes on
-/// any machine); `Damage` and `Full` are MuJoCo's renderer (the paper's), by damage rectangles
-/// or whole frames, which deliver bit-identical sensor output to each other (`Full` is the
-/// reference the damage path is checked against; `mujoco` names `Damage`).
+/// How observer cameras render. `Raster`, the default, is Waggle's own renderer (CPU, no GL, the
+/// same bytes on any machine); `Damage` and `Full` are MuJoCo's renderer (the paper's, kept as
+/// the reference), by damage rectangles or whole frames, which deliver bit-identical sensor
+/// output to each other (`Full` is the reference the damage path is checked against; `mujoco`
+/// names `Damage`).
 #[derive(
     Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
 )]
@@ -87,11 +88,11 @@ pub enum RenderPath {
     Full,
     /// Re-render only the rectangle the moved bodies can cover; skip a render in which nothing
     /// the camera can see changed.
-    #[default]
     #[cfg_attr(feature = "clap", value(alias = "mujoco"))]
     Damage,
     /// Waggle's renderer: only the damage rectangle's pixels, only the bodies reaching it, each
     /// at a level of detail for its size.
+    #[default]
     Raster,
 }
 
@@ -262,7 +263,7 @@ mod tests {
         for r in RenderPath::ALL {
             assert_eq!(r.as_str().parse::<RenderPath>(), Ok(r));
         }
-        assert_eq!(RenderPath::default(), RenderPath::Damage);
+        assert_eq!(RenderPath::default(), RenderPath::Raster);
         assert!("fast".parse::<RenderPath>().is_err());
     }
 }
