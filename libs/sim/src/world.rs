@@ -6,6 +6,7 @@
 //! The default world (ideal controller, no wind, no disturbance) computes exactly what it always
 //! did: the options only add terms when they are set, so the frozen digests stay unchanged.
 
+use std::path::Path;
 use std::rc::Rc;
 
 use mujoco_rs::prelude::*;
@@ -106,9 +107,14 @@ impl World {
 
     /// Builds a scene with the observers placed by `formation`, every drone hovering at home.
     pub fn with_formation(formation: &Formation) -> Result<Self, WorldError> {
+        Self::with_formation_in(formation, &crate::assets::crazyflie_mesh_dir()?)
+    }
+
+    /// [`World::with_formation`] with the Crazyflie meshes read from `mesh_dir` (a missing or
+    /// unreadable mesh is refused, naming its file).
+    pub fn with_formation_in(formation: &Formation, mesh_dir: &Path) -> Result<Self, WorldError> {
         let observers = formation.len();
-        let mesh_dir = crate::assets::crazyflie_mesh_dir()?;
-        let xml = formation_xml(formation, &mesh_dir);
+        let xml = formation_xml(formation, mesh_dir);
         let model = MjModel::from_xml_string(&xml).map_err(|e| WorldError::Model(e.to_string()))?;
         let model = Rc::new(model);
         let mut names = vec![PERFORMER_BODY.to_string()];

@@ -1,6 +1,8 @@
 //! The Rust renderer against its definitions and against MuJoCo's renderer (the reference):
 //!
-//! - byte determinism: fresh renderers, one thread or two at once, give the same frames;
+//! - byte determinism: fresh renderers, one thread or two at once, and this test binary again on
+//!   one core (`taskset -c 0`) with glibc's CPU-specific routines turned off, give the same
+//!   frames;
 //! - its damage rectangles equal its own full renders, byte for byte, while the performer moves;
 //! - on nominal-3's views and on a viewpoint sweep (performer yawed 0–40°, 1.3–2 m away) the
 //!   performer's silhouette, its grey levels and the background match MuJoCo's within bounds
@@ -224,6 +226,69 @@ fn the_rust_renderer_is_byte_deterministic_across_renderers_and_threads() {
         a == once && b == once,
         "two threads at once differ from one"
     );
+}
+
+/// FNV-1a over every frame.
+fn digest(frames: &[Vec<u8>]) -> u64 {
+    frames.iter().flatten().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+const DIGEST_LINE: &str = "drift-frames-digest=";
+
+/// Run by the test below in a child process; prints the frames' digest.
+#[test]
+#[ignore = "a child of the_rust_renderer_gives_the_same_bytes_on_one_core_without_cpu_specific_code"]
+fn print_drift_frames_digest() {
+    println!("{DIGEST_LINE}{:016x}", digest(&drift_frames(24)));
+}
+
+#[test]
+fn the_rust_renderer_gives_the_same_bytes_on_one_core_without_cpu_specific_code() {
+    let here = format!("{:016x}", digest(&drift_frames(24)));
+    let exe = std::env::current_exe().expect("this test binary");
+    // glibc picks memcpy, memset and the like by CPU feature; these tunables make it take its
+    // baseline versions, as on a CPU without AVX or SSE4. Rust's own float code is baseline
+    // x86-64 (SSE2) whatever the host, and the renderer calls no maths library.
+    let no_simd = "glibc.cpu.hwcaps=-AVX512F,-AVX512VL,-AVX512BW,-AVX2,-AVX,-FMA,-BMI2,-ERMS,\
+                   -SSE4_2,-SSE4_1,-SSSE3";
+    for (what, mut cmd) in [
+        ("taskset -c 0", {
+            let mut c = std::process::Command::new("taskset");
+            c.args(["-c", "0"]).arg(&exe);
+            c
+        }),
+        ("taskset -c 0, no CPU-specific glibc routines", {
+            let mut c = std::process::Command::new("taskset");
+            c.args(["-c", "0"]).arg(&exe).env("GLIBC_TUNABLES", no_simd);
+            c
+        }),
+    ] {
+        let out = cmd
+            .args([
+                "--exact",
+                "print_drift_frames_digest",
+                "--include-ignored",
+                "--nocapture",
+                "--test-threads",
+                "1",
+            ])
+            .output()
+            .expect("run this test binary again");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let child = stdout
+            .lines()
+            .find_map(|l| l.split_once(DIGEST_LINE).map(|(_, d)| d.trim()))
+            .unwrap_or_else(|| {
+                panic!(
+                    "{what}: no digest (status {}):\n{stdout}\n{}",
+                    out.status,
+                    String::from_utf8_lossy(&out.stderr)
+                )
+            });
+        assert_eq!(child, here, "{what} renders other bytes");
+    }
 }
 
 #[test]
