@@ -22,7 +22,10 @@ fn mesh_copy(tag: &str) -> PathBuf {
 fn refusal(dir: &Path) -> String {
     let formation = Formation::standard(3).unwrap();
     match World::with_formation_in(&formation, dir) {
-        Ok(_) => panic!("a world was built from the damaged meshes in {}", dir.display()),
+        Ok(_) => panic!(
+            "a world was built from the damaged meshes in {}",
+            dir.display()
+        ),
         Err(e) => e.to_string(),
     }
 }
