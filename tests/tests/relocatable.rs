@@ -6,9 +6,10 @@
 //! lab command from it inside a root directory holding only the bundle, the glibc libraries the
 //! bundle's files need and the `/bin/sh` and `readlink` its wrappers use, entered with `chroot` in
 //! fresh mount, PID and network namespaces (`unshare`). The command is `waggle trials` with one
-//! RGB observer: `waggle` execs `waggle-lab` beside it, which flies the MuJoCo scene, renders it
-//! through EGL on the bundled llvmpipe and decodes the offer; its `trials.json` must equal, byte
-//! for byte, the same command's from `target/release` outside. Every node binary's wrapper is
+//! RGB observer and MuJoCo's renderer (`--render damage`, so the bundled Mesa is what draws;
+//! Waggle's own renderer needs nothing of it): `waggle` execs `waggle-lab` beside it, which flies
+//! the MuJoCo scene, renders it through EGL on the bundled llvmpipe and decodes the offer; its
+//! `trials.json` must equal, byte for byte, the same command's from `target/release` outside. Every node binary's wrapper is
 //! also started once inside (`--version`: each loads its libraries).
 //!
 //! Needs root (namespaces, mounts, chroot): skipped, saying why, otherwise. The mounts live only
@@ -20,8 +21,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// The lab command run inside and outside: one seeded trial, one RGB observer, one offer.
-const TRIALS: [&str; 11] = [
+/// The lab command run inside and outside: one seeded trial, one RGB observer, one offer, drawn
+/// by MuJoCo's renderer.
+const TRIALS: [&str; 13] = [
     "trials",
     "--link",
     "011010",
@@ -33,6 +35,8 @@ const TRIALS: [&str; 11] = [
     "1",
     "--jobs",
     "1",
+    "--render",
+    "damage",
 ];
 
 /// What the host must provide: glibc's libraries and nothing else.
