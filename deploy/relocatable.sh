@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds a relocatable bundle of Waggle for compute nodes that have none of its dependencies:
 #
-#     bash deploy/relocatable.sh OUT_DIR [--strip] [--tar]
+#     bash deploy/relocatable.sh OUT_DIR [--strip] [--no-mesa] [--tar]
 #
 # OUT_DIR/bin/<binary>     wrappers (POSIX sh + readlink): set the environment, exec libexec/…
 # OUT_DIR/libexec/<binary> the release binaries, byte-identical (--strip: without debug info)
@@ -17,8 +17,10 @@
 # The bundle runs from any path, also through symlinks to its bin/ wrappers; move or copy the
 # directory as a whole. --strip removes debug info from the binaries (≈ 0.85 → 0.13 GB), which
 # changes their sha256 and so the binary version the lab writes into its records: shards made by
-# a stripped bundle merge only with shards made by the same bundle. --tar also writes
-# OUT_DIR.tar.gz.
+# a stripped bundle merge only with shards made by the same bundle. --no-mesa leaves out EGL,
+# Mesa and LLVM (lib/dri/, the vendor file and their libraries): such a bundle renders with
+# Waggle's renderer, the default, only; `--render damage|full` (MuJoCo's renderer) needs a bundle
+# with Mesa. --tar also writes OUT_DIR.tar.gz.
 #
 # Inputs (defaults for this checkout): WAGGLE_BIN_DIR (target/release), WAGGLE_THIRD_PARTY
 # (third_party/, from deploy/setup.sh), MESA_EGL_VENDOR_JSON (glvnd's Mesa vendor file),
@@ -29,19 +31,20 @@ set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 say() { printf 'relocatable: %s\n' "$*" >&2; }
 die() { printf 'relocatable: error: %s\n' "$*" >&2; exit 1; }
-usage() { die "usage: bash deploy/relocatable.sh OUT_DIR [--strip] [--tar]"; }
+usage() { die "usage: bash deploy/relocatable.sh OUT_DIR [--strip] [--no-mesa] [--tar]"; }
 
 BINARIES=(waggle waggle-lab sim-node observer-node performer-node recorder-node scheduler-node)
 MARKER=".waggle-relocatable"
 FORMAT=1
 
-out="" strip=0 tar=0
+out="" strip=0 tar=0 mesa=1
 for a in "$@"; do
   case "$a" in
     --strip) strip=1 ;;
+    --no-mesa) mesa=0 ;;
     --tar) tar=1 ;;
     -h|--help) awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "${BASH_SOURCE[0]}"; exit 0 ;;
-    -*) die "unknown option $a (usage: bash deploy/relocatable.sh OUT_DIR [--strip] [--tar])" ;;
+    -*) die "unknown option $a (usage: bash deploy/relocatable.sh OUT_DIR [--strip] [--no-mesa] [--tar])" ;;
     *) [ -z "$out" ] || usage; out="$a" ;;
   esac
 done
@@ -73,7 +76,8 @@ stage="$out.partial-$$"
 cleanup() { rm -rf -- "$stage" "$stage.MANIFEST" "$out.tar.gz.partial-$$"; }
 trap cleanup EXIT
 trap 'exit 130' INT TERM
-mkdir -p "$stage"/{bin,libexec,lib/dri,share/glvnd/egl_vendor.d,share/doc,third_party}
+mkdir -p "$stage"/{bin,libexec,lib,share/doc,third_party}
+((mesa)) && mkdir -p "$stage"/{lib/dri,share/glvnd/egl_vendor.d}
 
 # --- inputs, checked before anything is copied -------------------------------------------------
 for b in "${BINARIES[@]}"; do
@@ -98,6 +102,8 @@ resolve_lib() {
   printf '%s\n' "$p"
 }
 
+egl_mesa_name=""
+if ((mesa)); then
 # Mesa's glvnd vendor file names its EGL library.
 vendor_json="${MESA_EGL_VENDOR_JSON:-}"
 if [ -z "$vendor_json" ]; then
@@ -121,6 +127,7 @@ esac
 egl_glvnd="$(resolve_lib libEGL.so.1)"
 dri_dir="${MESA_DRI_DIR:-$(dirname "$(readlink -f "$egl_mesa")")/dri}"
 [ -f "$dri_dir/swrast_dri.so" ] || die "Mesa's software driver $dri_dir/swrast_dri.so is missing: install libgl1-mesa-dri, or set MESA_DRI_DIR"
+fi
 libmujoco="$(find "$tp/mujoco/lib" -maxdepth 1 -name 'libmujoco.so.*' -type f | sort | tail -n1)"
 [ -n "$libmujoco" ] || die "libmujoco is missing in $tp/mujoco/lib: run bash deploy/setup.sh"
 
@@ -172,13 +179,16 @@ add_closure() {  # add_closure FILE: FILE's dependencies, as the loader resolves
 }
 say "resolving shared libraries (ldd)"
 for b in "${BINARIES[@]}"; do add_closure "$stage/libexec/$b"; done
-for f in "$egl_glvnd" "$egl_mesa" "$dri_dir/swrast_dri.so"; do add_closure "$f"; done
-lib_src[libEGL.so.1]="$egl_glvnd"
-lib_src[$egl_mesa_name]="$egl_mesa"
+if ((mesa)); then
+  for f in "$egl_glvnd" "$egl_mesa" "$dri_dir/swrast_dri.so"; do add_closure "$f"; done
+  lib_src[libEGL.so.1]="$egl_glvnd"
+  lib_src[$egl_mesa_name]="$egl_mesa"
+fi
 for name in "${!lib_src[@]}"; do
   [ "$name" = "${libmujoco##*/}" ] && continue
   cp -L -- "${lib_src[$name]}" "$stage/lib/$name"
 done
+if ((mesa)); then
 # The software device: swrast (llvmpipe), and kms_swrast, the same megadriver under a second name.
 cp -L -- "$dri_dir/swrast_dri.so" "$stage/lib/dri/swrast_dri.so"
 if [ -f "$dri_dir/kms_swrast_dri.so" ]; then
@@ -194,13 +204,16 @@ if [ -d "$gbm_dir" ]; then
   mkdir -p "$stage/lib/gbm"
   for f in "$gbm_dir"/*.so; do [ -f "$f" ] && cp -L -- "$f" "$stage/lib/gbm/" && add_closure "$f"; done
 fi
+fi
 # Anything the closure pass over the DRI/GBM extras added.
 for name in "${!lib_src[@]}"; do
   [ -f "$stage/lib/$name" ] || cp -L -- "${lib_src[$name]}" "$stage/lib/$name"
 done
 chmod -R u+w "$stage/lib"
 # Check: every bundled ELF file resolves every dependency inside the bundle or to glibc.
-for f in "$stage"/libexec/* "$stage"/lib/*.so* "$stage"/lib/dri/*.so; do
+elves=("$stage"/libexec/* "$stage"/lib/*.so*)
+((mesa)) && elves+=("$stage"/lib/dri/*.so)
+for f in "${elves[@]}"; do
   listing="$(LD_LIBRARY_PATH="$stage/lib" ldd "$f" 2>&1)" || die "ldd failed on $f: $listing"
   while IFS= read -r line; do
     read -r name arrow path _ <<<"$line" || true
@@ -210,6 +223,7 @@ for f in "$stage"/libexec/* "$stage"/lib/*.so* "$stage"/lib/dri/*.so; do
   done <<<"$listing"
 done
 
+if ((mesa)); then
 cat > "$stage/share/glvnd/egl_vendor.d/50_mesa.json" <<'JSON'
 {
     "file_format_version" : "1.0.0",
@@ -219,18 +233,20 @@ cat > "$stage/share/glvnd/egl_vendor.d/50_mesa.json" <<'JSON'
 }
 JSON
 sed -i "s/EGL_MESA_NAME/$egl_mesa_name/" "$stage/share/glvnd/egl_vendor.d/50_mesa.json"
+fi
 
 # --- versions ------------------------------------------------------------------------------------
 pkg_version() { dpkg-query -W -f='${Version}' "$1" 2>/dev/null || true; }
 have_dpkg=0
 command -v dpkg-query >/dev/null 2>&1 && command -v dpkg >/dev/null 2>&1 && have_dpkg=1
 mesa_version=""
-((have_dpkg)) && mesa_version="$(pkg_version libegl-mesa0)"
-if [ -z "$mesa_version" ]; then
+((have_dpkg && mesa)) && mesa_version="$(pkg_version libegl-mesa0)"
+if ((mesa)) && [ -z "$mesa_version" ]; then
   mesa_version="$(grep -aoE -m1 'Mesa [0-9]+\.[0-9]+\.[0-9]+[^ %]*' "$stage/lib/dri/swrast_dri.so" | head -n1 | cut -d' ' -f2 || true)"
 fi
+((mesa)) || mesa_version="none"
 [ -n "$mesa_version" ] || mesa_version="unknown"
-glvnd_version=""; ((have_dpkg)) && glvnd_version="$(pkg_version libegl1)"
+glvnd_version=""; ((have_dpkg && mesa)) && glvnd_version="$(pkg_version libegl1)"
 llvm_lib="$(find "$stage/lib" -maxdepth 1 -name 'libLLVM*' -printf '%f\n' | head -n1)"
 
 # Packages of the bundled libraries, with their licences.
@@ -240,7 +256,7 @@ if ((have_dpkg)); then
   # systems), so ask for each library under every name it has, in one call.
   declare -A pkg_by_path=() src_of=()
   for name in "${!lib_src[@]}"; do src_of[$name]="${lib_src[$name]}"; done
-  src_of[dri/swrast_dri.so]="$dri_dir/swrast_dri.so"
+  ((mesa)) && src_of[dri/swrast_dri.so]="$dri_dir/swrast_dri.so"
   candidates=()
   for name in "${!src_of[@]}"; do
     for p in "${src_of[$name]}" "$(readlink -f "${src_of[$name]}")"; do
@@ -337,8 +353,8 @@ Waggle relocatable bundle
 
 $waggle_version, commit $commit$( ((strip)) && echo ", binaries stripped of debug info")
 MuJoCo $mujoco_version (lib/libmujoco.so.$mujoco_version; licences in third_party/mujoco/)
-Mesa $mesa_version (EGL: lib/$egl_mesa_name; llvmpipe: lib/dri/swrast_dri.so)
-glvnd ${glvnd_version:-unknown} (lib/libEGL.so.1), LLVM ${llvm_lib:-none} (Mesa's shader compiler)
+$( ((mesa)) && echo "Mesa $mesa_version (EGL: lib/$egl_mesa_name; llvmpipe: lib/dri/swrast_dri.so)" || echo "No Mesa or EGL: cameras render with Waggle's renderer (the default) only")
+glvnd ${glvnd_version:-none} (lib/libEGL.so.1), LLVM ${llvm_lib:-none} (Mesa's shader compiler)
 Crazyflie meshes: third_party/crazyflie/ (drone-models wheel, MIT; see its LICENSE)
 Built on $os (glibc $host_glibc) from $bin_dir.
 

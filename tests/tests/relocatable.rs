@@ -6,11 +6,13 @@
 //! lab command from it inside a root directory holding only the bundle, the glibc libraries the
 //! bundle's files need and the `/bin/sh` and `readlink` its wrappers use, entered with `chroot` in
 //! fresh mount, PID and network namespaces (`unshare`). The command is `waggle trials` with one
-//! RGB observer and MuJoCo's renderer (`--render damage`, so the bundled Mesa is what draws;
-//! Waggle's own renderer needs nothing of it): `waggle` execs `waggle-lab` beside it, which flies
+//! RGB observer and MuJoCo's renderer (`--render damage`, so the bundled Mesa is what draws):
+//! `waggle` execs `waggle-lab` beside it, which flies
 //! the MuJoCo scene, renders it through EGL on the bundled llvmpipe and decodes the offer; its
 //! `trials.json` must equal, byte for byte, the same command's from `target/release` outside. Every node binary's wrapper is
-//! also started once inside (`--version`: each loads its libraries).
+//! also started once inside (`--version`: each loads its libraries). A bundle built with
+//! `--no-mesa` holds no EGL, Mesa or LLVM: from it the same command runs with the default
+//! renderer, byte for byte as outside, and MuJoCo's renderer fails naming EGL.
 //!
 //! Needs root (namespaces, mounts, chroot): skipped, saying why, otherwise. The mounts live only
 //! in the namespace, so they vanish with it, pass or fail; the directory is removed at the end.
@@ -21,9 +23,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// The lab command run inside and outside: one seeded trial, one RGB observer, one offer, drawn
-/// by MuJoCo's renderer.
-const TRIALS: [&str; 13] = [
+/// The lab command run inside and outside: one seeded trial, one RGB observer, one offer (each
+/// test adds its `--render`).
+const TRIALS: [&str; 11] = [
     "trials",
     "--link",
     "011010",
@@ -35,8 +37,6 @@ const TRIALS: [&str; 13] = [
     "1",
     "--jobs",
     "1",
-    "--render",
-    "damage",
 ];
 
 /// What the host must provide: glibc's libraries and nothing else.
@@ -143,10 +143,14 @@ fn run_bounded(cmd: &mut Command, log: &Path, limit: Duration, what: &str) {
     );
 }
 
-/// Every ELF file of the bundle the loader maps: the binaries, the libraries, the DRI driver.
+/// Every ELF file of the bundle the loader maps: the binaries, the libraries, the DRI driver
+/// (when bundled).
 fn bundle_elves(bundle: &Path) -> Vec<PathBuf> {
     let mut files = Vec::new();
     for dir in ["libexec", "lib", "lib/dri"] {
+        if dir == "lib/dri" && !bundle.join(dir).is_dir() {
+            continue;
+        }
         for e in std::fs::read_dir(bundle.join(dir)).expect("bundle directory") {
             let p = e.expect("entry").path();
             if p.is_file() {
@@ -272,6 +276,19 @@ fn json(path: &Path) -> serde_json::Value {
 
 #[test]
 fn the_bundle_runs_a_lab_command_in_an_empty_root_with_identical_results() {
+    bundle_runs_trials_in_an_empty_root(&[], "damage");
+}
+
+/// `--no-mesa`: no EGL, Mesa or LLVM in the bundle; the default renderer runs as from
+/// target/release, MuJoCo's is refused with an error naming EGL.
+#[test]
+fn the_bundle_without_mesa_runs_the_default_renderer_in_an_empty_root() {
+    bundle_runs_trials_in_an_empty_root(&["--no-mesa"], "raster");
+}
+
+/// Builds a bundle (`deploy/relocatable.sh FLAGS`) and runs [`TRIALS`] with `--render RENDER`
+/// from it in an empty root and from target/release outside; the results must be the same bytes.
+fn bundle_runs_trials_in_an_empty_root(flags: &[&str], render: &str) {
     if let Some(why) = cannot_run() {
         eprintln!("skipped: {why}");
         return;
@@ -279,8 +296,10 @@ fn the_bundle_runs_a_lab_command_in_an_empty_root_with_identical_results() {
     for b in waggle_tests::NODES.iter().chain(&["waggle", "waggle-lab"]) {
         waggle_tests::bin(b);
     }
-    let scratch =
-        Scratch(std::env::temp_dir().join(format!("waggle-relocatable-{}", std::process::id())));
+    let scratch = Scratch(std::env::temp_dir().join(format!(
+        "waggle-relocatable-{render}-{}",
+        std::process::id()
+    )));
     let _ = std::fs::remove_dir_all(&scratch.0);
     let root = scratch.0.join("root");
     let bundle = root.join("opt/waggle");
@@ -291,6 +310,7 @@ fn the_bundle_runs_a_lab_command_in_an_empty_root_with_identical_results() {
         Command::new("bash")
             .arg(waggle_tests::workspace_root().join("deploy/relocatable.sh"))
             .arg(&bundle)
+            .args(flags)
             .env("WAGGLE_BIN_DIR", waggle_tests::bin_dir()),
         &scratch.0.join("relocatable.log"),
         Duration::from_secs(300),
@@ -304,17 +324,27 @@ fn the_bundle_runs_a_lab_command_in_an_empty_root_with_identical_results() {
     // Inside: fresh namespaces, /proc and three /dev nodes mounted, then chroot with an empty
     // environment. The wrappers are reached through /opt/waggle/bin and the /bin/waggle symlink.
     let t = Instant::now();
+    let trials = format!("{} --render {render}", TRIALS.join(" "));
+    // Without Mesa, MuJoCo's renderer must fail, saying why, before the default one runs.
+    let refused = if flags.contains(&"--no-mesa") {
+        format!(
+            "if /bin/waggle {} --render damage --out /tmp/mujoco 2>/tmp/mujoco.err; then \
+             echo 'MuJoCo rendered without Mesa' >&2; exit 3; fi; ",
+            TRIALS.join(" ")
+        )
+    } else {
+        String::new()
+    };
     let inner = format!(
         "set -e; for b in {}; do /opt/waggle/bin/$b --version; done; \
          /bin/waggle study event-noise --slurm --shard-count 2 --out /tmp/jobs >/dev/null; \
-         exec /bin/waggle {} --out /tmp/out",
+         {refused}exec /bin/waggle {trials} --out /tmp/out",
         ["waggle", "waggle-lab"]
             .iter()
             .chain(&waggle_tests::NODES)
             .copied()
             .collect::<Vec<_>>()
             .join(" "),
-        TRIALS.join(" ")
     );
     let outer = "set -e; r=$1; mount -t proc proc \"$r/proc\"; \
                  for d in null zero urandom; do mount --bind /dev/$d \"$r/dev/$d\"; done; \
@@ -337,6 +367,7 @@ fn the_bundle_runs_a_lab_command_in_an_empty_root_with_identical_results() {
     run_bounded(
         waggle_tests::waggle()
             .args(TRIALS)
+            .args(["--render", render])
             .arg("--out")
             .arg(&outside),
         &scratch.0.join("outside.log"),
@@ -361,6 +392,24 @@ fn the_bundle_runs_a_lab_command_in_an_empty_root_with_identical_results() {
             a.expect(f),
             b.expect(f),
             "{f} differs between the bundle in the chroot and target/release"
+        );
+    }
+    if flags.contains(&"--no-mesa") {
+        let why = std::fs::read_to_string(root.join("tmp/mujoco.err")).unwrap_or_default();
+        assert!(
+            why.contains("EGL"),
+            "MuJoCo's renderer without Mesa failed without naming EGL: {why}"
+        );
+        for gone in ["lib/dri", "share/glvnd", "lib/libEGL.so.1"] {
+            assert!(!bundle.join(gone).exists(), "--no-mesa bundled {gone}");
+        }
+        let libs: Vec<String> = std::fs::read_dir(bundle.join("lib"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert!(
+            !libs.iter().any(|l| l.contains("LLVM") || l.contains("EGL")),
+            "--no-mesa bundled {libs:?}"
         );
     }
     let result = json(&inside.join("trials.json"));
