@@ -286,6 +286,54 @@ fn the_bundle_without_mesa_runs_the_default_renderer_in_an_empty_root() {
     bundle_runs_trials_in_an_empty_root(&["--no-mesa"], "raster");
 }
 
+/// A `--no-mesa` bundle holds no EGL, Mesa or LLVM, and MuJoCo's renderer run from it in the
+/// root failed naming EGL.
+fn assert_no_mesa(root: &Path, bundle: &Path) {
+    let why = std::fs::read_to_string(root.join("tmp/mujoco.err")).unwrap_or_default();
+    assert!(
+        why.contains("EGL"),
+        "MuJoCo's renderer without Mesa failed without naming EGL: {why}"
+    );
+    for gone in ["lib/dri", "share/glvnd", "lib/libEGL.so.1"] {
+        assert!(!bundle.join(gone).exists(), "--no-mesa bundled {gone}");
+    }
+    let libs: Vec<String> = std::fs::read_dir(bundle.join("lib"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        !libs.iter().any(|l| l.contains("LLVM") || l.contains("EGL")),
+        "--no-mesa bundled {libs:?}"
+    );
+}
+
+/// What runs in the root: every wrapper's `--version`, job files, then the trials (after, for
+/// a `--no-mesa` bundle, MuJoCo's renderer failing).
+fn inner_script(flags: &[&str], render: &str) -> String {
+    let trials = format!("{} --render {render}", TRIALS.join(" "));
+    // Without Mesa, MuJoCo's renderer must fail, saying why, before the default one runs.
+    let refused = if flags.contains(&"--no-mesa") {
+        format!(
+            "if /bin/waggle {} --render damage --out /tmp/mujoco 2>/tmp/mujoco.err; then \
+             echo 'MuJoCo rendered without Mesa' >&2; exit 3; fi; ",
+            TRIALS.join(" ")
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "set -e; for b in {}; do /opt/waggle/bin/$b --version; done; \
+         /bin/waggle study event-noise --slurm --shard-count 2 --out /tmp/jobs >/dev/null; \
+         {refused}exec /bin/waggle {trials} --out /tmp/out",
+        ["waggle", "waggle-lab"]
+            .iter()
+            .chain(&waggle_tests::NODES)
+            .copied()
+            .collect::<Vec<_>>()
+            .join(" "),
+    )
+}
+
 /// Builds a bundle (`deploy/relocatable.sh FLAGS`) and runs [`TRIALS`] with `--render RENDER`
 /// from it in an empty root and from target/release outside; the results must be the same bytes.
 fn bundle_runs_trials_in_an_empty_root(flags: &[&str], render: &str) {
@@ -324,28 +372,7 @@ fn bundle_runs_trials_in_an_empty_root(flags: &[&str], render: &str) {
     // Inside: fresh namespaces, /proc and three /dev nodes mounted, then chroot with an empty
     // environment. The wrappers are reached through /opt/waggle/bin and the /bin/waggle symlink.
     let t = Instant::now();
-    let trials = format!("{} --render {render}", TRIALS.join(" "));
-    // Without Mesa, MuJoCo's renderer must fail, saying why, before the default one runs.
-    let refused = if flags.contains(&"--no-mesa") {
-        format!(
-            "if /bin/waggle {} --render damage --out /tmp/mujoco 2>/tmp/mujoco.err; then \
-             echo 'MuJoCo rendered without Mesa' >&2; exit 3; fi; ",
-            TRIALS.join(" ")
-        )
-    } else {
-        String::new()
-    };
-    let inner = format!(
-        "set -e; for b in {}; do /opt/waggle/bin/$b --version; done; \
-         /bin/waggle study event-noise --slurm --shard-count 2 --out /tmp/jobs >/dev/null; \
-         {refused}exec /bin/waggle {trials} --out /tmp/out",
-        ["waggle", "waggle-lab"]
-            .iter()
-            .chain(&waggle_tests::NODES)
-            .copied()
-            .collect::<Vec<_>>()
-            .join(" "),
-    );
+    let inner = inner_script(flags, render);
     let outer = "set -e; r=$1; mount -t proc proc \"$r/proc\"; \
                  for d in null zero urandom; do mount --bind /dev/$d \"$r/dev/$d\"; done; \
                  exec env -i PATH=/bin HOME=/tmp \"$2\" \"$r\" /bin/sh -c \"$3\"";
@@ -395,22 +422,7 @@ fn bundle_runs_trials_in_an_empty_root(flags: &[&str], render: &str) {
         );
     }
     if flags.contains(&"--no-mesa") {
-        let why = std::fs::read_to_string(root.join("tmp/mujoco.err")).unwrap_or_default();
-        assert!(
-            why.contains("EGL"),
-            "MuJoCo's renderer without Mesa failed without naming EGL: {why}"
-        );
-        for gone in ["lib/dri", "share/glvnd", "lib/libEGL.so.1"] {
-            assert!(!bundle.join(gone).exists(), "--no-mesa bundled {gone}");
-        }
-        let libs: Vec<String> = std::fs::read_dir(bundle.join("lib"))
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        assert!(
-            !libs.iter().any(|l| l.contains("LLVM") || l.contains("EGL")),
-            "--no-mesa bundled {libs:?}"
-        );
+        assert_no_mesa(&root, &bundle);
     }
     let result = json(&inside.join("trials.json"));
     assert_eq!(result["successes"], 1, "the trial failed: {result}");
