@@ -51,6 +51,14 @@ const VISUAL_PARTS: &[(&str, &str, &str)] = &[
 ];
 const PROP_MESHES: [&str; 2] = ["cf2x/cf2xL_PropL.stl", "cf2x/cf2xL_PropR.stl"];
 
+/// Every mesh file the generated scene loads, relative to the mesh dir, sorted.
+pub fn mesh_files() -> Vec<&'static str> {
+    let mut files: Vec<&'static str> = VISUAL_PARTS.iter().map(|(_, file, _)| *file).collect();
+    files.extend(PROP_MESHES);
+    files.sort_unstable();
+    files
+}
+
 /// Generates the MJCF for the built-in formation of `observers` observers, with meshes loaded
 /// from `mesh_dir`.
 pub fn scene_xml(observers: usize, mesh_dir: &Path) -> Result<String, SceneError> {

@@ -114,6 +114,7 @@ impl World {
     /// unreadable mesh is refused, naming its file).
     pub fn with_formation_in(formation: &Formation, mesh_dir: &Path) -> Result<Self, WorldError> {
         let observers = formation.len();
+        crate::assets::check_meshes(mesh_dir, &crate::mjcf::mesh_files())?;
         let xml = formation_xml(formation, mesh_dir);
         let model = MjModel::from_xml_string(&xml).map_err(|e| WorldError::Model(e.to_string()))?;
         let model = Rc::new(model);
