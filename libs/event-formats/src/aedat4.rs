@@ -5,7 +5,7 @@
 //! - a size-prefixed FlatBuffer `IOHeader` (file identifier `IOHE`): `compression` (0 none,
 //!   1 LZ4, 2 LZ4 high, 3 Zstd, 4 Zstd high), `dataTablePosition` (byte offset of the
 //!   `FileDataTable`, −1 when there is none) and `infoNode`, an XML tree whose
-//!   `/outInfo/<id>/` nodes describe the streams (`typeIdentifier` `EVTS` for events, the
+//!   `…/outInfo/<id>/` nodes (at the root, or under DV's `/mainloop/Recorder/`) describe the streams (`typeIdentifier` `EVTS` for events, the
 //!   sensor's `sizeX`/`sizeY` under `info/`);
 //! - packets: a `PacketHeader` (`i32` stream id, `i32` size), then that many bytes — one LZ4 or
 //!   Zstd frame when compressed — holding a size-prefixed FlatBuffer; for events an
@@ -279,7 +279,12 @@ fn attrs(xml: &str) -> Vec<(String, String, String)> {
 fn event_stream(xml: &str) -> Option<(i32, Option<Geometry>)> {
     let attrs = attrs(xml);
     let (path, id) = attrs.iter().find_map(|(path, key, text)| {
-        let id = path.strip_prefix("/outInfo/")?.strip_suffix('/')?;
+        // DV's recorder nests the node (`/mainloop/Recorder/outInfo/0/`); Waggle and
+        // dv-processing write it at the root (`/outInfo/0/`).
+        let (parent, id) = path.strip_suffix('/')?.rsplit_once('/')?;
+        if !(parent == "/outInfo" || parent.ends_with("/outInfo")) {
+            return None;
+        }
         (key == "typeIdentifier" && text.trim() == "EVTS")
             .then(|| id.parse::<i32>().ok().map(|id| (path.clone(), id)))
             .flatten()

@@ -1,4 +1,5 @@
-//! Prophesee EVT 3.0 (`.raw`): an ASCII header of `% key value` lines ending with `% end`, then
+//! Prophesee EVT 3.0 (`.raw`): an ASCII header of `% key value` lines (ending with `% end`, or,
+//! as cameras write it, at the first line that is not one), then
 //! little-endian 16-bit words whose top four bits give their type (Prophesee's "EVT 3.0 format"
 //! documentation, Metavision SDK):
 //!
@@ -205,7 +206,7 @@ impl StreamEncoder {
 }
 
 /// The header's geometry and where the data starts. A header is optional (raw word streams
-/// start at byte 0); one that starts must end with `% end`.
+/// start at byte 0); it ends with `% end` or before the first byte that starts no `%` line.
 fn header(bytes: &[u8]) -> Result<(Option<Geometry>, usize), Evt3Error> {
     let mut pos = 0;
     let mut geometry = None;
@@ -254,10 +255,12 @@ fn header(bytes: &[u8]) -> Result<(Option<Geometry>, usize), Evt3Error> {
             _ => {}
         }
     }
-    if pos > 0 {
-        return Err(Evt3Error::Header("no `% end` line".into()));
+    // Cameras' own recordings (an EVK4's, for one) end the header at the first line that is not
+    // a `%` line, with no `% end`.
+    if evt3 == Some(false) {
+        return Err(Evt3Error::Header("not an EVT 3.0 stream (`% evt`)".into()));
     }
-    Ok((None, 0))
+    Ok((geometry, pos))
 }
 
 /// Reads an EVT 3.0 stream (header optional). Events before the first `TIME_HIGH` and the first
