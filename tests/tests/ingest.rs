@@ -14,7 +14,7 @@ use std::process::Command;
 use std::sync::OnceLock;
 
 use event_camera::Event;
-use event_formats::{aedat4, evt3};
+use event_formats::{aedat4, dat, evt2, evt3};
 use serde_json::Value;
 use waggle_tests::{succeed, venv_python, waggle, workspace_root};
 
@@ -194,6 +194,29 @@ fn another_camera_with_its_calibration_decodes_as_the_live_link() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("640×480") && err.contains("1280×960"), "{err}");
+}
+
+#[test]
+fn evt2_and_dat_files_of_the_live_events_decode_as_the_live_link() {
+    let dir = scratch().join("prophesee");
+    std::fs::create_dir_all(&dir).unwrap();
+    let events = &live().1;
+    let mut bytes = Vec::new();
+    evt2::write(&mut bytes, 640, 480, events).unwrap();
+    let raw2 = dir.join("O1.evt2.raw");
+    std::fs::write(&raw2, &bytes).unwrap();
+    let decoded = decode(&raw2, &[]);
+    assert_eq!(decoded["format"], "evt2");
+    assert_eq!(decoded["events"], events.len() as u64);
+    assert_decodes_as_live(&decoded, true);
+    let mut bytes = Vec::new();
+    dat::write(&mut bytes, 640, 480, events).unwrap();
+    let td = dir.join("O1_td.dat");
+    std::fs::write(&td, &bytes).unwrap();
+    let decoded = decode(&td, &[]);
+    assert_eq!(decoded["format"], "dat");
+    assert_eq!(decoded["events"], events.len() as u64);
+    assert_decodes_as_live(&decoded, true);
 }
 
 #[test]

@@ -4,13 +4,15 @@
 //!
 //! Run: `cargo bench -p event-formats --bench evt3`. The stream: 5 M events of a v2e-noisy-like
 //! 640×480 sensor (uniform pixels, ≈ 1.7 M events per second of sensor time), each figure the
-//! median of 5 repetitions.
+//! median of 5 repetitions. When `deploy/setup.sh` has unpacked faery's real recordings
+//! (`third_party/faery/data`), each is read too (EVT 3.0, EVT 2.0, DAT, AEDAT4 with LZ4), with
+//! its read rate beside the synthetic stream's.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use event_camera::{Event, Polarity};
-use event_formats::evt3;
+use event_formats::{aedat4, dat, evt2, evt3};
 
 const EVENTS: u64 = 5_000_000;
 const REPEATS: usize = 5;
@@ -79,4 +81,46 @@ fn main() {
         rate(write),
         read.as_secs_f64() / write.as_secs_f64()
     );
+    real_files(rate(read));
+}
+
+/// Read rates of the real cameras' recordings, as a ratio to the synthetic stream's `synthetic`.
+fn real_files(synthetic: f64) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../third_party/faery/data");
+    type Reader = fn(&[u8]) -> usize;
+    let readers: [(&str, Reader); 4] = [
+        ("evt3.raw", |b| {
+            evt3::read(b).expect("evt3.raw").events.len()
+        }),
+        ("evt2.raw", |b| {
+            evt2::read(b).expect("evt2.raw").events.len()
+        }),
+        ("gen4.dat", |b| dat::read(b).expect("gen4.dat").events.len()),
+        ("davis346.aedat4", |b| {
+            aedat4::read(b).expect("davis346.aedat4").events.len()
+        }),
+    ];
+    for (name, read) in readers {
+        let Ok(bytes) = std::fs::read(dir.join(name)) else {
+            println!("{name}: not unpacked (bash deploy/setup.sh), skipped");
+            return;
+        };
+        let mut events = 0;
+        let time = median(
+            (0..REPEATS)
+                .map(|_| {
+                    let start = Instant::now();
+                    events = black_box(read(&bytes));
+                    start.elapsed()
+                })
+                .collect(),
+        );
+        let rate = events as f64 / time.as_secs_f64() / 1e6;
+        println!(
+            "{name}: {events} events, {:.2} bytes per event: read {rate:.1} M events/s \
+             ({:.2} of the synthetic EVT 3.0 read rate)",
+            bytes.len() as f64 / events as f64,
+            rate / synthetic
+        );
+    }
 }

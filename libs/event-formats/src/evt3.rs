@@ -206,61 +206,21 @@ impl StreamEncoder {
 }
 
 /// The header's geometry and where the data starts. A header is optional (raw word streams
-/// start at byte 0); it ends with `% end` or before the first byte that starts no `%` line.
+/// start at byte 0); see [`crate::header`] for where it ends.
 fn header(bytes: &[u8]) -> Result<(Option<Geometry>, usize), Evt3Error> {
-    let mut pos = 0;
-    let mut geometry = None;
-    let mut evt3 = None;
-    while bytes.get(pos) == Some(&b'%') {
-        let end = bytes[pos..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map(|n| pos + n)
-            .ok_or_else(|| Evt3Error::Header(format!("line at byte {pos} has no end")))?;
-        let line = std::str::from_utf8(&bytes[pos + 1..end])
-            .map_err(|_| Evt3Error::Header(format!("line at byte {pos} is not text")))?
-            .trim();
-        pos = end + 1;
-        if line == "end" {
-            if evt3 == Some(false) {
-                return Err(Evt3Error::Header("not an EVT 3.0 stream (`% evt`)".into()));
-            }
-            return Ok((geometry, pos));
-        }
-        let (key, value) = line.split_once(' ').unwrap_or((line, ""));
-        match key {
-            "evt" => evt3 = Some(value.trim() == "3.0"),
-            "format" => {
-                evt3 = Some(value.starts_with("EVT3"));
-                let field = |name: &str| {
-                    value.split(';').find_map(|f| {
-                        f.strip_prefix(name)
-                            .and_then(|v| v.strip_prefix('='))
-                            .and_then(|v| v.parse::<u16>().ok())
-                    })
-                };
-                if let (Some(width), Some(height)) = (field("width"), field("height")) {
-                    geometry = Some(Geometry { width, height });
-                }
-            }
-            "geometry" if geometry.is_none() => {
-                if let Some((Ok(width), Ok(height))) = value
-                    .trim()
-                    .split_once('x')
-                    .map(|(w, h)| (w.parse(), h.parse()))
-                {
-                    geometry = Some(Geometry { width, height });
-                }
-            }
-            _ => {}
-        }
-    }
-    // Cameras' own recordings (an EVK4's, for one) end the header at the first line that is not
-    // a `%` line, with no `% end`.
+    let h = crate::header::percent_header(bytes).map_err(Evt3Error::Header)?;
+    let evt3 = match (h.get("evt"), h.get("format")) {
+        (Some(version), _) => Some(version == "3.0"),
+        (None, Some(format)) => Some(format.starts_with("EVT3")),
+        (None, None) => None,
+    };
     if evt3 == Some(false) {
         return Err(Evt3Error::Header("not an EVT 3.0 stream (`% evt`)".into()));
     }
-    Ok((geometry, pos))
+    let geometry = h
+        .geometry()
+        .map(|(width, height)| Geometry { width, height });
+    Ok((geometry, h.data_at))
 }
 
 /// Reads an EVT 3.0 stream (header optional). Events before the first `TIME_HIGH` and the first
@@ -454,7 +414,9 @@ mod tests {
             "{e}"
         );
         assert!(read(b"% evt 2.0\n% end\n").is_err());
-        assert!(read(b"% evt 3.0\n").is_err());
+        // A camera's header needs no `% end`; a header line cut short is refused.
+        assert!(read(b"% evt 3.0\n").unwrap().events.is_empty());
+        assert!(read(b"% evt 3.0").is_err());
         let mut out = Vec::new();
         let e = write(&mut out, 640, 480, &[ev(0, 640, 0, true)]).unwrap_err();
         assert!(

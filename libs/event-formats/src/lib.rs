@@ -1,12 +1,15 @@
 //! Event-camera file formats, so that real cameras' recordings and Waggle's synthetic events
-//! meet, each written and read: [`evt3`], Prophesee's EVT 3.0 (`.raw`), and [`aedat4`],
-//! iniVation's AEDAT 4.0 (`.aedat4`).
+//! meet, each written and read: Prophesee's [`evt3`] and [`evt2`] (EVT 3.0 and 2.0, `.raw`) and
+//! [`dat`] (`.dat`), and iniVation's [`aedat4`] (AEDAT 4.0, `.aedat4`).
 //!
 //! Pure code over byte slices and `Write`rs: no file system, no clock.
 
 pub mod aedat4;
+pub mod dat;
+pub mod evt2;
 pub mod evt3;
 mod flatbuf;
+mod header;
 pub mod input;
 
 pub use input::EventsError;

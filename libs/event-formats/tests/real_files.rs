@@ -128,3 +128,25 @@ fn a_davis346_aedat4_recording_from_dv_decodes_to_its_published_digests() {
         .collect();
     assert_published("davis346.aedat4", &raw);
 }
+
+#[test]
+fn a_gen3_evt2_recording_decodes_to_its_published_digests() {
+    let bytes = recording("evt2.raw");
+    assert!(event_formats::evt2::is_evt2(&bytes));
+    let raw = event_formats::evt2::read(&bytes).expect("evt2.raw");
+    assert_published("evt2.raw", &raw.events);
+}
+
+#[test]
+fn the_evk4_recording_as_dat_decodes_to_its_published_digests() {
+    let bytes = recording("gen4.dat");
+    let dat = event_formats::dat::read(&bytes).expect("gen4.dat");
+    assert_eq!(
+        dat.geometry,
+        Some(event_formats::dat::Geometry {
+            width: 1280,
+            height: 720
+        })
+    );
+    assert_published("gen4.dat", &dat.events);
+}

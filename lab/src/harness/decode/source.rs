@@ -1,4 +1,4 @@
-//! Event recordings read into one time-ordered event list: EVT 3.0 `.raw`, AEDAT4 or the
+//! Event recordings read into one time-ordered event list: EVT 3.0 or 2.0 `.raw`, DAT, AEDAT4 or the
 //! `event_camera_msgs/EventPacket` topic of a ROS 2 bag, told apart by their first bytes (or a
 //! bag directory) unless the format is named.
 
@@ -8,17 +8,20 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use clap::ValueEnum;
 use event_camera::Event;
-use event_formats::{aedat4, evt3};
+use event_formats::{aedat4, dat, evt2, evt3};
 
 /// An event recording's format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
 pub enum EventFormat {
-    /// Tell from the file: a directory or `\x89MCAP` is a bag, `#!AER-DAT4.0` AEDAT4, a `%`
-    /// header or the `.raw` extension EVT 3.0.
+    /// Tell from the file: a directory or `\x89MCAP` is a bag, `#!AER-DAT4.0` AEDAT4, the
+    /// `.dat` extension (or a `%` header with a `Version` line and no `evt`) DAT, another `%`
+    /// header or the `.raw` extension EVT 3.0 or 2.0 (as its header says).
     #[default]
     Auto,
-    /// Prophesee EVT 3.0 (`.raw`).
+    /// Prophesee EVT 3.0 or EVT 2.0 (`.raw`), as its `% evt` header line says (3.0 without one).
     Raw,
+    /// Prophesee DAT (`.dat`) of CD events.
+    Dat,
     /// iniVation AEDAT 4.0 (`.aedat4`): its first event stream.
     Aedat4,
     /// A ROS 2 bag (MCAP storage; the directory or its `.mcap` file) of
@@ -40,6 +43,7 @@ pub struct EventRead {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Known {
     Raw,
+    Dat,
     Aedat4,
     Bag,
 }
@@ -63,15 +67,40 @@ fn detect(path: &Path) -> Result<Known> {
         Known::Aedat4
     } else if head.starts_with(MCAP_MAGIC) {
         Known::Bag
+    } else if path.extension().is_some_and(|e| e == "dat") {
+        Known::Dat
     } else if head.starts_with(b"%") || path.extension().is_some_and(|e| e == "raw") {
-        Known::Raw
+        if dat_header(path)? {
+            Known::Dat
+        } else {
+            Known::Raw
+        }
     } else {
         bail!(
-            "{}: not an event recording this tool knows (EVT 3.0 `.raw`, AEDAT4, a ROS 2 MCAP \
-             bag); name the format with --format",
+            "{}: not an event recording this tool knows (EVT 3.0 or 2.0 `.raw`, DAT, AEDAT4, a \
+             ROS 2 MCAP bag); name the format with --format",
             path.display()
         )
     })
+}
+
+/// True when the `%` header of `path` is a DAT file's: a `Version` line and no `evt`/`format`.
+fn dat_header(path: &Path) -> Result<bool> {
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(64 * 1024).read_to_end(&mut head))
+        .with_context(|| format!("reading {}", path.display()))?;
+    let mut version = false;
+    for line in head.split(|&b| b == b'\n') {
+        let Some(line) = line.strip_prefix(b"% ") else {
+            break;
+        };
+        if line.starts_with(b"evt ") || line.starts_with(b"format ") {
+            return Ok(false);
+        }
+        version |= line.starts_with(b"Version ");
+    }
+    Ok(version)
 }
 
 /// Reads the events of `path` (of `topic`, for a bag).
@@ -79,6 +108,7 @@ pub fn read_events(path: &Path, format: EventFormat, topic: Option<&str>) -> Res
     let format = match format {
         EventFormat::Auto => detect(path)?,
         EventFormat::Raw => Known::Raw,
+        EventFormat::Dat => Known::Dat,
         EventFormat::Aedat4 => Known::Aedat4,
         EventFormat::Bag => Known::Bag,
     };
@@ -92,9 +122,22 @@ pub fn read_events(path: &Path, format: EventFormat, topic: Option<&str>) -> Res
     let decoding = || format!("decoding {}", path.display());
     Ok(match format {
         Known::Raw => {
-            let rec = evt3::read(&read()?).with_context(decoding)?;
+            let bytes = read()?;
+            let (format, rec) = if evt2::is_evt2(&bytes) {
+                ("evt2", evt2::read(&bytes).with_context(decoding)?)
+            } else {
+                ("evt3", evt3::read(&bytes).with_context(decoding)?)
+            };
             EventRead {
-                format: "evt3".into(),
+                format: format.into(),
+                size: rec.geometry.map(|g| (g.width, g.height)),
+                events: rec.events,
+            }
+        }
+        Known::Dat => {
+            let rec = dat::read(&read()?).with_context(decoding)?;
+            EventRead {
+                format: "dat".into(),
                 size: rec.geometry.map(|g| (g.width, g.height)),
                 events: rec.events,
             }
