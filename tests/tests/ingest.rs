@@ -201,22 +201,25 @@ fn evt2_and_dat_files_of_the_live_events_decode_as_the_live_link() {
     let dir = scratch().join("prophesee");
     std::fs::create_dir_all(&dir).unwrap();
     let events = &live().1;
-    let mut bytes = Vec::new();
-    evt2::write(&mut bytes, 640, 480, events).unwrap();
-    let raw2 = dir.join("O1.evt2.raw");
-    std::fs::write(&raw2, &bytes).unwrap();
-    let decoded = decode(&raw2, &[]);
-    assert_eq!(decoded["format"], "evt2");
-    assert_eq!(decoded["events"], events.len() as u64);
-    assert_decodes_as_live(&decoded, true);
-    let mut bytes = Vec::new();
-    dat::write(&mut bytes, 640, 480, events).unwrap();
-    let td = dir.join("O1_td.dat");
-    std::fs::write(&td, &bytes).unwrap();
-    let decoded = decode(&td, &[]);
-    assert_eq!(decoded["format"], "dat");
-    assert_eq!(decoded["events"], events.len() as u64);
-    assert_decodes_as_live(&decoded, true);
+    type Writer = fn(&mut Vec<u8>, &[Event]) -> Vec<u8>;
+    let files: [(&str, &str, Writer); 2] = [
+        ("O1.evt2.raw", "evt2", |b, e| {
+            evt2::write(b, 640, 480, e).unwrap();
+            std::mem::take(b)
+        }),
+        ("O1_td.dat", "dat", |b, e| {
+            dat::write(b, 640, 480, e).unwrap();
+            std::mem::take(b)
+        }),
+    ];
+    for (name, format, write) in files {
+        let path = dir.join(name);
+        std::fs::write(&path, write(&mut Vec::new(), events)).unwrap();
+        let decoded = decode(&path, &[]);
+        assert_eq!(decoded["format"], format);
+        assert_eq!(decoded["events"], events.len() as u64);
+        assert_decodes_as_live(&decoded, true);
+    }
 }
 
 #[test]

@@ -567,14 +567,7 @@ mod tests {
                     height: 480
                 })
             );
-            let want: Vec<Event> = events
-                .iter()
-                .map(|e| Event {
-                    t_ns: e.t_ns / 1000 * 1000,
-                    ..*e
-                })
-                .collect();
-            assert_eq!(d.events, want, "{c:?}");
+            assert_eq!(d.events, crate::floored_to_us(&events), "{c:?}");
         }
     }
 

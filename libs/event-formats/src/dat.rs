@@ -176,14 +176,7 @@ mod tests {
                 height: 720
             })
         );
-        let floored: Vec<Event> = events
-            .iter()
-            .map(|e| Event {
-                t_ns: e.t_ns / 1000 * 1000,
-                ..*e
-            })
-            .collect();
-        assert_eq!(back.events, floored);
+        assert_eq!(back.events, crate::floored_to_us(&events));
     }
 
     #[test]

@@ -28,3 +28,15 @@ pub(crate) fn test_event(t_ns: u64, x: u16, y: u16, on: bool) -> event_camera::E
         },
     }
 }
+
+/// `events` as a microsecond format gives them back: each time floored to a whole µs.
+#[cfg(test)]
+pub(crate) fn floored_to_us(events: &[event_camera::Event]) -> Vec<event_camera::Event> {
+    events
+        .iter()
+        .map(|e| event_camera::Event {
+            t_ns: e.t_ns / 1000 * 1000,
+            ..*e
+        })
+        .collect()
+}
