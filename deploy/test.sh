@@ -2,7 +2,8 @@
 # The test suite from a fresh machine: installs what it needs (idempotent), checks the code, then
 # runs every test. This is the README's test command and what CI runs (.ci/run).
 #
-#   deploy/test.sh            default suite (≈ 30–33 min on 2 cores, build included, 2026-11-30, 29.7 at 026821a; 43 min on a 2.5× slower one; run as root:
+#   deploy/test.sh            default suite (held under 30 min on 2 cores, build included; where
+#                             the time goes: docs/decisions/test-time-budget.md; run as root:
 #                             the multi-host tests make network namespaces)
 #   deploy/test.sh --full     also the long `#[ignore]`d tests: whole missions as processes with
 #                             sensors, the frozen-behaviour runs of nominal-3 and dropout-o2 (and

@@ -37,11 +37,12 @@ enum Cli {
     /// Write what one host of a session needs (the compose file and only that host's
     /// credentials) into a new directory, to copy to that host.
     Bundle(cli::bundle::BundleArgs),
-    /// Run a case once per camera render path (full, damage) in one invocation and print
-    /// wall/sim, camera CPU per simulated second and their ratio side by side.
+    /// Run a case once per camera render path (`--paths`; default MuJoCo's damage path and
+    /// Waggle's renderer) in one invocation and print wall/sim, camera CPU per simulated second
+    /// and their ratio side by side.
     Bench(cli::bench::BenchArgs),
-    /// Decode an event camera's recording (EVT 3.0 `.raw`) with one observer's event receiver:
-    /// tokens, frames and payloads.
+    /// Decode a camera's recording (EVT 3.0 or 2.0 `.raw`, DAT, AEDAT4, a ROS 2 bag, PNG frames)
+    /// with one observer's receiver: tokens, frames and payloads.
     Decode(LabArgs),
     /// Synthetic event camera tools (convert PNG frames into events).
     Events(LabArgs),

@@ -17,8 +17,8 @@ enum Cli {
     Link(cli::link::LinkArgs),
     /// Fly a whole case (physics, cameras, performer, observers, scheduler) in one process.
     Mission(cli::mission::MissionArgs),
-    /// Decode an event camera's recording (EVT 3.0 `.raw`) with one observer's event receiver:
-    /// tokens, frames and payloads.
+    /// Decode a camera's recording (EVT 3.0 or 2.0 `.raw`, DAT, AEDAT4, a ROS 2 bag, PNG frames)
+    /// with one observer's receiver: tokens, frames and payloads.
     Decode(cli::decode::DecodeArgs),
     /// Synthetic event camera tools (convert PNG frames into events).
     Events(cli::events::EventsArgs),

@@ -104,3 +104,17 @@ fn an_event_link_under_the_v2e_default_sensor_preset_decodes_and_records_it() {
     );
     assert_eq!(payloads(&v, "O1"), ["011010"]);
 }
+
+#[test]
+fn a_negative_azimuth_is_accepted_without_an_equals_sign() {
+    // `--viewpoint -20,0,1.6` must not be read as a flag `-2`.
+    let v = link(&[
+        "--viewpoint",
+        "-20,0,1.6",
+        "--modality",
+        "ideal",
+        "--payload",
+        "011010",
+    ]);
+    assert_eq!(payloads(&v, "O1"), ["011010"]);
+}

@@ -19,9 +19,7 @@ use node_args::SensorArgs;
 /// `waggle run` and `waggle compose`).
 #[derive(Debug, Args)]
 pub struct SessionArgs {
-    /// Built-in case name (one-observer, two-observers, nominal-3, black-o2, no-broadcast,
-    /// only-a, dropout-o2, four-observers, six-observers, eight-observers) or a path to a case
-    /// TOML file.
+    #[arg(help = run_format::case::case_arg_help())]
     pub case: String,
     /// Observer sensor modality (default: events when the case applies to it).
     #[arg(long, value_enum)]

@@ -52,6 +52,7 @@ pub struct Compose {
     pub secrets: Option<PathBuf>,
     /// The case file's text (the case as flown).
     pub case: String,
+    /// The session's Zenoh router (`[router]`).
     pub router: Router,
     /// Sites' own routers (a chain of two): the nodes of a site's hosts dial their site's
     /// router, which dials the session's router.
@@ -59,6 +60,7 @@ pub struct Compose {
     pub sites: Vec<SiteRouter>,
     #[serde(default, skip_serializing_if = "ExtraFaults::is_empty")]
     pub faults: ExtraFaults,
+    /// Every node process (`[[node]]`).
     #[serde(rename = "node")]
     pub nodes: Vec<Node>,
 }

@@ -42,7 +42,7 @@ pub struct DecodeArgs {
     calibration: Option<PathBuf>,
     /// Where the camera was: AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M from the performer's hover
     /// point (as `waggle link --viewpoint`).
-    #[arg(long, value_name = "AZ,EL,DIST", value_parser = parse_viewpoint, conflicts_with = "observer")]
+    #[arg(long, value_name = "AZ,EL,DIST", value_parser = parse_viewpoint, allow_hyphen_values = true, conflicts_with = "observer")]
     viewpoint: Option<Placement>,
     /// Or: the camera was observer OBSERVER (e.g. O2) of the built-in formation of --observers.
     #[arg(long)]

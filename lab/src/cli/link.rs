@@ -49,7 +49,7 @@ pub struct LinkArgs {
     /// Place an observer at AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M from the performer's hover
     /// point (azimuth from the gesture plane's normal, towards +x), aimed at it; repeat for up
     /// to 8 observers. Replaces the built-in formation of --observers.
-    #[arg(long = "viewpoint", value_name = "AZ,EL,DIST", value_parser = parse_viewpoint)]
+    #[arg(long = "viewpoint", value_name = "AZ,EL,DIST", value_parser = parse_viewpoint, allow_hyphen_values = true)]
     viewpoints: Vec<Placement>,
     /// Viewpoint rectification of the receivers' trajectories before template matching.
     #[arg(long, value_enum, default_value_t = Rectification::default())]
@@ -145,10 +145,10 @@ pub fn run(args: LinkArgs) -> Result<()> {
     Ok(())
 }
 
-/// `waggle link` with event sensors that are not the paper's ideal ones. The broadcast is flown
-/// and rendered once ([`fly_rendered`], the render cache `waggle trials` replays; an
-/// unperturbed replay decodes exactly as the live link, ARCHITECTURE.md "Seeded trials") and
-/// each observer's renders go through its own sensor — `perturbation`'s model seeded with
+/// `waggle link` with event sensors that are not the paper's ideal ones. The broadcast is flown and
+/// rendered once ([`fly_rendered`], the render cache `waggle trials` replays; an unperturbed replay
+/// decodes exactly as the live link, `docs/decisions/seeded-trials-and-studies.md`) and each
+/// observer's renders go through its own sensor — `perturbation`'s model seeded with
 /// `stream_seed(seed, EventSensor, i)`, the sensor `waggle mission --seed` and `waggle run`'s
 /// camera processes build — into its receiver.
 ///

@@ -14,8 +14,7 @@ use run_format::run_dir::{OBSERVERS_FILE, SUMMARY_FILE};
 
 #[derive(Debug, Args)]
 pub struct MissionArgs {
-    /// Built-in case name (one-observer, two-observers, nominal-3, black-o2, no-broadcast,
-    /// only-a, dropout-o2) or a path to a case TOML file.
+    #[arg(help = run_format::case::case_arg_help())]
     case: String,
     /// Observer sensor modality (`ideal` is the ground-truth baseline).
     #[arg(long, value_enum, default_value_t = Receiver::Events)]

@@ -22,9 +22,7 @@ use run_format::run_dir::lock::RunLock;
 pub struct StudyArgs {
     #[command(subcommand)]
     command: Option<StudyCommand>,
-    /// A study file (TOML) or a built-in study: event-noise, rgb-noise, light, viewing-angle,
-    /// distance, baselines, wind, wind-links (`--print` shows one to copy and edit).
-    #[arg(required = true)]
+    #[arg(required = true, help = study_arg_help())]
     study: Option<String>,
     /// Output directory: one subdirectory per point (trials.json, cost.json, the per-trial
     /// records under trials/), study.json, success-<condition>.svg, report.md, cost.md. Rerun
@@ -264,4 +262,17 @@ fn run_link_study(
         );
     }
     Ok(())
+}
+
+/// The help of the study argument, naming every built-in study, so no help text keeps its own
+/// list.
+fn study_arg_help() -> String {
+    let names: Vec<&str> = crate::harness::study::BUILT_IN
+        .iter()
+        .map(|(name, _)| *name)
+        .collect();
+    format!(
+        "A study file (TOML) or a built-in study: {} (`--print` shows one to copy and edit)",
+        names.join(", ")
+    )
 }

@@ -44,7 +44,7 @@ pub struct TrialsArgs {
     #[arg(long, default_value_t = 3)]
     observers: usize,
     /// Place observers at AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M instead (repeat, up to 8).
-    #[arg(long = "viewpoint", value_name = "AZ,EL,DIST", value_parser = parse_viewpoint)]
+    #[arg(long = "viewpoint", value_name = "AZ,EL,DIST", value_parser = parse_viewpoint, allow_hyphen_values = true)]
     viewpoints: Vec<Placement>,
     /// The observers' sensor (`ideal`, the ground-truth receiver, for --case only).
     #[arg(long, value_enum)]

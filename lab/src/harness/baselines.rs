@@ -76,12 +76,18 @@ impl Arm {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct BaselineStudy {
+    /// The study's name, as its report gives it.
     pub name: String,
+    /// Built-in case names or case files, each flown by every arm.
     pub cases: Vec<String>,
+    /// `ideal`, `fixed`, `rgb`, `events`: the two baselines and Waggle's two receivers.
     pub arms: Vec<Arm>,
+    /// Seeded trials per case, arm and level.
     pub trials: u64,
+    /// The study's base seed (default 0).
     #[serde(default)]
     pub seed: u64,
+    /// Perturbation terms every trial holds.
     #[serde(default)]
     pub perturb: BTreeMap<String, f64>,
     /// At most one perturbation term and its levels: every case × arm at each level.

@@ -121,20 +121,30 @@ const EXACT_PAYLOADS: &str = "exact-payloads";
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct StudyFile {
+    /// The study's name, as its report gives it.
     pub name: String,
+    /// The cameras each point runs with: `rgb`, `events`.
     pub modalities: Vec<Modality>,
+    /// The broadcast payloads, six bits each (`011010`).
     pub link: Vec<String>,
+    /// Observers in the standard formation (default 1).
     #[serde(default)]
     pub observers: Option<usize>,
+    /// One observer placed at `[azimuth°, elevation°, distance m]` instead of the formation.
     #[serde(default)]
     pub viewpoint: Option<[f64; 3]>,
+    /// Seeded trials per point.
     pub trials: u64,
+    /// The study's base seed; each trial's seed derives from it (default 0).
     #[serde(default)]
     pub seed: u64,
+    /// What a successful trial is: only `exact-payloads` (every observer releases exactly the
+    /// broadcast).
     pub criterion: String,
     /// A named sensor preset (`perturb::preset`) every point starts from, under `fixed`.
     #[serde(default)]
     pub sensor_preset: Option<String>,
+    /// Perturbation terms every point holds (`{ "wind.intensity" = 0.25 }`).
     #[serde(default)]
     pub fixed: BTreeMap<String, f64>,
     /// The receivers' viewpoint rectification: `off`, `pitched` (default) or `frontal`.

@@ -7,6 +7,8 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Vary {
+    /// A perturbation term (`events.shot_noise_hz`) or, in link studies, a viewpoint axis.
     pub key: String,
+    /// The values it takes, one point each.
     pub levels: Vec<f64>,
 }

@@ -106,7 +106,7 @@ fn fraction((seen, kept): (u64, u64)) -> f64 {
 /// The receiver's operating point. The issue asked for ≥ 95 % removal and ≥ 95 % kept; this
 /// point removes far more (99.98 %) and keeps 94.95 % of the ellipse (96.9 % of the bar, 94.4 %
 /// of a real rendered drone over a 97 s link): the support that keeps the last 0.05 % lets
-/// clumps of noise through that break decoding at 5 Hz (ARCHITECTURE.md, "Realistic sensors").
+/// clumps of noise through that break decoding at 5 Hz (`docs/decisions/noise-front-end.md`).
 /// The bounds asserted are the measured ones, rounded down.
 #[test]
 fn the_receiver_front_end_removes_background_activity_and_keeps_a_moving_target() {
@@ -334,8 +334,9 @@ fn roc_of_the_correlation_filter() {
     }
     // The published causal STCF, ≈ 9× cheaper (`benches/noise_front_end.rs`): the first pixels
     // of an edge have no earlier neighbour, so at the removal the tracker needs it keeps far
-    // less of the target. Asserted, because ARCHITECTURE.md ("The floor") rests on it: no point
-    // of the grid holds both the 99.9 % removal and the 94.5 % kept asserted of the receiver.
+    // less of the target. Asserted, because `docs/decisions/v2e-sensor-model.md` ("The floor")
+    // rests on it: no point of the grid holds both the 99.9 % removal and the 94.5 % kept
+    // asserted of the receiver.
     println!("causal STCF: window_ms k | noise removed | target kept");
     for window_ms in [5, 10, 15, 30] {
         for k in 1..=4 {

@@ -5,7 +5,7 @@
 //! each of the 117 frame pairs, and OpenCV 5.0's results on them (`opencv.json`, written by
 //! `bash deploy/opencv-oracle.sh golden`). The default tests need neither OpenCV nor MuJoCo.
 //!
-//! Adoption threshold (ARCHITECTURE.md, "RGB KLT vs OpenCV"): median endpoint disagreement
+//! Adoption threshold (`docs/decisions/rgb-klt.md`): median endpoint disagreement
 //! ≤ 0.1 px and ≥ 99 % status agreement on the receiver's points. Measured on its 2 578
 //! points: median 0.0011 px, 95th percentile 0.0048 px, maximum 0.0072 px, statuses 100 %. The assertions below sit about ten times above the
 //! measured figures, so that a regression (a crate update, a changed setting) fails long before

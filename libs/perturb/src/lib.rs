@@ -11,6 +11,7 @@
 //! * `check` — what terms mean together ([`Perturbation::check`]: the event sensor's shot noise
 //!   with darkness's added stays within its own range).
 //! * [`preset`] — named sensor presets (v2e's `clean`, default and `noisy` values), cited.
+//! * [`reference`] — the user guide's page of every term and preset, rendered from the tables.
 //! * [`seed`] — one trial seed → independent, reproducible streams per term and observer.
 //! * [`stats`] — the Wilson score interval for success rates.
 //!
@@ -23,6 +24,7 @@ pub mod flight;
 pub mod light;
 pub mod link;
 pub mod preset;
+pub mod reference;
 pub mod rgb;
 pub mod seed;
 pub mod spec;

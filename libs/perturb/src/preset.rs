@@ -109,9 +109,9 @@ pub const PRESETS: &[Preset] = &[
     Preset {
         name: "dvs-dim",
         source: "v2e-noisy with 10 Hz per pixel of background activity: the dim-light figure \
-                 of a real DAVIS346 (Guo & Delbruck, IEEE TPAMI 2023, DND21 recordings), the \
-                 figure issue 27 quotes; no light level is modelled yet, so the photoreceptor \
-                 cutoff stays v2e-noisy's",
+                 of a real DAVIS346 (Guo & Delbruck, IEEE TPAMI 2023, DND21 recordings); no \
+                 light level is modelled in this preset, so the photoreceptor cutoff stays \
+                 v2e-noisy's (the light.lux term models one)",
         terms: &DVS_DIM,
         unmodelled: "separate ON/OFF threshold mismatch; cutoff not derived from a light level",
     },

@@ -148,6 +148,16 @@ pub const BUILT_IN: &[(&str, &str)] = &[
     ),
 ];
 
+/// The help of a command's case argument: every built-in case by name, so no help text keeps
+/// its own list.
+pub fn case_arg_help() -> String {
+    let names: Vec<&str> = BUILT_IN.iter().map(|(name, _)| *name).collect();
+    format!(
+        "Built-in case name ({}) or a path to a case TOML file",
+        names.join(", ")
+    )
+}
+
 /// The built-in cases the paper ran (its functional-case table), in its order: what
 /// `waggle sweep` runs by default.
 pub const PAPER_CASES: &[&str] = &[
@@ -190,8 +200,11 @@ pub enum CaseFaultKind {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FaultSpec {
+    /// The observer whose camera is hit (`O2`).
     pub observer: String,
+    /// What happens to it: `black`, `kill` or `throttle`.
     pub kind: CaseFaultKind,
+    /// When, in sim seconds (default 0).
     #[serde(default)]
     pub at_s: f64,
     /// Throttle only: packets dropped per thousand.
@@ -208,6 +221,7 @@ pub struct FaultSpec {
 pub struct Expected {
     /// Complete messages (released frames with a valid offer) per observer, O1 first.
     pub messages: Vec<usize>,
+    /// Work units completed by the whole group.
     pub work_units: u32,
     /// Sites of each observer's completed services, in order.
     pub services: BTreeMap<String, Vec<String>>,
@@ -248,17 +262,21 @@ fn check_time_s(field: &str, value_s: f64) -> Result<(), CaseCheckError> {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Case {
+    /// The case's name, as reports and recordings give it.
     pub name: String,
+    /// Observer drones, O1 … On (1 to 8).
     pub observers: usize,
     /// Sites the performer advertises each round, in order (empty: no broadcast).
     #[serde(default = "default_sites")]
     pub offer_sites: Vec<String>,
+    /// Broadcast rounds of `offer_sites` (default 2).
     #[serde(default = "default_rounds")]
     pub rounds: u32,
     /// Sensor modalities this case applies to (`rgb`, `events`; default both — every built-in
     /// case states it). The ideal receiver can fly every case.
     #[serde(default = "default_modalities")]
     pub modalities: Vec<Receiver>,
+    /// Faults the case injects (`[[faults]]`).
     #[serde(default)]
     pub faults: Vec<FaultSpec>,
     /// Hard limit on simulated time.
@@ -268,6 +286,7 @@ pub struct Case {
     /// (trips overlap on checked space-time reservations).
     #[serde(default)]
     pub flights: FlightMode,
+    /// The outcome the audit checks (`[expected]`).
     pub expected: Expected,
 }
 

@@ -5,16 +5,16 @@
 //! (an event camera sees nothing of a still target) places a rest where the target was last
 //! *seen*: under heavy sensor noise the slow last centimetres into home are filtered out, and
 //! that reading can fall 7–14 px short while the window's other rests agree within ≈ 2 px
-//! (measured, ARCHITECTURE.md, "`v2e-noisy` at the range's edge"). The component-wise median
-//! of the window's rests is a reading of home that one short rest cannot move.
+//! (measured, `docs/decisions/v2e-sensor-model.md`, the `v2e-noisy` edge). The component-wise
+//! median of the window's rests is a reading of home that one short rest cannot move.
 //!
 //! A window's first symbols come before it has rests enough for a median: a path rejected only
 //! for its open ends then *waits* for the next confirmed rest, which pools a home, and is read
 //! there. Its NULL is not held back (a delimiter must never wait on a later rest): the reading
 //! is emitted late, flagged so, and the frame parser puts it back between the two NULLs it
 //! belongs between ([`crate::FrameParser::push_late`]). The event receiver's START, whose
-//! start is the rest after the acquisition sweep, is such a symbol (ARCHITECTURE.md, "A START
-//! read before there is a home").
+//! start is the rest after the acquisition sweep, is such a symbol
+//! (`docs/decisions/event-link-in-wind.md`).
 
 use std::collections::VecDeque;
 

@@ -104,7 +104,8 @@ impl SegmenterConfig {
             match_settings: MatchSettings::events(),
             late_null: true,
             held_rests: true,
-            pooled_home_px: Some(40.0), // half a drone (24 px) + an ego-motion cell: ARCHITECTURE.md
+            // Half a drone (24 px) + an ego-motion cell: docs/decisions/event-link-in-wind.md.
+            pooled_home_px: Some(40.0),
             ..Self::rgb()
         }
     }

@@ -1,10 +1,10 @@
 //! `waggle decode`: a camera's recording through one observer's receiver — the same chain
 //! `waggle link` and the observer process run — into tokens, frames and payloads.
 //!
-//! Events come from a Prophesee EVT 3.0 `.raw` file, an iniVation AEDAT4 file or the
-//! `event_camera_msgs/EventPacket` topic of a ROS 2 bag ([`source`]); images from a directory of
-//! PNG frames or a ROS 2 bag's image topic ([`images`]). A camera other than the receivers'
-//! reference (another resolution, a calibration file) is remapped into it first
+//! Events come from a Prophesee EVT 3.0 or EVT 2.0 `.raw` file, a DAT file, an iniVation AEDAT4
+//! file or the `event_camera_msgs/EventPacket` topic of a ROS 2 bag ([`source`]); images from a
+//! directory of PNG frames or a ROS 2 bag's image topic ([`images`]). A camera other than the
+//! receivers' reference (another resolution, a calibration file) is remapped into it first
 //! ([`calibration`]).
 //!
 //! Events are cut into the receiver's 40 ms packets on the sensor grid (`(k·P, (k+1)·P]` from

@@ -11,7 +11,8 @@
 //! "Low Cost and Latency Event Camera Background Activity Denoising", IEEE TPAMI 45(1), 2023,
 //! which generalises the background-activity filter of T. Delbruck, "Frame-free dynamic digital
 //! vision", Proc. Int. Symp. on Secure-Life Electronics, 2008 (one correlated neighbour) to *k*
-//! of them. Two choices differ from the published filters, both measured in ARCHITECTURE.md:
+//! of them. Two choices differ from the published filters, both measured in
+//! `docs/decisions/noise-front-end.md`:
 //!
 //! * **Two-sided in time inside a packet.** The receiver steps once per 40 ms packet, so every
 //!   event of the packet is known before any is judged: a neighbour counts when it fired within

@@ -3,9 +3,9 @@
 //! A thin wrapper around the pure-Rust `optical-flow-lk` crate, adopted after comparing it with
 //! OpenCV's `calcOpticalFlowPyrLK` (opencv-python-headless 5.0, a test oracle only) on our own
 //! MuJoCo renders and our tracker's own points, with the same window, levels, iteration cap,
-//! epsilon and eigenvalue threshold (`tests/klt_oracle.rs`, `benches/klt.rs`, ARCHITECTURE.md
-//! "RGB KLT vs OpenCV"): on 2 578 points moving a median 2.9 px per frame the endpoints differ
-//! by a median of 0.0011 px (95th percentile 0.0048, maximum 0.0072), every status and
+//! epsilon and eigenvalue threshold (`tests/klt_oracle.rs`, `benches/klt.rs`,
+//! `docs/decisions/rgb-klt.md`): on 2 578 points moving a median 2.9 px per frame the endpoints
+//! differ by a median of 0.0011 px (95th percentile 0.0048, maximum 0.0072), every status and
 //! round-trip verdict agrees, and it tracks a frame pair in about 0.7 times OpenCV's time on one
 //! thread, so we did not write our own. Both use Scharr gradients, bilinear window sampling and
 //! 14-bit fixed-point window weights; the pyramids differ (2×2 means here, a 5×5 Gaussian in

@@ -14,7 +14,7 @@
 //!
 //! One step, not a controller: the median cell sees the excess only while it covers most of
 //! the sensor, and a support raised by feedback until the median is quiet was not measured on
-//! real renders (ARCHITECTURE.md, "`dvs-dim`").
+//! real renders (`docs/decisions/v2e-sensor-model.md`, `dvs-dim`).
 
 use crate::events::background::BackgroundEstimate;
 use crate::events::denoise::config::{Adaptive, DenoiseConfig};
