@@ -119,6 +119,8 @@ struct Reading {
     open_damage: Option<usize>,
     /// CRC of the data section so far (magic and every record before `DataEnd`).
     data_crc: crc32fast::Hasher,
+    /// Where `DataEnd` starts: the data section is the bytes before it.
+    data_end_byte: u64,
     in_data: bool,
     /// CRC of the summary section so far (every record after `DataEnd`).
     summary_crc: crc32fast::Hasher,
@@ -166,6 +168,7 @@ impl Reading {
             },
             _ => match mcap::parse_record(opcode, &record[9..]) {
                 Ok(Record::DataEnd(d)) => {
+                    self.data_end_byte = pos;
                     if d.data_section_crc != 0 && self.out.damaged.is_empty() {
                         let ok = d.data_section_crc == self.data_crc.clone().finalize();
                         self.out.data_crc_ok = Some(ok);
@@ -196,7 +199,11 @@ impl Reading {
     fn finish(mut self) -> ReadOutcome {
         let mut problems: Vec<String> = self.out.damaged.iter().map(|d| d.to_string()).collect();
         if self.out.data_crc_ok == Some(false) {
-            problems.push("the data section CRC does not match".into());
+            // No record failed to parse, so the damage is somewhere in the section's bytes.
+            problems.push(format!(
+                "the data section's CRC (bytes 0..{}) does not match",
+                self.data_end_byte
+            ));
         }
         if self.out.summary_crc_ok == Some(false) {
             problems.push("the summary section CRC does not match".into());
@@ -398,6 +405,7 @@ pub fn read_recording<E: From<ReadError>>(
         last_log_ns: None,
         open_damage: None,
         data_crc: crc32fast::Hasher::new(),
+        data_end_byte: 0,
         in_data: true,
         summary_crc: crc32fast::Hasher::new(),
         saw_footer: false,
