@@ -20,8 +20,8 @@ use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use nix::sys::signal::Signal;
 
 use crate::report::{self, RunEntry};
-use deploy::launch::process::{exit_label, signal};
 use proto::Receiver;
+use run_eval::child::{exit_label, signal};
 use run_format::case::{Case, PAPER_CASES};
 use run_format::run_dir::{PlannedRun, SWEEP_FILE, SweepManifest};
 

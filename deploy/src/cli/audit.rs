@@ -1,13 +1,13 @@
 //! `waggle audit DIR|FILE.mcap [--json]`: the paper's tables from a recording alone
-//! ([`crate::eval::audit`]).
+//! ([`run_eval::audit`]).
 
 use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::Args;
 
-use crate::eval::audit::{audit_recording, print_audit};
-use crate::eval::summary::print_json;
+use run_eval::audit::{audit_recording, print_audit};
+use run_eval::summary::print_json;
 
 #[derive(Debug, Args)]
 pub struct AuditArgs {

@@ -50,7 +50,7 @@ pub fn run(args: ExportArgs) -> Result<()> {
     };
     // A recording of the event sensors' input: the packets are regenerated as it is read.
     let info = recording::leading_metadata(
-        &crate::eval::recording::resolve(&args.run),
+        &run_eval::recording::resolve(&args.run),
         recording::SESSION_METADATA,
     )
     .with_context(|| format!("reading {}", args.run.display()))?

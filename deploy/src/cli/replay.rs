@@ -7,7 +7,7 @@ use anyhow::{Result, bail};
 use clap::Args;
 
 use crate::eval::replay::{print_replay, replay_recording};
-use crate::eval::summary::print_json;
+use run_eval::summary::print_json;
 
 #[derive(Debug, Args)]
 pub struct ReplayArgs {

@@ -9,11 +9,11 @@ use proto::Modality;
 
 use crate::case::Case;
 use crate::compose::build::EventRecording;
-use crate::eval::summary::print_summary;
 use crate::fault::{BlackSpec, ExtraFaults, KillSpec, ThrottleSpec};
 use crate::launch::{RunOptions, run_case, run_modality};
 use crate::run_dir::RunSummary;
 use node_args::SensorArgs;
+use run_eval::summary::print_summary;
 
 /// What defines a session: the case, its modality, faults, bus and recording (shared by
 /// `waggle run` and `waggle compose`).
@@ -260,7 +260,7 @@ fn print_run_figures(s: &RunSummary) {
     for f in &s.faults_seen {
         println!("  fault seen on the bus: {f}");
     }
-    println!("{}", crate::eval::summary::rejects_line(&s.rejects));
+    println!("{}", run_eval::summary::rejects_line(&s.rejects));
     if !s.router_refusals.is_empty() {
         println!(
             "router refused: {}",

@@ -11,7 +11,6 @@
 
 pub mod build;
 pub mod place;
-pub mod sensor;
 pub mod site;
 
 use std::collections::BTreeSet;

@@ -236,7 +236,7 @@ fn a_sensor_model_rides_on_every_camera_and_round_trips_through_the_file() {
     let back: Compose = toml::from_str(&composed.to_toml().unwrap()).unwrap();
     assert_eq!(back, composed);
     assert_eq!(back.sensor().unwrap(), noisy());
-    let record = super::sensor::record(&back.sensor().unwrap())
+    let record = run_eval::sensor::record(&back.sensor().unwrap())
         .unwrap()
         .unwrap();
     assert_eq!(record.preset.as_deref(), Some("v2e-default"));
@@ -288,7 +288,10 @@ fn without_a_sensor_model_the_cameras_arguments_are_unchanged() {
         ]
     );
     assert!(c.sensor().unwrap().is_none());
-    assert_eq!(super::sensor::record(&c.sensor().unwrap()).unwrap(), None);
+    assert_eq!(
+        run_eval::sensor::record(&c.sensor().unwrap()).unwrap(),
+        None
+    );
 }
 
 #[test]

@@ -8,7 +8,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Parser;
 use event_camera::{CameraConfig, EventCamera, EventSensorModel};
 use node_args::SensorArgs;
@@ -207,7 +207,7 @@ impl ros2_bag::Substitute for ExportedEvents {
         msg: Decoded,
         log_time_ns: u64,
     ) -> Result<Vec<ros2_bag::Substituted>, String> {
-        let key = crate::eval::recording::topic_key(topic);
+        let key = run_eval::recording::topic_key(topic);
         match (key, msg) {
             (Some(proto::Key::CameraInput(o)), Decoded::RgbUpdate(u)) => {
                 let released = self.0.input(&o, u).map_err(|e| format!("{e:#}"))?;
@@ -235,26 +235,11 @@ impl ros2_bag::Substitute for ExportedEvents {
     }
 }
 
-/// The recorder's account of the packets it did not keep, from its metadata.
-pub fn received(
-    metadata: &BTreeMap<String, BTreeMap<String, String>>,
-) -> Result<Option<BTreeMap<String, UnrecordedPackets>>> {
-    let Some(text) = metadata
-        .get(recording::RECORDER_METADATA)
-        .and_then(|m| m.get(recording::EVENTS_NOT_RECORDED))
-    else {
-        return Ok(None);
-    };
-    match serde_json::from_str(text) {
-        Ok(m) => Ok(Some(m)),
-        Err(e) => bail!("the recorder's account of the event packets is malformed: {e}"),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use proto::{PixelRect, RgbFrame};
+    use run_eval::recording::received;
 
     fn info(sensor_args: &[&str]) -> SessionInfo {
         SessionInfo {

@@ -31,9 +31,10 @@ use proto::{
 use recording::Decoded;
 use serde::Serialize;
 
-use crate::eval::recording::{Item, resolve, scan, topic_key, topic_observer};
-use crate::eval::regenerate::{Regenerated, Regenerator, received};
-use crate::eval::summary::ns_s;
+use crate::eval::regenerate::{Regenerated, Regenerator};
+use run_eval::recording::received;
+use run_eval::recording::{Item, resolve, scan, topic_key, topic_observer};
+use run_eval::summary::ns_s;
 
 /// One observer's replay against its live decodes.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]

@@ -13,9 +13,9 @@ use proto::{
     SessionTick, SimContacts, SimState, TokenEvent,
 };
 
-use crate::eval::summary::ns_s;
 use crate::run_dir::ObserverRecord;
 use crate::run_dir::session::SessionRecorder;
+use run_eval::summary::ns_s;
 
 /// The keys the launcher subscribes to for `observers`.
 pub fn subscriptions(observers: &[ObserverId]) -> Vec<Key> {

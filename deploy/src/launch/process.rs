@@ -5,13 +5,12 @@
 use std::fs::File;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use bus::{NodeArgs, SessionSecrets};
-use nix::sys::signal::{Signal, kill};
-use nix::unistd::Pid;
+use nix::sys::signal::Signal;
 
 /// How long a graceful child (the recorder closing its file) gets after SIGTERM.
 const GRACE: Duration = Duration::from_secs(15);
@@ -42,24 +41,7 @@ fn cpu_seconds(pid: u32) -> Option<f64> {
     Some((stat.utime + stat.stime) as f64 / procfs::ticks_per_second() as f64)
 }
 
-/// `exit N` or `signal N`.
-pub fn exit_label(status: ExitStatus) -> String {
-    match status.code() {
-        Some(c) => format!("exit {c}"),
-        None => {
-            use std::os::unix::process::ExitStatusExt;
-            format!("signal {}", status.signal().unwrap_or(0))
-        }
-    }
-}
-
-/// Sends `signal` to a child we spawned; false if it could not be sent.
-pub fn signal(child: &Child, signal: Signal) -> bool {
-    let Ok(pid) = i32::try_from(child.id()) else {
-        return false;
-    };
-    kill(Pid::from_raw(pid), signal).is_ok()
-}
+pub use run_eval::child::{exit_label, signal};
 
 /// Sends SIGTERM and waits up to `timeout` for the child to exit; true if it did.
 pub fn terminate(child: &mut Child, timeout: Duration) -> bool {

@@ -11,12 +11,12 @@ use super::gather::{Gathered, SeenFault};
 use super::process::Proc;
 use super::supervise::Supervised;
 use crate::case::Case;
-use crate::eval::summary::{check_expected, ns_s, provenance_violations};
 use crate::fault::Injected;
 use crate::run_dir::session::SessionRecord;
 use crate::run_dir::{
     CameraRenders, MissionSummary, ObserverRecord, ObserverSummary, ProcessFigures, RunSummary,
 };
+use run_eval::summary::{check_expected, ns_s, provenance_violations};
 
 /// What a run writes into its directory.
 pub struct RunOutputs {
@@ -66,7 +66,7 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
         deaf_observers: Vec::new(),
         flights: proto::FlightMode::default(),
     };
-    crate::eval::summary::annotate_case(&mut mission, case);
+    run_eval::summary::annotate_case(&mut mission, case);
     mission.reasons = check_expected(case, &mission);
     if report.is_none() {
         mission

@@ -16,8 +16,8 @@ use proto::{Keys, ObserverId, Role};
 use super::gather::Gathered;
 use super::process::Proc;
 use crate::case::Case;
-use crate::eval::summary::ns_s;
 use crate::fault::Injected;
+use run_eval::summary::ns_s;
 
 /// How long every process gets to start and join the handshake.
 const STARTUP_TIMEOUT: Duration = Duration::from_secs(180);

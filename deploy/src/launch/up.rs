@@ -135,7 +135,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
     let injected = compose.injected(&case)?;
     let sensor = compose.sensor()?;
     sensor.check(compose.modality)?;
-    let sensor = crate::compose::sensor::record(&sensor)?;
+    let sensor = run_eval::sensor::record(&sensor)?;
     if let Some(port) = opts.live {
         check_live(&compose, &share, port)?;
     }

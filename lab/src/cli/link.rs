@@ -80,7 +80,7 @@ fn sensor(args: &LinkArgs) -> Result<Option<(Perturbation, SensorRecord)>> {
         perturb: args.perturb.perturb.clone(),
         seed: args.seed,
     };
-    let Some(record) = deploy::compose::sensor::record(&spec)? else {
+    let Some(record) = run_eval::sensor::record(&spec)? else {
         return Ok(None);
     };
     if args.modality != Receiver::Events {

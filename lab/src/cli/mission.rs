@@ -7,8 +7,8 @@ use clap::Args;
 
 use crate::harness::mission::{MissionOptions, MissionRun, fly_case_with};
 use crate::harness::mission_metrics::{MissionMetrics, Policy};
-use deploy::eval::summary::print_summary;
 use proto::Receiver;
+use run_eval::summary::print_summary;
 use run_format::case::Case;
 use run_format::run_dir::{OBSERVERS_FILE, SUMMARY_FILE};
 

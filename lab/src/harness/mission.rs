@@ -32,8 +32,8 @@ use sim::world::World;
 use crate::harness::air::{Tracking, set_air};
 use crate::harness::mission_metrics::{MissionMetrics, Policy, measure};
 use crate::harness::mission_observer::MissionObserver;
-use deploy::eval::summary::{check_expected, ns_s, provenance_violations};
 use proto::Receiver;
+use run_eval::summary::{check_expected, ns_s, provenance_violations};
 use run_format::case::Case;
 use run_format::run_dir::{MissionSummary, ObserverRecord, ObserverSummary};
 
@@ -363,7 +363,7 @@ impl Mission {
             deaf_observers: Vec::new(),
             flights: proto::FlightMode::default(),
         };
-        deploy::eval::summary::annotate_case(&mut summary, case);
+        run_eval::summary::annotate_case(&mut summary, case);
         summary.reasons = check_expected(case, &summary);
         summary.pass = summary.reasons.is_empty();
         summary

@@ -481,7 +481,7 @@ fn run_section(md: &mut String, e: &RunEntry, figs: &Figures) {
             md,
             "- mission time {:.2} s ({}), wall {:.0} s; complete messages {}; work units {} {:?}",
             a.mission_time_s,
-            deploy::eval::summary::end_reason_text(a.end_reason),
+            run_eval::summary::end_reason_text(a.end_reason),
             files.summary.mission.wall_seconds,
             messages_vector(a),
             a.work_units,

@@ -7,8 +7,8 @@ use std::path::Path;
 
 use proto::{Offer, Site};
 
-use deploy::eval::audit::audit_recording;
-use deploy::eval::summary::ns_s;
+use run_eval::audit::audit_recording;
+use run_eval::summary::ns_s;
 use run_format::case::Case;
 use run_format::run_dir::audit::{AuditReport, AuditTiming};
 use run_format::run_dir::session::SessionRecord;

@@ -22,7 +22,7 @@ use sim::sensor::EVENT_RENDER_PERIOD_NS;
 use sim::world::World;
 
 use crate::harness::performer_flight::step_along;
-use deploy::eval::summary::ns_s;
+use run_eval::summary::ns_s;
 
 /// The scheduler's first broadcast starts here (tick 125 of every case with a broadcast).
 pub const BROADCAST_START_NS: u64 = 5_000_000_000;

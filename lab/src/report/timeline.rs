@@ -8,7 +8,7 @@ use plotters::style::text_anchor::HPos;
 use proto::{Action, PerformerActivity, SessionEvent, Token};
 
 use super::plot::{Chart, bar, hex, line, text_style};
-use deploy::eval::summary::{decision_label, ns_s};
+use run_eval::summary::{decision_label, ns_s};
 use run_format::run_dir::session::SessionRecord;
 use run_format::run_dir::{ObserverRecord, RunFiles};
 
@@ -93,7 +93,7 @@ pub fn timeline_svg(f: &RunFiles) -> Result<String> {
         let title = format!(
             "{} ({}) — session timeline, sim time 0–{:.2} s",
             m.case,
-            deploy::eval::summary::receiver_text(m.modality),
+            run_eval::summary::receiver_text(m.modality),
             m.mission_time_s
         );
         let mut chart = ChartBuilder::on(&top)

@@ -15,7 +15,7 @@ use proto::{Action, Token, TokenEvent, TrackSample};
 
 use super::plot::{hex, text_style};
 use super::timeline::action_colour;
-use deploy::eval::summary::ns_s;
+use run_eval::summary::ns_s;
 use run_format::run_dir::ObserverRecord;
 
 /// One decoded symbol with the track behind it.

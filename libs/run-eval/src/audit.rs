@@ -22,13 +22,11 @@ use proto::{
 use proto::{GestureConfig, broadcast};
 use recording::Decoded;
 
-use crate::case::Case;
-use crate::eval::recording::{Item, Scan, scan, topic_key, topic_observer};
-use crate::eval::summary::{
-    check_expected, end_reason_text, ns_s, provenance_violations, receiver_text,
-};
-use crate::run_dir::audit::{AuditReport, AuditTiming};
-use crate::run_dir::{MissionSummary, ObserverSummary};
+use crate::recording::{Item, Scan, scan, topic_key, topic_observer};
+use crate::summary::{check_expected, end_reason_text, ns_s, provenance_violations, receiver_text};
+use run_format::case::Case;
+use run_format::run_dir::audit::{AuditReport, AuditTiming};
+use run_format::run_dir::{MissionSummary, ObserverSummary};
 
 #[derive(Default)]
 struct Gathered {
@@ -201,7 +199,7 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
     // A recording of the event cameras' input counts their packets from the recorder's account
     // of what it received.
     if info.events_from_input
-        && let Some(received) = crate::eval::regenerate::received(&scanned.outcome.metadata)?
+        && let Some(received) = crate::recording::received(&scanned.outcome.metadata)?
     {
         for (o, r) in received {
             g.packets.insert(o.clone(), r.packets);
@@ -242,7 +240,7 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
         deaf_observers: Vec::new(),
         flights: proto::FlightMode::default(),
     };
-    crate::eval::summary::annotate(&mut mission, n);
+    crate::summary::annotate(&mut mission, n);
     if let Some(c) = &case {
         mission.flights = c.flights;
     }
@@ -378,7 +376,7 @@ pub fn print_audit(r: &AuditReport) {
             r.packets_per_observer.get(o).copied().unwrap_or(0)
         );
     }
-    if let Some(w) = crate::eval::summary::deaf_warning(&r.deaf_observers, &r.viewpoints) {
+    if let Some(w) = crate::summary::deaf_warning(&r.deaf_observers, &r.viewpoints) {
         println!("  ⚠ {w}");
     }
     let t = &r.timing;
@@ -400,7 +398,7 @@ pub fn print_audit(r: &AuditReport) {
     );
     println!(
         "{} · undecodable in the recording: {}",
-        crate::eval::summary::rejects_line(&r.rejects),
+        crate::summary::rejects_line(&r.rejects),
         r.undecodable_messages
     );
     for reason in &r.reasons {

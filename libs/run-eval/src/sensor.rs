@@ -8,7 +8,7 @@
 use anyhow::Result;
 use node_args::SensorArgs;
 
-use crate::run_dir::SensorRecord;
+use run_format::run_dir::SensorRecord;
 
 /// What the run directory records of a sensor model (`None`: ideal sensors, nothing recorded).
 pub fn record(sensor: &SensorArgs) -> Result<Option<SensorRecord>> {

@@ -7,11 +7,11 @@ use std::collections::BTreeMap;
 use proto::{Decision, ObserverId};
 use serde::Serialize;
 
-use crate::case::Case;
-use crate::run_dir::{MissionSummary, ObserverSummary, ObserverViewpoint};
+use run_format::case::Case;
+use run_format::run_dir::{MissionSummary, ObserverSummary, ObserverViewpoint};
 // `ns_s` and `decision_label` format `ObserverSummary::from_record`'s fields, so they live
 // with it in `run-format`; re-exported here for the readers that print them.
-pub use crate::run_dir::{decision_label, ns_s};
+pub use run_format::run_dir::{decision_label, ns_s};
 
 /// How a summary prints its receiver.
 pub fn receiver_text(r: Option<proto::Receiver>) -> &'static str {

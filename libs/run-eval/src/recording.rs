@@ -1,17 +1,18 @@
 //! Session recordings (`DIR/session.mcap`, written by `recorder-node`): reading a recording's
 //! raw Waggle messages back for `waggle replay` and `waggle audit`.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use proto::{Key, ObserverId};
 use recording::{
-    Decoded, MessageKind, RAW_ENCODING, ReadOutcome, SESSION_METADATA, SessionInfo, decode,
-    read_recording,
+    Decoded, MessageKind, RAW_ENCODING, ReadOutcome, SESSION_METADATA, SessionInfo,
+    UnrecordedPackets, decode, read_recording,
 };
 
-use crate::case::Case;
-use crate::run_dir::RECORDING_FILE;
+use run_format::case::Case;
+use run_format::run_dir::RECORDING_FILE;
 
 /// A recording path: a `.mcap` file, or a run directory holding `session.mcap`.
 pub fn resolve(path: &Path) -> PathBuf {
@@ -96,4 +97,20 @@ pub fn scan(path: &Path, mut visit: impl FnMut(Item<'_>) -> Result<()>) -> Resul
         info,
         undecodable,
     })
+}
+
+/// The recorder's account of the packets it did not keep, from its metadata.
+pub fn received(
+    metadata: &BTreeMap<String, BTreeMap<String, String>>,
+) -> Result<Option<BTreeMap<String, UnrecordedPackets>>> {
+    let Some(text) = metadata
+        .get(recording::RECORDER_METADATA)
+        .and_then(|m| m.get(recording::EVENTS_NOT_RECORDED))
+    else {
+        return Ok(None);
+    };
+    match serde_json::from_str(text) {
+        Ok(m) => Ok(Some(m)),
+        Err(e) => anyhow::bail!("the recorder's account of the event packets is malformed: {e}"),
+    }
 }
