@@ -8,8 +8,9 @@ RUN_DIR is a `waggle run ... --modality events --record-events input` directory:
 session.mcap holds the sensor's input, `/camera/O1/input` (RGB updates: a key frame, then the
 changed rectangles). BAG_DIR is `waggle export ros2 RUN_DIR --out BAG_DIR`, whose `/O1/events`
 holds the packets regenerated from that input (CDR `event_camera_msgs/msg/EventPacket`, EVT 3.0
-payloads). Both are decoded here, by hand, so the picture depends on nothing but the recording.
-Run by make-picture.sh, which fixes the case, seed and window.
+payloads). Both are decoded here with the mcap reader and struct (Waggle's bincode messages,
+CDR, EVT 3.0 words), no Waggle code. Run by make-picture.sh, which fixes the case, seed and
+window.
 """
 
 import argparse
@@ -226,7 +227,7 @@ def compose(render, events, end_ns, window_ms, out):
     t_s = end_ns / 1e9
     captions = [
         f"{OBSERVER}'s camera during a broadcast: its RGB render at {t_s:.2f} s",
-        f"its events over {t_s - window_ms / 1000:.2f}\u2013{t_s:.2f} s: "
+        f"its events in the {window_ms} ms to {t_s:.2f} s: "
         f"{on} ON (blue), {len(events) - on} OFF (red)",
     ]
     for k, text in enumerate(captions):

@@ -9,13 +9,13 @@
 //! still writes the report. The exit code is non-zero when any run misses its case's expected
 //! outcome, fails to finish, or the sweep was interrupted.
 
+use commands::sweep::SweepModality;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
-use clap::ValueEnum;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use nix::sys::signal::Signal;
 
@@ -24,14 +24,6 @@ use proto::Receiver;
 use run_eval::child::{exit_label, signal};
 use run_format::case::{Case, PAPER_CASES};
 use run_format::run_dir::{PlannedRun, SWEEP_FILE, SweepManifest};
-
-/// Which sensor modalities a sweep runs (a command-line selection).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum SweepModality {
-    Rgb,
-    Events,
-    Both,
-}
 
 /// The options of `waggle sweep`.
 #[derive(Debug, Clone)]

@@ -31,25 +31,19 @@ fn help(args: &[&str]) -> String {
     String::from_utf8(out.stdout).expect("help is UTF-8")
 }
 
-/// The subcommands a help text lists under `Commands:` (clap's layout), `help` left out.
-fn subcommands(help: &str) -> Vec<String> {
-    let mut names = Vec::new();
-    let mut in_commands = false;
-    for line in help.lines() {
-        if line.ends_with(':') && !line.starts_with(' ') {
-            in_commands = line == "Commands:";
-            continue;
-        }
-        if in_commands
-            && let Some(rest) = line.strip_prefix("  ")
-            && !rest.starts_with(' ')
-            && let Some(name) = rest.split_whitespace().next()
-            && name != "help"
-        {
-            names.push(name.to_string());
-        }
+/// The subcommands of the command at `path` (the one definition both binaries parse with), in
+/// the order the definition declares them, `help` left out.
+fn subcommands(path: &[String]) -> Vec<String> {
+    let mut command = commands::command();
+    command.build();
+    let mut at = &command;
+    for name in path {
+        at = at.find_subcommand(name).expect("a listed subcommand");
     }
-    names
+    at.get_subcommands()
+        .map(|c| c.get_name().to_owned())
+        .filter(|n| n != "help")
+        .collect()
 }
 
 fn cli_page() -> String {
@@ -73,7 +67,7 @@ fn cli_page() -> String {
             text.trim_end()
         ));
         // Depth first, in the order the help lists them: the stack takes them reversed.
-        for name in subcommands(&text).into_iter().rev() {
+        for name in subcommands(&path).into_iter().rev() {
             let mut child = path.clone();
             child.push(name);
             stack.push(child);

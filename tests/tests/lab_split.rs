@@ -1,10 +1,11 @@
 //! `waggle` is the one command, but the lab commands (the ones that fly the simulator) run in
-//! `waggle-lab`, so the operations start without MuJoCo (issue 29):
+//! `waggle-lab`, so the operations start without MuJoCo:
 //!
 //! - the built `waggle` loads no `libmujoco` (`ldd`), while `waggle-lab` does;
-//! - `waggle --help` lists every lab command with the one-line description `waggle-lab` gives
-//!   it, and `waggle LABCMD --help` is `waggle-lab`'s help, byte for byte;
-//! - a lab command's exit code and errors pass through;
+//! - both binaries parse with the one definition in `commands`: `waggle --help`, every
+//!   `waggle CMD --help` and `waggle help CMD` are `waggle-lab`'s, byte for byte;
+//! - a usage error is the parser's (exit 2); a lab command's own errors and exit code pass
+//!   through; `waggle-lab` refuses a launcher command, naming `waggle`;
 //! - without `waggle-lab` beside it, a lab command fails naming the missing file, and the
 //!   operations still run.
 //!
@@ -13,7 +14,6 @@
 use std::path::Path;
 use std::process::Command;
 
-use deploy::cli::lab::LAB_COMMANDS;
 use waggle_tests::{bin, succeed, waggle};
 
 fn ldd(path: &Path) -> Option<String> {
@@ -39,71 +39,75 @@ fn waggle_does_not_link_mujoco_and_waggle_lab_does() {
     );
 }
 
-/// The description `help` gives `command` in a `--help` command list.
-fn listed<'a>(help: &'a str, command: &str) -> Option<&'a str> {
-    help.lines().find_map(|l| {
-        let rest = l.trim_start().strip_prefix(command)?;
-        rest.starts_with(' ').then(|| rest.trim())
-    })
+/// Every command's name, from the one definition both binaries parse with.
+fn command_names() -> Vec<String> {
+    commands::command()
+        .get_subcommands()
+        .map(|c| c.get_name().to_owned())
+        .filter(|n| n != "help")
+        .collect()
 }
 
 #[test]
-fn waggle_lists_and_forwards_every_lab_command() {
+fn both_binaries_parse_with_one_definition() {
     let text = |out: std::process::Output| String::from_utf8(out.stdout).expect("UTF-8 help");
     let waggle_help = text(succeed(waggle().arg("--help"), "waggle --help"));
     let lab_help = text(succeed(
         Command::new(bin("waggle-lab")).arg("--help"),
         "waggle-lab --help",
     ));
-    for command in LAB_COMMANDS {
-        let ours = listed(&waggle_help, command)
-            .unwrap_or_else(|| panic!("waggle --help does not list {command}:\n{waggle_help}"));
-        assert_eq!(
-            Some(ours),
-            listed(&lab_help, command),
-            "waggle --help and waggle-lab --help describe {command} differently"
+    assert_eq!(waggle_help, lab_help, "waggle --help and waggle-lab --help differ");
+    let names = command_names();
+    assert!(names.len() >= 20, "{names:?}");
+    for command in &names {
+        assert!(
+            waggle_help.contains(&format!("\n  {command} ")),
+            "waggle --help does not list {command}:\n{waggle_help}"
         );
-        let forwarded = text(succeed(
+        let ours = text(succeed(
             waggle().args([command, "--help"]),
             &format!("waggle {command} --help"),
         ));
-        let direct = text(succeed(
+        let lab = text(succeed(
             Command::new(bin("waggle-lab")).args([command, "--help"]),
             &format!("waggle-lab {command} --help"),
         ));
-        assert_eq!(forwarded, direct, "waggle {command} --help");
-        assert!(
-            forwarded.contains(&format!("Usage: waggle {command}")),
-            "{forwarded}"
-        );
+        assert_eq!(ours, lab, "waggle {command} --help");
+        assert!(ours.contains(&format!("Usage: waggle {command}")), "{ours}");
         let via_help = text(succeed(
             waggle().args(["help", command]),
             &format!("waggle help {command}"),
         ));
-        assert_eq!(via_help, direct, "waggle help {command}");
+        assert_eq!(via_help, ours, "waggle help {command}");
     }
-    // waggle-lab serves nothing else.
-    for line in lab_help
-        .lines()
-        .skip_while(|l| !l.starts_with("Commands:"))
-        .skip(1)
-    {
-        let Some(name) = line.split_whitespace().next() else {
-            break;
-        };
-        assert!(
-            name == "help" || LAB_COMMANDS.contains(&name),
-            "waggle-lab serves {name}, which waggle does not forward"
-        );
+    // A usage error is the parser's, exit 2, whichever binary would run the command.
+    for command in ["mission", "run"] {
+        let bad = waggle()
+            .args([command, "--no-such-option"])
+            .output()
+            .expect("run waggle");
+        assert_eq!(bad.status.code(), Some(2), "clap's usage error exits 2");
+        let stderr = String::from_utf8_lossy(&bad.stderr);
+        assert!(stderr.contains("--no-such-option"), "{stderr}");
     }
-    // A lab command's usage error and exit code come back unchanged.
-    let bad = waggle()
-        .args(["mission", "--no-such-option"])
+    // A lab command's own error and exit code come back unchanged.
+    let missing = std::env::temp_dir().join("waggle-no-such-recording.raw");
+    let out = waggle()
+        .args(["decode", "--observer", "O1", "--events"])
+        .arg(&missing)
         .output()
-        .expect("run waggle mission");
-    assert_eq!(bad.status.code(), Some(2), "clap's usage error exits 2");
-    let stderr = String::from_utf8_lossy(&bad.stderr);
-    assert!(stderr.contains("--no-such-option"), "{stderr}");
+        .expect("run waggle decode");
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("waggle-no-such-recording.raw"), "{stderr}");
+    // waggle-lab refuses a launcher command, naming the binary that runs it.
+    let out = Command::new(bin("waggle-lab"))
+        .args(["payload", "decode", "011010"])
+        .output()
+        .expect("run waggle-lab payload");
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("runs in the waggle binary"), "{stderr}");
 }
 
 #[test]
@@ -124,8 +128,13 @@ fn without_waggle_lab_the_operations_still_run_and_lab_commands_name_it() {
         Command::new(&alone).args(["up", "--help"]),
         "waggle up --help without waggle-lab",
     );
+    succeed(
+        Command::new(&alone).args(["trials", "--help"]),
+        "waggle trials --help without waggle-lab (one parser, in waggle)",
+    );
     let lab = Command::new(&alone)
-        .args(["trials", "--help"])
+        .args(["trials", "--link", "011010", "--modality", "events", "--out"])
+        .arg(dir.join("out"))
         .output()
         .expect("run waggle trials");
     let _ = std::fs::remove_dir_all(&dir);

@@ -6,20 +6,10 @@
 use std::collections::BTreeMap;
 
 use anyhow::{bail, ensure};
-use clap::Args;
+use commands::allocate::AllocateArgs;
 use proto::allocation::offers_by_site;
 use proto::scene::MAX_OBSERVERS;
 use proto::{Offer, Roster, Site, allocate};
-
-#[derive(Args)]
-pub struct AllocateArgs {
-    /// Number of observers (homes from the default scene).
-    #[arg(long)]
-    observers: usize,
-    /// Offers as six-bit payloads, comma separated, one each for A and B (e.g. `011010,100111`).
-    #[arg(long, value_delimiter = ',', required = true)]
-    offers: Vec<Offer>,
-}
 
 /// The allocation as a JSON object `{"O1": "A", …}` with `null` for unassigned observers.
 pub fn allocation_json(n_observers: usize, offers: &[Offer]) -> anyhow::Result<String> {

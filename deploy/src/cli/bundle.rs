@@ -2,25 +2,10 @@
 //! the compose file and that host's own credentials (the router's host also gets the router's
 //! dictionary), so no host holds another host's passwords.
 
-use std::path::PathBuf;
-
 use anyhow::{Context, Result, bail};
-use clap::Args;
 
 use crate::compose::Compose;
-
-#[derive(Debug, Args)]
-pub struct BundleArgs {
-    /// The compose file (`waggle compose … --out FILE`), beside its secrets directory.
-    file: PathBuf,
-    /// The host the bundle is for: one the file places nodes or the router on.
-    #[arg(long)]
-    host: String,
-    /// A new directory to write: the compose file under its own name, and beside it the
-    /// credentials of that host's processes only.
-    #[arg(long)]
-    out: PathBuf,
-}
+use commands::bundle::BundleArgs;
 
 pub fn run(args: BundleArgs) -> Result<()> {
     let compose = Compose::load(&args.file)?;

@@ -5,48 +5,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
 
 use crate::compose::Compose;
 use crate::compose::build::compose;
-use crate::compose::place::HostPlacement;
-use crate::compose::site::{HostIs, sites};
-
-#[derive(Debug, Args)]
-pub struct ComposeArgs {
-    #[command(flatten)]
-    session: super::run::SessionArgs,
-    /// Place nodes on a host: `ROLE=HOST`, ROLE a process name (`sim`, `scheduler`,
-    /// `performer`, `recorder`, `camera-O1`, `observer-O1`, `router`) or a glob of them
-    /// (`camera-*`, `*-O2`); applied in order, later ones win. Unplaced nodes run on `local`.
-    #[arg(long = "place", value_name = "ROLE=HOST")]
-    place: Vec<HostPlacement>,
-    /// Endpoint the router listens on and other hosts dial, e.g. `quic/192.168.1.10:7447`
-    /// (mutual TLS; plain `tcp/` beyond loopback needs `--plain-tcp`; default
-    /// `tcp/127.0.0.1:0`, one host); repeatable.
-    #[arg(long = "router", value_name = "ENDPOINT")]
-    router: Vec<String>,
-    /// A site's own router on HOST, listening on ENDPOINT (repeat for more endpoints): the
-    /// nodes of HOST and of the hosts it serves (`--site-serves`) dial it, and it dials the
-    /// session's router — a chain of two routers, one link between the sites.
-    #[arg(long = "site", value_name = "HOST=ENDPOINT")]
-    site: Vec<HostIs>,
-    /// HOST's nodes dial the site router on SITE (named by `--site SITE=…`).
-    #[arg(long = "site-serves", value_name = "HOST=SITE")]
-    site_serves: Vec<HostIs>,
-    /// An existing certificate authority (an institution's) to issue the session's
-    /// certificates instead of a new CA of the session's own: its certificate (PEM). Needs
-    /// `--ca-key`. Certificates then expire with the session or the CA, whichever is first.
-    #[arg(long, value_name = "FILE", requires = "ca_key")]
-    ca_cert: Option<PathBuf>,
-    /// That CA's private key (PEM, readable by its owner only): read to sign, never copied.
-    #[arg(long, value_name = "FILE", requires = "ca_cert")]
-    ca_key: Option<PathBuf>,
-    /// The compose file to write. Its credentials go to FILE's name with `.secrets` (a private
-    /// directory; `waggle bundle FILE --host NAME` extracts what one host needs).
-    #[arg(long)]
-    out: PathBuf,
-}
+use crate::compose::site::sites;
+use commands::compose::ComposeArgs;
 
 /// The credentials directory of compose file `file`: `session.toml` → `session.secrets`.
 pub fn secrets_dir_of(file: &Path) -> PathBuf {
@@ -54,7 +17,7 @@ pub fn secrets_dir_of(file: &Path) -> PathBuf {
 }
 
 pub fn run(args: ComposeArgs) -> Result<()> {
-    let (case, modality, opts) = args.session.options()?;
+    let (case, modality, opts) = super::run::session_options(args.session)?;
     let mut options = opts.compose_options(&case, modality)?;
     options.placements = args.place;
     options.router_listen = args.router;

@@ -2,41 +2,13 @@
 //! Jazzy, MCAP storage), through [`ros2_bag::export_run`].
 
 use std::io::Write;
-use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use clap::{Args, Subcommand};
 use ros2_bag::{ExportOptions, ImageFormat, export_run_with};
 
 use crate::eval::regenerate::{ExportedEvents, Regenerator};
-
-#[derive(Debug, Args)]
-pub struct ExportArgs {
-    #[command(subcommand)]
-    format: ExportFormat,
-}
-
-#[derive(Debug, Subcommand)]
-enum ExportFormat {
-    /// A ROS 2 bag as rosbag2 of ROS 2 Jazzy writes it (MCAP storage, CDR messages,
-    /// metadata.yaml): images, event packets (EVT 3.0), camera info, /tf and Waggle's own
-    /// messages (waggle_msgs: tokens, frames, decisions, faults).
-    Ros2(Ros2Args),
-}
-
-#[derive(Debug, Args)]
-struct Ros2Args {
-    /// A run directory written by `waggle run` (its session.mcap), or a recording file.
-    run: PathBuf,
-    /// The bag directory to create (it must not exist, or be empty).
-    #[arg(long, value_name = "BAG_DIR")]
-    out: PathBuf,
-    /// RGB frames as raw `sensor_msgs/msg/Image` (rgb8) instead of lossless PNG
-    /// `sensor_msgs/msg/CompressedImage`.
-    #[arg(long)]
-    raw_images: bool,
-}
+use commands::export::{ExportArgs, ExportFormat};
 
 pub fn run(args: ExportArgs) -> Result<()> {
     let ExportFormat::Ros2(args) = args.format;

@@ -1,36 +1,9 @@
 //! `waggle payload`: decode and encode six-bit task offers from the command line.
 
 use anyhow::Context;
-use clap::{Args, Subcommand};
+use commands::payload::{PayloadArgs, PayloadCommand};
 use proto::{Offer, Site};
 use serde::Serialize;
-
-#[derive(Args)]
-pub struct PayloadArgs {
-    #[command(subcommand)]
-    command: PayloadCommand,
-}
-
-#[derive(Subcommand)]
-enum PayloadCommand {
-    /// Decode a payload such as `011010` into an offer (JSON on stdout).
-    Decode {
-        /// Six binary digits `ss qq cc`, b1 first.
-        bits: String,
-    },
-    /// Encode an offer into its six binary digits.
-    Encode {
-        /// Site `A` or `B` (or its id, 1 or 2).
-        #[arg(long)]
-        site: Site,
-        /// Quality, 0–3 (0 withdraws the offer).
-        #[arg(long)]
-        quality: u8,
-        /// Capacity, 0–3 (0 withdraws the offer).
-        #[arg(long)]
-        capacity: u8,
-    },
-}
 
 /// The JSON shape of a decoded offer.
 #[derive(Serialize)]

@@ -1,30 +1,11 @@
 //! `waggle router`: the session's Zenoh router on its own (a host that runs no node, or a
 //! router started before the hosts) — [`crate::launch::router`].
 
-use std::path::PathBuf;
-
 use anyhow::{Result, bail};
-use clap::Args;
 
 use crate::compose::Compose;
 use crate::launch::router;
-
-#[derive(Debug, Args)]
-pub struct RouterArgs {
-    /// The session's compose file: its users, access list and endpoints. Without it, only an
-    /// open loopback router (`--no-auth --session S`) can be served.
-    #[arg(long)]
-    compose: Option<PathBuf>,
-    /// Endpoint to listen on, replacing the compose file's; repeatable.
-    #[arg(long = "listen", value_name = "ENDPOINT")]
-    listen: Vec<String>,
-    /// Session id of an open router (without --compose).
-    #[arg(long)]
-    session: Option<String>,
-    /// Open router: no authentication, no access control (loopback only).
-    #[arg(long)]
-    no_auth: bool,
-}
+use commands::router::RouterArgs;
 
 pub fn run(args: RouterArgs) -> Result<()> {
     crate::launch::own_log::to_stderr();

@@ -1,26 +1,11 @@
 //! `waggle up FILE [--host NAME]`: starts and supervises the nodes a compose file places on
 //! this host (every node without `--host`) — [`crate::launch::up`].
 
-use std::path::PathBuf;
-
 use anyhow::{Context, Result, bail};
-use clap::Args;
 
 use crate::compose::Compose;
 use crate::launch::up::{UpDone, UpOptions, up};
-
-#[derive(Debug, Args)]
-pub struct UpArgs {
-    /// The compose file (`waggle compose … --out FILE`).
-    file: PathBuf,
-    /// Start only the nodes placed on this host (default: every node, on this machine). The
-    /// simulator's host supervises the session and writes the summary; the router's host runs
-    /// the router.
-    #[arg(long)]
-    host: Option<String>,
-    #[command(flatten)]
-    launch: super::run::LaunchArgs,
-}
+use commands::up::UpArgs;
 
 /// The session's secrets this invocation needs, from the directory the file names.
 pub fn open_secrets(
@@ -52,7 +37,7 @@ pub fn run(args: UpArgs) -> Result<()> {
     let compose = Compose::load(&args.file)?;
     let secrets = open_secrets(&compose, &args.file, args.host.as_deref())?;
     let json = args.launch.json;
-    let ros2 = args.launch.ros2();
+    let ros2 = super::run::ros2_view(&args.launch);
     let opts = UpOptions {
         host: args.host,
         out: args.launch.out,

@@ -11,41 +11,13 @@ use super::place::{HostPlacement, place};
 use super::{COMPOSE_VERSION, Compose, Node, Router};
 use crate::case::Case;
 use crate::fault::{ExtraFaults, Injected, injected_faults};
+pub use commands::run::EventRecording;
 
 /// The host every node runs on unless placed elsewhere.
 pub const DEFAULT_HOST: &str = "local";
 
 /// The router's listener when none is given: loopback, a free port chosen by `waggle up`.
 pub const LOOPBACK_ROUTER: &str = "tcp/127.0.0.1:0";
-
-/// What a recording keeps of the event cameras (`--record-events`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
-pub enum EventRecording {
-    /// Their input when the sensors have a noise model (`--sensor-preset`/`--perturb`), their
-    /// packets otherwise.
-    #[default]
-    Auto,
-    /// Every packet, as published.
-    Packets,
-    /// What each sensor was fed (its renders, `camera/<o>/input`); `waggle replay` regenerates
-    /// the packets bit for bit with the recorded sensor model and seed. A noisy sensor's
-    /// packets hold ≈ 8 bytes per event, ≈ 10⁸ events per camera-minute under `v2e-noisy`;
-    /// its renders change only where something moves.
-    Input,
-}
-
-impl EventRecording {
-    /// True when a recording of a session with `modality` cameras and `sensor` keeps the
-    /// input.
-    pub fn keeps_input(self, modality: Modality, sensor: &SensorArgs) -> bool {
-        modality == Modality::Events
-            && match self {
-                EventRecording::Auto => !sensor.is_none(),
-                EventRecording::Packets => false,
-                EventRecording::Input => true,
-            }
-    }
-}
 
 /// What a session is made of (the options of `waggle compose` and `waggle run`).
 #[derive(Debug, Clone)]

@@ -127,49 +127,7 @@ impl Node {
     }
 }
 
-/// A host or role name: it becomes part of a user name and a key, so letters, digits, `-`, `_`.
-fn check_name(what: &str, name: &str) -> Result<()> {
-    if name.is_empty()
-        || name.len() > 64
-        || !name
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
-    {
-        bail!("{what} {name:?} must be 1–64 letters, digits, '-' or '_'");
-    }
-    Ok(())
-}
-
-/// A `LEFT=RIGHT` option (`--place ROLE=HOST`, `--site HOST=ENDPOINT`, …) that does not parse.
-/// clap names the option; this names the input and what is wrong with it.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{input:?}: {why}")]
-pub struct AssignmentError {
-    pub input: String,
-    pub why: String,
-}
-
-/// `s` as `LEFT=RIGHT`, both sides non-empty, and `RIGHT` (or `LEFT`, when `host_left`) a host
-/// name; `shape` is the form the error suggests (`ROLE=HOST (e.g. camera-*=b)`).
-fn host_assignment<'a>(
-    s: &'a str,
-    shape: &str,
-    host_left: bool,
-) -> Result<(&'a str, &'a str), AssignmentError> {
-    let err = |why: String| AssignmentError {
-        input: s.to_string(),
-        why,
-    };
-    let (left, right) = s
-        .split_once('=')
-        .ok_or_else(|| err(format!("not {shape}")))?;
-    if left.is_empty() || right.is_empty() {
-        return Err(err(format!("an empty side: want {shape}")));
-    }
-    let host = if host_left { left } else { right };
-    check_name("host", host).map_err(|e| err(e.to_string()))?;
-    Ok((left, right))
-}
+pub(crate) use commands::assign::check_name;
 
 /// `proto/address:port` with a port number; the address and port.
 fn endpoint_parts(endpoint: &str) -> Result<(String, u16)> {

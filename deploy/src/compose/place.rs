@@ -1,34 +1,14 @@
 //! `--place ROLE=HOST`: which host runs which node (`camera-*=b`, `observer-O?=c`,
 //! `router=a`), applied in order so a later placement overrides an earlier one.
 
-use std::str::FromStr;
-
 use anyhow::{Result, bail};
 
-use super::{AssignmentError, Compose, host_assignment};
+use super::Compose;
 
 /// The name that places the router.
 pub const ROUTER: &str = "router";
 
-/// One `PATTERN=HOST` placement.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct HostPlacement {
-    /// A process name, with `*` (any run of characters) and `?` (one character).
-    pub pattern: String,
-    pub host: String,
-}
-
-impl FromStr for HostPlacement {
-    type Err = AssignmentError;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let (pattern, host) = host_assignment(s, "ROLE=HOST (e.g. camera-*=b)", false)?;
-        Ok(Self {
-            pattern: pattern.to_string(),
-            host: host.to_string(),
-        })
-    }
-}
+pub use commands::assign::HostPlacement;
 
 /// `name` matches `pattern` (`*` any run of characters, `?` one character).
 pub fn glob_matches(pattern: &str, name: &str) -> bool {

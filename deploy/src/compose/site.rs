@@ -2,30 +2,11 @@
 //! routers a multi-site session needs (a site's hosts talk to their own router, one link
 //! crosses to the session's router).
 
-use std::str::FromStr;
-
 use anyhow::{Result, bail};
 
-use super::{AssignmentError, SiteRouter, host_assignment};
+use super::SiteRouter;
 
-/// `HOST=VALUE`, the host checked as a host name.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct HostIs {
-    pub host: String,
-    pub value: String,
-}
-
-impl FromStr for HostIs {
-    type Err = AssignmentError;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let (host, value) = host_assignment(s, "HOST=VALUE (e.g. b=quic/10.0.0.2:7447)", true)?;
-        Ok(Self {
-            host: host.to_string(),
-            value: value.to_string(),
-        })
-    }
-}
+pub use commands::assign::HostIs;
 
 /// The sites of `--site HOST=ENDPOINT` (a router on HOST listening there; repeat for more
 /// endpoints) and `--site-serves HOST=SITE` (HOST's nodes dial the router on SITE), in the

@@ -37,6 +37,7 @@ pub use crate::case::run_modality;
 use crate::case::{Case, case_source};
 use crate::compose;
 use crate::compose::build::{ComposeOptions, EventRecording};
+
 use crate::fault::ExtraFaults;
 use crate::run_dir::lock::RunLock;
 use crate::run_dir::{LOG_DIR, RunSummary};

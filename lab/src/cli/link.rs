@@ -10,68 +10,20 @@
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
 use event_camera::{CameraConfig, EventCamera};
 use perception::{Perception, SensorInput};
 use perturb::Perturbation;
 use perturb::seed::{Stream, stream_seed};
-use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, Placement, observer_name};
-use proto::{Modality, Receiver, Rectification};
+use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, observer_name};
+use proto::{Modality, Receiver};
 use sim::sensor::EVENT_RENDER_PERIOD_NS;
 
 use crate::harness::link::{LinkOptions, LinkOut, fly_link, observer_out, print_table};
-pub use crate::harness::link::{parse_bits6, parse_viewpoint};
 use crate::harness::rendered_flight::{FlightSpec, fly_rendered};
+pub use commands::common::{parse_bits6, parse_viewpoint};
+use commands::link::LinkArgs;
 use node_args::SensorArgs;
 use run_format::run_dir::SensorRecord;
-
-#[derive(Debug, Args)]
-pub struct LinkArgs {
-    /// Number of observers (1..=8).
-    #[arg(long, default_value_t = 3)]
-    observers: usize,
-    /// Observer sensor modality.
-    #[arg(long, value_enum, default_value_t = Receiver::Ideal)]
-    modality: Receiver,
-    /// Six-bit payload to broadcast, e.g. 011010; repeat for back-to-back offers. Without any,
-    /// the performer only hovers (a control: nothing may be decoded).
-    #[arg(long = "payload", value_parser = parse_bits6)]
-    payloads: Vec<u8>,
-    /// Events modality: skip the acquisition sweep before the first offer (a control).
-    #[arg(long)]
-    no_acquisition: bool,
-    /// Seconds to hover when no payload is given.
-    #[arg(long, default_value_t = 30.0)]
-    hover_s: f64,
-    /// Black out this observer's camera from start-up (e.g. O2); repeatable.
-    #[arg(long)]
-    black: Vec<String>,
-    /// Place an observer at AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M from the performer's hover
-    /// point (azimuth from the gesture plane's normal, towards +x), aimed at it; repeat for up
-    /// to 8 observers. Replaces the built-in formation of --observers.
-    #[arg(long = "viewpoint", value_name = "AZ,EL,DIST", value_parser = parse_viewpoint, allow_hyphen_values = true)]
-    viewpoints: Vec<Placement>,
-    /// Viewpoint rectification of the receivers' trajectories before template matching.
-    #[arg(long, value_enum, default_value_t = Rectification::default())]
-    rectify: Rectification,
-    #[command(flatten)]
-    render: super::RenderArg,
-    /// The event sensors' model: a preset and `events.*` terms (events modality only; other
-    /// groups are modelled by `waggle trials`).
-    #[command(flatten)]
-    perturb: super::PerturbArgs,
-    /// Seed of the event sensors' noise draws (with --sensor-preset/--perturb): observer i
-    /// draws from stream i of it, as in `waggle mission --seed`.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Events modality: write each observer's events to DIR/<observer>.raw (Prophesee EVT
-    /// 3.0, readable by Metavision tools and `waggle decode --events`).
-    #[arg(long, value_name = "DIR")]
-    events_raw: Option<std::path::PathBuf>,
-    /// Print machine-readable JSON instead of the table.
-    #[arg(long)]
-    json: bool,
-}
 
 /// The sensor model of `args`, checked: `None` for the paper's ideal sensors.
 fn sensor(args: &LinkArgs) -> Result<Option<(Perturbation, SensorRecord)>> {

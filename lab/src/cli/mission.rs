@@ -1,45 +1,14 @@
 //! `waggle mission`: a whole case in one process ([`crate::harness::mission`]).
 
-use std::path::PathBuf;
-
 use anyhow::{Context, Result, bail};
-use clap::Args;
 
 use crate::harness::mission::{MissionOptions, MissionRun, fly_case_with};
-use crate::harness::mission_metrics::{MissionMetrics, Policy};
+use crate::harness::mission_metrics::MissionMetrics;
+use commands::mission::MissionArgs;
 use proto::Receiver;
 use run_eval::summary::print_summary;
 use run_format::case::Case;
 use run_format::run_dir::{OBSERVERS_FILE, SUMMARY_FILE};
-
-#[derive(Debug, Args)]
-pub struct MissionArgs {
-    #[arg(help = run_format::case::case_arg_help())]
-    case: String,
-    /// Observer sensor modality (`ideal` is the ground-truth baseline).
-    #[arg(long, value_enum, default_value_t = Receiver::Events)]
-    modality: Receiver,
-    #[command(flatten)]
-    render: super::RenderArg,
-    #[command(flatten)]
-    flights: super::FlightsArg,
-    /// Allocation policy: `waggle` (decode the broadcast) or `fixed` (the no-communication
-    /// baseline: observer i always takes offer site i mod sites).
-    #[arg(long, value_enum, default_value_t)]
-    policy: Policy,
-    #[command(flatten)]
-    perturb: super::PerturbArgs,
-    /// Seed of the perturbation's draws.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Write DIR/summary.json, DIR/observers.json (every token, frame, decision and track
-    /// sample, as `waggle run` writes it) and DIR/metrics.json here.
-    #[arg(long)]
-    out: Option<PathBuf>,
-    /// Print the summary as JSON.
-    #[arg(long)]
-    json: bool,
-}
 
 pub fn run(args: MissionArgs) -> Result<()> {
     let case = args.flights.apply(Case::load(&args.case)?);

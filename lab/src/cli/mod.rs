@@ -13,28 +13,4 @@ pub mod sweep;
 pub mod trials;
 pub mod viewpoints;
 
-pub use deploy::cli::{FlightsArg, PerturbArgs, RenderArg};
-
-/// `--jobs N`: a whole number of at least 1 (0 used to run one job without a word).
-pub fn parse_jobs(s: &str) -> Result<usize, String> {
-    match s.trim().parse::<usize>() {
-        Ok(0) => Err("must be at least 1: 0 jobs would run nothing".to_owned()),
-        Ok(jobs) => Ok(jobs),
-        Err(e) => Err(format!("not a whole number of jobs ({e})")),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::parse_jobs;
-
-    #[test]
-    fn jobs_must_be_a_whole_number_of_at_least_one() {
-        assert_eq!(parse_jobs("1"), Ok(1));
-        assert_eq!(parse_jobs("16"), Ok(16));
-        for bad in ["0", "-1", "two", "", "1.5"] {
-            assert!(parse_jobs(bad).is_err(), "{bad:?} accepted");
-        }
-        assert!(parse_jobs("0").unwrap_err().contains("at least 1"));
-    }
-}
+pub use commands::common::{FlightsArg, PerturbArgs, RenderArg, parse_jobs};

@@ -2,11 +2,10 @@
 //! `DIR/report.md` ([`crate::harness::study`]); one shard of it (`--shard K/N`), job files for
 //! a cluster (`--slurm`, `--kubernetes`) and the merge of shards (`waggle study merge`).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::Ordering;
 
 use anyhow::{Result, bail};
-use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::harness::baselines::BaselineStudy;
@@ -15,45 +14,8 @@ use crate::harness::shard::Shard;
 use crate::harness::study::{Study, StudyFile, study_text};
 use crate::harness::study_merge::{MergeOptions, Merged, merge};
 use crate::harness::study_run::{PartRun, run_study_part};
+use commands::study::{StudyArgs, StudyCommand};
 use run_format::run_dir::lock::RunLock;
-
-#[derive(Debug, Args)]
-#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
-pub struct StudyArgs {
-    #[command(subcommand)]
-    command: Option<StudyCommand>,
-    #[arg(required = true, help = study_arg_help())]
-    study: Option<String>,
-    /// Output directory: one subdirectory per point (trials.json, cost.json, the per-trial
-    /// records under trials/), study.json, success-<condition>.svg, report.md, cost.md. Rerun
-    /// into the same directory to resume: only trials not recorded run.
-    #[arg(long, required_unless_present = "print")]
-    out: Option<PathBuf>,
-    /// Trials at once (threads; default: the machine's cores).
-    #[arg(long, value_parser = super::parse_jobs)]
-    jobs: Option<usize>,
-    /// Override the study's trials per point (e.g. a quick look before the real run).
-    #[arg(long)]
-    trials: Option<u64>,
-    /// Print the study file (a built-in one's TOML, to copy and edit) and exit.
-    #[arg(long)]
-    print: bool,
-    #[command(flatten)]
-    shard: super::shard::ShardArgs,
-    #[command(flatten)]
-    cluster: super::shard::ClusterArgs,
-    #[command(flatten)]
-    render: super::RenderArg,
-    #[command(flatten)]
-    render_cache: super::shard::RenderCacheArg,
-}
-
-#[derive(Debug, clap::Subcommand)]
-enum StudyCommand {
-    /// Merge a study's (or `waggle trials`') shard directories into DIR: the same study.json,
-    /// trials.json, report.md and figures as one process would write, and cost.json summed.
-    Merge(super::shard::MergeArgs),
-}
 
 pub fn run(args: StudyArgs) -> Result<()> {
     if let Some(StudyCommand::Merge(merge)) = args.command {
@@ -79,9 +41,14 @@ pub fn run(args: StudyArgs) -> Result<()> {
             Study::Link(s) => s,
             Study::Baselines(s) => s,
         };
-        return args
-            .cluster
-            .write(job, &out, &args.shard, &args.render, &args.render_cache);
+        return super::shard::write_jobs(
+            &args.cluster,
+            job,
+            &out,
+            &args.shard,
+            &args.render,
+            &args.render_cache,
+        );
     }
     let jobs = args
         .jobs
@@ -183,7 +150,7 @@ fn run_link_study(
     jobs: usize,
 ) -> Result<()> {
     let stop = bus::on_stop_signal();
-    let cache = args.render_cache.open()?;
+    let cache = super::shard::open_cache(&args.render_cache)?;
     let bar = bar_for(0);
     let started = std::time::Instant::now();
     let counts = run_study_part(
@@ -262,17 +229,4 @@ fn run_link_study(
         );
     }
     Ok(())
-}
-
-/// The help of the study argument, naming every built-in study, so no help text keeps its own
-/// list.
-fn study_arg_help() -> String {
-    let names: Vec<&str> = crate::harness::study::BUILT_IN
-        .iter()
-        .map(|(name, _)| *name)
-        .collect();
-    format!(
-        "A study file (TOML) or a built-in study: {} (`--print` shows one to copy and edit)",
-        names.join(", ")
-    )
 }

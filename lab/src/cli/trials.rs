@@ -1,18 +1,14 @@
 //! `waggle trials`: one condition, N seeded trials, `DIR/trials.json` with the success rate and
 //! its Wilson 95 % interval ([`crate::harness::trials`]).
 
-use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use perturb::Perturbation;
-use proto::scene::{Formation, MAX_OBSERVERS, Placement};
-use proto::{Receiver, Rectification};
+use proto::Receiver;
+use proto::scene::{Formation, MAX_OBSERVERS};
 
-use super::link::{parse_bits6, parse_viewpoint};
-use crate::harness::mission_metrics::Policy;
 use crate::harness::mission_trials::{
     MissionTrial, MissionTrialsOptions, MissionsDefinition, mission_criterion,
     run_mission_trials_on,
@@ -23,93 +19,9 @@ use crate::harness::run_files::{PointCostSum, RunCost, RunKind, RunManifest, cpu
 use crate::harness::study_merge::{MergeOptions, Merged, merge};
 use crate::harness::study_run::{FlightSource, header, run_point};
 use crate::harness::trials::{TrialsOptions, criterion, definition};
+use commands::trials::TrialsArgs;
 use run_format::case::Case;
 use run_format::run_dir::lock::RunLock;
-
-#[derive(Debug, Args)]
-#[command(after_long_help = perturbation_help())]
-pub struct TrialsArgs {
-    /// The broadcast: six-bit payloads flown back to back, comma-separated (e.g. 011010,100111).
-    #[arg(long, value_delimiter = ',', value_parser = parse_bits6,
-          required_unless_present = "case", conflicts_with = "case")]
-    link: Vec<u8>,
-    /// Instead of a link: a whole case (built-in name or TOML file), flown in one process per
-    /// trial; success is the case's expected outcome.
-    #[arg(long)]
-    case: Option<String>,
-    /// Whole missions only: `waggle` or the `fixed` no-communication baseline.
-    #[arg(long, value_enum, default_value_t, requires = "case")]
-    policy: Policy,
-    /// Number of observers in the built-in formation (1..=8).
-    #[arg(long, default_value_t = 3)]
-    observers: usize,
-    /// Place observers at AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M instead (repeat, up to 8).
-    #[arg(long = "viewpoint", value_name = "AZ,EL,DIST", value_parser = parse_viewpoint, allow_hyphen_values = true)]
-    viewpoints: Vec<Placement>,
-    /// The observers' sensor (`ideal`, the ground-truth receiver, for --case only).
-    #[arg(long, value_enum)]
-    modality: Receiver,
-    /// Number of trials.
-    #[arg(long, default_value_t = 100)]
-    trials: u64,
-    /// Seed of the run: trial k draws from a seed derived from it and k.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    #[command(flatten)]
-    perturb: super::PerturbArgs,
-    /// Trials at once (threads; default: the machine's cores).
-    #[arg(long, value_parser = super::parse_jobs)]
-    jobs: Option<usize>,
-    /// Fly the acquisition sweep before the first offer: `true` or `false` (default: only for
-    /// event cameras, as in the paper).
-    #[arg(long, value_name = "BOOL")]
-    acquisition: Option<bool>,
-    /// Viewpoint rectification of the receivers' trajectories.
-    #[arg(long, value_enum, default_value_t = Rectification::default())]
-    rectify: Rectification,
-    #[command(flatten)]
-    render: super::RenderArg,
-    #[command(flatten)]
-    shard: super::shard::ShardArgs,
-    #[command(flatten)]
-    render_cache: super::shard::RenderCacheArg,
-    /// Output directory: trials.json (deterministic), cost.json (wall-clock figures) and the
-    /// per-trial records under trials/. Rerun into the same directory to resume: only trials
-    /// not recorded run.
-    #[arg(long)]
-    out: PathBuf,
-}
-
-fn perturbation_help() -> String {
-    let mut s = String::from("Perturbation terms (--perturb KEY=VALUE; every default is off):\n");
-    for p in perturb::spec::PARAMETERS {
-        s.push_str(&format!(
-            "  {:<28} [{}] default {}: {}\n",
-            p.key, p.unit, p.default, p.doc
-        ));
-    }
-    s.push_str("\nSensor presets (--sensor-preset NAME; --perturb terms override them):\n");
-    for preset in perturb::preset::PRESETS {
-        let terms: Vec<String> = preset
-            .terms
-            .iter()
-            .map(|(k, v)| format!("{k}={v}"))
-            .collect();
-        s.push_str(&format!(
-            "  {:<12} {} [{}]\n",
-            preset.name,
-            terms.join(" "),
-            preset.source
-        ));
-        if !preset.unmodelled.is_empty() {
-            s.push_str(&format!(
-                "               not modelled yet: {}\n",
-                preset.unmodelled
-            ));
-        }
-    }
-    s
-}
 
 fn default_jobs() -> usize {
     std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
@@ -147,7 +59,7 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     };
     opts.check()?;
     let shard = args.shard.shard()?;
-    let cache = args.render_cache.open()?;
+    let cache = super::shard::open_cache(&args.render_cache)?;
     let _lock = RunLock::acquire(&args.out)?;
     RunManifest {
         kind: RunKind::Trials,

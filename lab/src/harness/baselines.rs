@@ -28,10 +28,10 @@ use serde::{Deserialize, Serialize};
 use crate::harness::air::PointTracking;
 use crate::harness::figure::{FigurePoint, success_figure};
 use crate::harness::mission::MissionOptions;
-use crate::harness::mission_metrics::Policy;
 use crate::harness::mission_trials::MissionTrialsOut;
 use crate::harness::records::{write_atomic, write_json};
 use crate::harness::vary::Vary;
+use commands::Policy;
 use proto::Receiver;
 use run_format::case::Case;
 

@@ -89,48 +89,6 @@ pub(crate) fn broadcast_schedule(
     Ok((schedule, end_ns))
 }
 
-/// Parses exactly six characters of '0'/'1' into a number, b1 most significant.
-pub fn parse_bits6(s: &str) -> Result<u8, String> {
-    if s.len() != 6 || !s.bytes().all(|b| b == b'0' || b == b'1') {
-        return Err(format!(
-            "payload {s:?} is not six binary digits (e.g. 011010)"
-        ));
-    }
-    u8::from_str_radix(s, 2).map_err(|e| e.to_string())
-}
-
-/// Parses `AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M` into an aimed placement.
-pub fn parse_viewpoint(s: &str) -> Result<Placement, String> {
-    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-    let [az, el, d] = parts[..] else {
-        return Err(format!(
-            "viewpoint {s:?} is not AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M (e.g. 40,0,1.3)"
-        ));
-    };
-    let num = |v: &str, what: &str| -> Result<f64, String> {
-        v.parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| format!("viewpoint {s:?}: {what} {v:?} is not a finite number"))
-    };
-    let (az, el, d) = (
-        num(az, "azimuth")?,
-        num(el, "elevation")?,
-        num(d, "distance")?,
-    );
-    if !(-85.0..=85.0).contains(&az) || !(-60.0..=60.0).contains(&el) {
-        return Err(format!(
-            "viewpoint {s:?}: azimuth must be within ±85° and elevation within ±60°"
-        ));
-    }
-    if !(0.6..=10.0).contains(&d) {
-        return Err(format!(
-            "viewpoint {s:?}: distance must be 0.6–10 m (the performer gestures ±0.2 m)"
-        ));
-    }
-    Ok(Placement::viewpoint(az, el, d))
-}
-
 pub(crate) fn bits6(payload: u8) -> String {
     format!("{payload:06b}")
 }

@@ -30,8 +30,9 @@ use sim::render::CameraRenderer;
 use sim::world::World;
 
 use crate::harness::air::{Tracking, set_air};
-use crate::harness::mission_metrics::{MissionMetrics, Policy, measure};
+use crate::harness::mission_metrics::{MissionMetrics, measure};
 use crate::harness::mission_observer::MissionObserver;
+use commands::Policy;
 use proto::Receiver;
 use run_eval::summary::{check_expected, ns_s, provenance_violations};
 use run_format::case::Case;

@@ -2,32 +2,12 @@
 //! comparison against baselines needs (paper §7) — work units, reward, unserved capacity,
 //! completion time, wasted trips, reassignment delay after a withdrawal and communication cost.
 
+use commands::Policy;
 use std::collections::BTreeMap;
 
 use proto::{GestureConfig, Site, broadcast};
 use scheduler::{EventKind, Scheduler};
 use serde::{Deserialize, Serialize};
-
-/// How observers chose their tasks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Policy {
-    /// Waggle: each observer decodes the performer's broadcast and allocates locally.
-    #[default]
-    Waggle,
-    /// No communication: observer i always takes offer site i mod (number of sites), decided
-    /// when each round's broadcast starts, without reading it (the fixed-allocation baseline).
-    Fixed,
-}
-
-impl std::fmt::Display for Policy {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Policy::Waggle => "waggle",
-            Policy::Fixed => "fixed",
-        })
-    }
-}
 
 /// One observer's response to a withdrawal.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

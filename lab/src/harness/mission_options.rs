@@ -9,7 +9,7 @@ use anyhow::{Result, bail};
 use perturb::Perturbation;
 use proto::RenderPath;
 
-use crate::harness::mission_metrics::Policy;
+use commands::Policy;
 
 /// How a mission is flown beyond its case: allocation policy, perturbation and its seed.
 #[derive(Debug, Clone, Default)]

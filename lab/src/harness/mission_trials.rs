@@ -14,9 +14,10 @@ use proto::RenderPath;
 use serde::{Deserialize, Serialize};
 
 use crate::harness::mission::{MissionOptions, MissionRun, fly_case_with};
-use crate::harness::mission_metrics::{MissionMetrics, Policy};
+use crate::harness::mission_metrics::MissionMetrics;
 use crate::harness::pool::{Outcome, Tally, run_pool_on};
 use crate::harness::records::Recordable;
+use commands::Policy;
 use proto::Receiver;
 use run_format::case::Case;
 use run_format::run_dir::ObserverSummary;

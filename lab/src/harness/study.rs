@@ -33,40 +33,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::harness::air::PointTracking;
 use crate::harness::baselines::BaselineStudy;
-use crate::harness::link::{parse_bits6, parse_viewpoint};
 pub use crate::harness::vary::Vary;
+use commands::common::{parse_bits6, parse_viewpoint};
 
 use crate::harness::trials::TrialsOptions;
 
-/// The built-in studies (`waggle study NAME`), as TOML.
-pub const BUILT_IN: &[(&str, &str)] = &[
-    (
-        "event-noise",
-        include_str!("../../../deploy/studies/event-noise.toml"),
-    ),
-    (
-        "rgb-noise",
-        include_str!("../../../deploy/studies/rgb-noise.toml"),
-    ),
-    (
-        "viewing-angle",
-        include_str!("../../../deploy/studies/viewing-angle.toml"),
-    ),
-    (
-        "distance",
-        include_str!("../../../deploy/studies/distance.toml"),
-    ),
-    (
-        "baselines",
-        include_str!("../../../deploy/studies/baselines.toml"),
-    ),
-    ("light", include_str!("../../../deploy/studies/light.toml")),
-    ("wind", include_str!("../../../deploy/studies/wind.toml")),
-    (
-        "wind-links",
-        include_str!("../../../deploy/studies/wind-links.toml"),
-    ),
-];
+pub use run_format::study::BUILT_IN;
 
 /// A study of either kind: seeded link trials over levels, or whole-mission baselines.
 #[derive(Debug, Clone)]

@@ -14,3 +14,4 @@
 
 pub mod case;
 pub mod run_dir;
+pub mod study;

@@ -26,8 +26,9 @@ use proto::{EventPacket, Modality, Rectification};
 use serde::Serialize;
 
 use self::calibration::{EventRemap, Intrinsics};
-use self::source::{EventFormat, read_events};
+use self::source::read_events;
 use crate::harness::link::{ObserverOut, observer_out};
+use commands::decode::EventFormat;
 
 /// The receiver's packet period, ns (the paper's 25 Hz).
 const PACKET_NS: u64 = proto::TICK_NS;

@@ -2,32 +2,13 @@
 //! `event_camera_msgs/EventPacket` topic of a ROS 2 bag, told apart by their first bytes (or a
 //! bag directory) unless the format is named.
 
+use commands::decode::EventFormat;
 use std::io::Read;
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
-use clap::ValueEnum;
 use event_camera::Event;
 use event_formats::{aedat4, dat, evt2, evt3};
-
-/// An event recording's format.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
-pub enum EventFormat {
-    /// Tell from the file: a directory or `\x89MCAP` is a bag, `#!AER-DAT4.0` AEDAT4, the
-    /// `.dat` extension (or a `%` header with a `Version` line and no `evt`) DAT, another `%`
-    /// header or the `.raw` extension EVT 3.0 or 2.0 (as its header says).
-    #[default]
-    Auto,
-    /// Prophesee EVT 3.0 or EVT 2.0 (`.raw`), as its `% evt` header line says (3.0 without one).
-    Raw,
-    /// Prophesee DAT (`.dat`) of CD events.
-    Dat,
-    /// iniVation AEDAT 4.0 (`.aedat4`): its first event stream.
-    Aedat4,
-    /// A ROS 2 bag (MCAP storage; the directory or its `.mcap` file) of
-    /// `event_camera_msgs/msg/EventPacket` in `evt3` encoding.
-    Bag,
-}
 
 /// A recording's events and what it says of its sensor.
 #[derive(Debug)]

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Regenerates docs/images/scene-and-events.png, the README's picture: observer O1's camera
+# during the one-observer case's first broadcast, its RGB render beside the events its
+# event sensor produced over the 20 ms before it.
+#
+#   bash docs/images/make-picture.sh
+#
+# Flies the case as processes with an event camera (`waggle run`, about a minute), recording
+# the sensor's input (its renders); `waggle export ros2` regenerates the sensor's packets from
+# that input; make_picture.py decodes both and composes the PNG. Case, seed, render path and
+# window are fixed here, so a rerun writes the same bytes.
+#
+# Binaries: target/release, built through deploy/waggle.sh (setup and build, as the README's
+# first command); WAGGLE_BIN_DIR=DIR uses the binaries in DIR instead and builds nothing.
+# Python: a venv in the git-ignored third_party/picture-venv with pinned numpy, mcap (and its
+# zstd and lz4 decoders) and Pillow from PyPI, made on first use.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+cd "$root"
+
+CASE="one-observer"
+SEED=0
+END_S="19.40"   # mid-way through the START symbol that opens round 1's first offer
+WINDOW_MS=20
+OUT="docs/images/scene-and-events.png"
+
+say() { printf 'make-picture: %s\n' "$*" >&2; }
+die() { say "$*"; exit 1; }
+
+if [ -n "${WAGGLE_BIN_DIR:-}" ]; then
+  bin="$WAGGLE_BIN_DIR"
+else
+  bash deploy/waggle.sh --version >/dev/null
+  bin="$root/target/release"
+fi
+[ -x "$bin/waggle" ] || die "no waggle binary in $bin"
+
+venv="$root/third_party/picture-venv"
+pins=("numpy==2.4.6" "mcap==1.6.0" "zstandard==0.25.0" "lz4==4.4.5" "pillow==11.3.0")
+venv_ok() {
+  "$venv/bin/python" - "${pins[@]}" <<'PY' 2>/dev/null
+import sys
+from importlib.metadata import version
+import numpy, mcap.reader, zstandard, lz4.frame, PIL.Image
+sys.exit(any(version(p.split("==")[0]) != p.split("==")[1] for p in sys.argv[1:]))
+PY
+}
+if ! venv_ok; then
+  say "installing ${pins[*]} into third_party/picture-venv"
+  command -v python3 >/dev/null || die "python3 (with venv and pip) is needed"
+  "$venv/bin/python" -c '' 2>/dev/null || rm -rf "$venv"
+  [ -x "$venv/bin/python" ] || python3 -m venv "$venv" || die "could not create $venv (Debian: apt-get install python3-venv)"
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --only-binary=:all: "${pins[@]}" \
+    || die "could not install ${pins[*]} from PyPI"
+  venv_ok || die "$venv still lacks ${pins[*]}"
+fi
+
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+
+say "flying $CASE with an event camera (waggle run, about a minute)"
+"$bin/waggle" run "$CASE" --modality events --render raster --seed "$SEED" \
+  --record-events input --bin-dir "$bin" --out "$tmp/run" --quiet >"$tmp/run.txt" 2>&1 \
+  || { cat "$tmp/run.txt" >&2; die "waggle run $CASE failed"; }
+say "regenerating its event packets (waggle export ros2)"
+"$bin/waggle" export ros2 "$tmp/run" --out "$tmp/bag" >"$tmp/export.txt" 2>&1 \
+  || { cat "$tmp/export.txt" >&2; die "waggle export ros2 failed"; }
+"$venv/bin/python" docs/images/make_picture.py "$tmp/run" "$tmp/bag" "$OUT" \
+  --end-s "$END_S" --window-ms "$WINDOW_MS"

@@ -1,0 +1,145 @@
+//! Argument groups and value parsers shared by several commands: `--flights`, `--sensor-preset`/`--perturb`, `--render`, `--jobs`, `--payload`, `--viewpoint` and `--policy`.
+
+use anyhow::Result;
+use proto::scene::Placement;
+use serde::{Deserialize, Serialize};
+
+/// `--flights sequential|concurrent`, shared by the commands that fly a whole case.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct FlightsArg {
+    /// Safety router, overriding the case's `flights`: `sequential` flies one trip at a time
+    /// (the paper), `concurrent` lets trips overlap when their reserved space-time paths keep
+    /// the 0.4 m clearance.
+    #[arg(long = "flights", value_enum)]
+    pub mode: Option<proto::FlightMode>,
+}
+
+/// `--sensor-preset NAME` and `--perturb KEY=VALUE…`, shared by the commands that perturb.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PerturbArgs {
+    /// A named sensor preset (`v2e-clean`, `v2e-default`, `v2e-noisy`, `dvs-dim`): its `events.*` terms,
+    /// under any --perturb given too. None: the paper's ideal sensors.
+    #[arg(long = "sensor-preset", value_name = "NAME")]
+    pub sensor_preset: Option<String>,
+    /// A perturbation term KEY=VALUE (repeatable; `waggle trials --help` lists them).
+    #[arg(long = "perturb", value_name = "KEY=VALUE")]
+    pub perturb: Vec<String>,
+}
+
+/// `--render raster|damage|full`, shared by every command that renders cameras.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct RenderArg {
+    /// How cameras render: `raster` (the default) is Waggle's CPU renderer (no GL; only the
+    /// moved bodies' rectangle, each body at a level of detail for its size); `damage` (alias
+    /// `mujoco`) is MuJoCo's renderer, the paper's, redrawing only what moved since a camera's
+    /// last frame, `full` MuJoCo's renderer redrawing every pixel (byte-identical to `damage`).
+    #[arg(long = "render", value_enum, default_value_t)]
+    pub path: proto::RenderPath,
+}
+
+impl FlightsArg {
+    /// `case` with the override applied.
+    pub fn apply(self, mut case: run_format::case::Case) -> run_format::case::Case {
+        if let Some(mode) = self.mode {
+            case.flights = mode;
+        }
+        case
+    }
+}
+
+impl PerturbArgs {
+    /// The preset's terms, then every --perturb over them.
+    pub fn perturbation(&self) -> anyhow::Result<perturb::Perturbation> {
+        Ok(perturb::Perturbation::with_preset(
+            self.sensor_preset.as_deref(),
+            &self.perturb,
+        )?)
+    }
+}
+
+/// `--jobs N`: a whole number of at least 1 (0 used to run one job without a word).
+pub fn parse_jobs(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(0) => Err("must be at least 1: 0 jobs would run nothing".to_owned()),
+        Ok(jobs) => Ok(jobs),
+        Err(e) => Err(format!("not a whole number of jobs ({e})")),
+    }
+}
+
+/// Parses exactly six characters of '0'/'1' into a number, b1 most significant.
+pub fn parse_bits6(s: &str) -> Result<u8, String> {
+    if s.len() != 6 || !s.bytes().all(|b| b == b'0' || b == b'1') {
+        return Err(format!(
+            "payload {s:?} is not six binary digits (e.g. 011010)"
+        ));
+    }
+    u8::from_str_radix(s, 2).map_err(|e| e.to_string())
+}
+
+/// Parses `AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M` into an aimed placement.
+pub fn parse_viewpoint(s: &str) -> Result<Placement, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let [az, el, d] = parts[..] else {
+        return Err(format!(
+            "viewpoint {s:?} is not AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M (e.g. 40,0,1.3)"
+        ));
+    };
+    let num = |v: &str, what: &str| -> Result<f64, String> {
+        v.parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("viewpoint {s:?}: {what} {v:?} is not a finite number"))
+    };
+    let (az, el, d) = (
+        num(az, "azimuth")?,
+        num(el, "elevation")?,
+        num(d, "distance")?,
+    );
+    if !(-85.0..=85.0).contains(&az) || !(-60.0..=60.0).contains(&el) {
+        return Err(format!(
+            "viewpoint {s:?}: azimuth must be within ±85° and elevation within ±60°"
+        ));
+    }
+    if !(0.6..=10.0).contains(&d) {
+        return Err(format!(
+            "viewpoint {s:?}: distance must be 0.6–10 m (the performer gestures ±0.2 m)"
+        ));
+    }
+    Ok(Placement::viewpoint(az, el, d))
+}
+
+/// How observers chose their tasks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Policy {
+    /// Waggle: each observer decodes the performer's broadcast and allocates locally.
+    #[default]
+    Waggle,
+    /// No communication: observer i always takes offer site i mod (number of sites), decided
+    /// when each round's broadcast starts, without reading it (the fixed-allocation baseline).
+    Fixed,
+}
+
+impl std::fmt::Display for Policy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Policy::Waggle => "waggle",
+            Policy::Fixed => "fixed",
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::common::parse_jobs;
+
+    #[test]
+    fn jobs_must_be_a_whole_number_of_at_least_one() {
+        assert_eq!(parse_jobs("1"), Ok(1));
+        assert_eq!(parse_jobs("16"), Ok(16));
+        for bad in ["0", "-1", "two", "", "1.5"] {
+            assert!(parse_jobs(bad).is_err(), "{bad:?} accepted");
+        }
+        assert!(parse_jobs("0").unwrap_err().contains("at least 1"));
+    }
+}

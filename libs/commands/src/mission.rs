@@ -1,0 +1,35 @@
+//! `waggle mission`: a whole case flown in one process.
+
+use crate::common::Policy;
+use clap::Args;
+use proto::Receiver;
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct MissionArgs {
+    #[arg(help = run_format::case::case_arg_help())]
+    pub case: String,
+    /// Observer sensor modality (`ideal` is the ground-truth baseline).
+    #[arg(long, value_enum, default_value_t = Receiver::Events)]
+    pub modality: Receiver,
+    #[command(flatten)]
+    pub render: crate::common::RenderArg,
+    #[command(flatten)]
+    pub flights: crate::common::FlightsArg,
+    /// Allocation policy: `waggle` (decode the broadcast) or `fixed` (the no-communication
+    /// baseline: observer i always takes offer site i mod sites).
+    #[arg(long, value_enum, default_value_t)]
+    pub policy: Policy,
+    #[command(flatten)]
+    pub perturb: crate::common::PerturbArgs,
+    /// Seed of the perturbation's draws.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Write DIR/summary.json, DIR/observers.json (every token, frame, decision and track
+    /// sample, as `waggle run` writes it) and DIR/metrics.json here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
