@@ -50,10 +50,7 @@ fn answer(
 }
 
 fn main() -> Result<()> {
-    tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
-        .with_writer(std::io::stderr)
-        .init();
+    node_args::init_logging();
     let args = Args::parse();
     let node = &args.node;
     let gesture = GestureConfig::default();

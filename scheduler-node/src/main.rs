@@ -48,10 +48,7 @@ fn parse_sites(list: &str) -> Result<Vec<Site>> {
 }
 
 fn main() -> Result<()> {
-    tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
-        .with_writer(std::io::stderr)
-        .init();
+    node_args::init_logging();
     let args = Args::parse();
     let node = &args.node;
     let modality = args.own.modality;

@@ -62,10 +62,7 @@ enum Command {
 }
 
 fn main() -> Result<()> {
-    tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
-        .with_writer(std::io::stderr)
-        .init();
+    node_args::init_logging();
     match Cli::parse().command {
         Command::Run(args) => node_run::run(args),
         Command::Camera(args) => node_camera::run(args),

@@ -201,20 +201,20 @@ const FORMATS: &[(&str, &str, &str, &str)] = &[
         "Study file",
         "A link study: `waggle study FILE` (built-in ones in `deploy/studies/`; \
       `waggle study NAME --print` shows one).",
-        "lab/src/harness/study.rs",
+        "lab/src/harness/study/mod.rs",
         "StudyFile",
     ),
     (
         "Study file: `[[vary]]`",
         "One condition and its levels.",
-        "lab/src/harness/vary.rs",
+        "lab/src/harness/study/vary.rs",
         "Vary",
     ),
     (
         "Mission study file",
         "Whole missions against baselines (`cases` and `arms` instead of \
       `link`: the built-in `baselines` and `wind`).",
-        "lab/src/harness/baselines.rs",
+        "lab/src/harness/study/baselines.rs",
         "BaselineStudy",
     ),
     (

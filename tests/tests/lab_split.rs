@@ -56,7 +56,10 @@ fn both_binaries_parse_with_one_definition() {
         Command::new(bin("waggle-lab")).arg("--help"),
         "waggle-lab --help",
     ));
-    assert_eq!(waggle_help, lab_help, "waggle --help and waggle-lab --help differ");
+    assert_eq!(
+        waggle_help, lab_help,
+        "waggle --help and waggle-lab --help differ"
+    );
     let names = command_names();
     assert!(names.len() >= 20, "{names:?}");
     for command in &names {
@@ -133,7 +136,14 @@ fn without_waggle_lab_the_operations_still_run_and_lab_commands_name_it() {
         "waggle trials --help without waggle-lab (one parser, in waggle)",
     );
     let lab = Command::new(&alone)
-        .args(["trials", "--link", "011010", "--modality", "events", "--out"])
+        .args([
+            "trials",
+            "--link",
+            "011010",
+            "--modality",
+            "events",
+            "--out",
+        ])
         .arg(dir.join("out"))
         .output()
         .expect("run waggle trials");

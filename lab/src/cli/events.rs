@@ -1,6 +1,6 @@
-//! `waggle events convert`: PNG frames → synthetic events ([`crate::harness::convert`]).
+//! `waggle events convert`: PNG frames → synthetic events ([`crate::harness::decode::convert`]).
 
-use crate::harness::convert::{ConvertOptions, convert};
+use crate::harness::decode::convert::{ConvertOptions, convert};
 use commands::events::{EventsArgs, EventsCommand};
 
 pub fn run(args: EventsArgs) -> anyhow::Result<()> {

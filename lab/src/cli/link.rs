@@ -18,8 +18,8 @@ use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, observer_name};
 use proto::{Modality, Receiver};
 use sim::sensor::EVENT_RENDER_PERIOD_NS;
 
+use crate::harness::flight::rendered::{FlightSpec, fly_rendered};
 use crate::harness::link::{LinkOptions, LinkOut, fly_link, observer_out, print_table};
-use crate::harness::rendered_flight::{FlightSpec, fly_rendered};
 pub use commands::common::{parse_bits6, parse_viewpoint};
 use commands::link::LinkArgs;
 use node_args::SensorArgs;
@@ -140,7 +140,7 @@ fn fly_link_with_sensors(opts: &LinkOptions, p: &Perturbation, seed: u64) -> Res
             perception.set_ego_rotation(ego);
             for packet in camera.push_frame_change(t, rgb, change)? {
                 if opts.events_raw.is_some() {
-                    crate::harness::raw::packet_events(&packet, &mut events);
+                    crate::harness::flight::raw::packet_events(&packet, &mut events);
                 }
                 let step = perception.push(SensorInput::Events(&packet))?;
                 tokens.extend(step.tokens);

@@ -2,8 +2,8 @@
 
 use anyhow::{Context, Result, bail};
 
+use crate::harness::mission::metrics::MissionMetrics;
 use crate::harness::mission::{MissionOptions, MissionRun, fly_case_with};
-use crate::harness::mission_metrics::MissionMetrics;
 use commands::mission::MissionArgs;
 use proto::Receiver;
 use run_eval::summary::print_summary;

@@ -1,14 +1,14 @@
 //! The shard, cluster and merge arguments shared by `waggle study` and `waggle trials`
-//! ([`crate::harness::shard`], [`crate::harness::cluster`], [`crate::harness::study_merge`]).
+//! ([`crate::harness::runs::shard`], [`crate::harness::runs::cluster`], [`crate::harness::study::merge`]).
 
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 
-use crate::harness::cluster::ClusterJob;
-use crate::harness::render_cache::RenderCache;
+use crate::harness::flight::cache::RenderCache;
+use crate::harness::runs::cluster::ClusterJob;
 use crate::harness::study::StudyFile;
-use crate::harness::study_merge::{MergeOptions, Merged, merge as merge_dirs};
+use crate::harness::study::merge::{MergeOptions, Merged, merge as merge_dirs};
 use commands::shard::{ClusterArgs, MergeArgs, RenderCacheArg, ShardArgs};
 
 /// The cache `arg` names, opened (created if absent), if one was given.
@@ -34,7 +34,7 @@ impl JobStudy for StudyFile {
     }
 }
 
-impl JobStudy for crate::harness::baselines::BaselineStudy {
+impl JobStudy for crate::harness::study::baselines::BaselineStudy {
     fn job_name(&self) -> &str {
         &self.name
     }

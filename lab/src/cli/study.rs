@@ -8,12 +8,12 @@ use std::sync::atomic::Ordering;
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::harness::baselines::BaselineStudy;
-use crate::harness::baselines_run;
-use crate::harness::shard::Shard;
+use crate::harness::runs::shard::Shard;
+use crate::harness::study::baselines::BaselineStudy;
+use crate::harness::study::baselines_run;
+use crate::harness::study::merge::{MergeOptions, Merged, merge};
+use crate::harness::study::run::{PartRun, run_study_part};
 use crate::harness::study::{Study, StudyFile, study_text};
-use crate::harness::study_merge::{MergeOptions, Merged, merge};
-use crate::harness::study_run::{PartRun, run_study_part};
 use commands::study::{StudyArgs, StudyCommand};
 use run_format::run_dir::lock::RunLock;
 
@@ -126,7 +126,10 @@ fn run_baseline_study(
         mixed_hosts: false,
     };
     if let Merged::Baselines(results) = merge(&[out.to_path_buf()], out, options)? {
-        print!("{}", crate::harness::baselines::report(study, &results));
+        print!(
+            "{}",
+            crate::harness::study::baselines::report(study, &results)
+        );
     }
     println!("-> {}", out.join("report.md").display());
     if interrupted {

@@ -9,15 +9,15 @@ use perturb::Perturbation;
 use proto::Receiver;
 use proto::scene::{Formation, MAX_OBSERVERS};
 
-use crate::harness::mission_trials::{
+use crate::harness::mission::trials::{
     MissionTrial, MissionTrialsOptions, MissionsDefinition, mission_criterion,
     run_mission_trials_on,
 };
-use crate::harness::pool::Tally;
-use crate::harness::records::{recorded, write_record};
-use crate::harness::run_files::{PointCostSum, RunCost, RunKind, RunManifest, cpu_s};
-use crate::harness::study_merge::{MergeOptions, Merged, merge};
-use crate::harness::study_run::{FlightSource, header, run_point};
+use crate::harness::runs::files::{PointCostSum, RunCost, RunKind, RunManifest, cpu_s};
+use crate::harness::runs::records::{recorded, write_record};
+use crate::harness::study::merge::{MergeOptions, Merged, merge};
+use crate::harness::study::run::{FlightSource, header, run_point};
+use crate::harness::trials::pool::Tally;
 use crate::harness::trials::{TrialsOptions, criterion, definition};
 use commands::trials::TrialsArgs;
 use run_format::case::Case;
@@ -70,7 +70,7 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     .claim(&args.out)?;
     eprintln!("trials: {}", criterion(&opts));
     let range = shard.map_or(0..opts.trials, |s| s.range(opts.trials));
-    let (found, damaged) = recorded::<crate::harness::trials_out::TrialRecord>(
+    let (found, damaged) = recorded::<crate::harness::trials::out::TrialRecord>(
         &args.out,
         ".",
         opts.trials,

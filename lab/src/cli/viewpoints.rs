@@ -1,11 +1,11 @@
 //! `waggle viewpoints`: decode success against viewing angle and distance
-//! ([`crate::harness::viewpoints`]).
+//! ([`crate::harness::link::viewpoints`]).
 
 use std::io::Write as _;
 
 use anyhow::{Context, Result};
 
-use crate::harness::viewpoints::{ViewpointOptions, markdown, measure};
+use crate::harness::link::viewpoints::{ViewpointOptions, markdown, measure};
 use commands::viewpoints::ViewpointsArgs;
 
 pub fn run(args: ViewpointsArgs) -> Result<()> {

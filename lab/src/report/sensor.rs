@@ -21,7 +21,7 @@ use sim::render::CameraRenderer;
 use sim::sensor::EVENT_RENDER_PERIOD_NS;
 use sim::world::World;
 
-use crate::harness::performer_flight::step_along;
+use crate::harness::flight::performer::step_along;
 use run_eval::summary::ns_s;
 
 /// The scheduler's first broadcast starts here (tick 125 of every case with a broadcast).

@@ -10,17 +10,21 @@
 //!   the access-control list the composer gives it, as a compose file stores them
 //!   ([`NodeLine::to_args`]) and reads them back ([`NodeLine::parse`]).
 //!
+//! [`init_logging`] is every node's one log set-up.
+//!
 //! The session-wide options every node takes (`--session`, endpoints, credentials) are
 //! `bus::NodeArgs`, added by the launcher.
 
 mod camera;
 mod command;
+mod logging;
 mod observer;
 mod recorder;
 mod scheduler;
 
 pub use camera::{CameraArgs, CameraThrottle, SensorArgs};
 pub use command::{NodeArgsError, NodeCommand, NodeLine};
+pub use logging::init_logging;
 pub use observer::{DEFAULT_GRACE_MS, ObserverArgs};
 pub use recorder::{RecorderArgs, RecorderOutput};
 pub use scheduler::SchedulerArgs;

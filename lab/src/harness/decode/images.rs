@@ -14,7 +14,7 @@ use proto::{Modality, RgbFrame};
 
 use super::calibration::ImageRemap;
 use super::{DecodeOptions, DecodeOut, PACKET_NS, camera};
-use crate::harness::convert::{frame_paths, stamp_ns};
+use crate::harness::decode::convert::{frame_paths, stamp_ns};
 use crate::harness::link::observer_out;
 
 /// One image as read: stamp, size and RGB bytes.

@@ -11,6 +11,11 @@
 //! t = 0 of the recording's clock, empty packets included), followed by `tail_s` of silence so
 //! a final rest can be confirmed. The camera's pose (its viewpoint of the performer's hover
 //! point) sets the receiver's rectification, as in `waggle link`.
+//!
+//! PNG frames converted into synthetic events offline (`waggle events convert`) are
+//! [`convert`].
+
+pub mod convert;
 
 pub mod calibration;
 pub mod images;

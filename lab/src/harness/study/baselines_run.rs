@@ -1,6 +1,6 @@
 //! Running a baselines study (whole missions per case × arm × level) as a link study runs:
 //! resumably, in shards, merged. Every mission is recorded as it ends
-//! (`<point>/trials/NNNNNN.json`, [`crate::harness::records`]); a rerun flies only what is
+//! (`<point>/trials/NNNNNN.json`, [`crate::harness::runs::records`]); a rerun flies only what is
 //! missing; `trials.json` of every point, `study.json`, `report.md` and the figures are always
 //! made from the records, in one process as in `waggle study merge`, so the merge of shards is
 //! the single run byte for byte.
@@ -12,22 +12,22 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use anyhow::{Context, Result, bail};
 use proto::RenderPath;
 
-use crate::harness::baselines::{ArmResult, BaselineStudy, arm_result, write_report};
-use crate::harness::merge_records::{Makers, MergeOptions, check_makers, gather_records};
-use crate::harness::mission_trials::{
+use crate::harness::mission::trials::{
     MissionTrial, MissionTrialsOptions, mission_trials_out, run_mission_trials_on,
 };
-use crate::harness::records::{recorded, write_json, write_record};
-use crate::harness::run_files::{RunCost, RunKind, RunManifest, cpu_s};
-use crate::harness::shard::{Shard, part_of};
-use crate::harness::study_run::RunCounts;
+use crate::harness::runs::files::{RunCost, RunKind, RunManifest, cpu_s};
+use crate::harness::runs::merge_records::{Makers, MergeOptions, check_makers, gather_records};
+use crate::harness::runs::records::{recorded, write_json, write_record};
+use crate::harness::runs::shard::{Shard, part_of};
+use crate::harness::study::baselines::{ArmResult, BaselineStudy, arm_result, write_report};
+use crate::harness::study::run::RunCounts;
 use run_format::case::Case;
 
 /// One case × arm at one level of the study's varied term.
 pub struct BaselinePoint {
     /// Its directory: `<case>-<arm>` or `<case>-<arm>-<key>-<level>`.
     pub dir: String,
-    pub arm: crate::harness::baselines::Arm,
+    pub arm: crate::harness::study::baselines::Arm,
     pub level: Option<f64>,
     pub opts: MissionTrialsOptions,
 }

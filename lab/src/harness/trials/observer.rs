@@ -19,8 +19,8 @@ use proto::{FrameChange, Modality, Rectification, ReleasedFrame, RgbFrame, Segme
 use rand_chacha::ChaCha8Rng;
 use sim::sensor::RGB_PERIOD_NS;
 
+use crate::harness::flight::rendered::{FlightSpec, Flown, RenderedFlight, fly_streamed};
 use crate::harness::link::{ObserverOut, observer_out};
-use crate::harness::rendered_flight::{FlightSpec, Flown, RenderedFlight, fly_streamed};
 
 /// How a trial's observers sense: their modality, their receivers' rectification and the
 /// perturbation their sensors and link draw from.

@@ -19,7 +19,7 @@ use sha2::{Digest, Sha256};
 
 use proto::RenderPath;
 
-use crate::harness::trials_out::TrialRecord;
+use crate::harness::trials::out::TrialRecord;
 
 /// The records' directory inside a point's directory.
 pub const RECORDS_DIR: &str = "trials";
@@ -128,7 +128,7 @@ fn renderer(render: RenderPath) -> String {
 }
 
 /// A trial's outcome as a record holds it: a link trial ([`TrialRecord`]) or a whole mission
-/// ([`crate::harness::mission_trials::MissionTrial`]).
+/// ([`crate::harness::mission::trials::MissionTrial`]).
 pub trait Recordable: Serialize + serde::de::DeserializeOwned + Clone {
     /// Its index in the run.
     fn record_index(&self) -> u64;

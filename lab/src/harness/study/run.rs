@@ -1,8 +1,8 @@
 //! Running a link study, whole or one shard of it, resumably: every trial is recorded as it
-//! ends ([`crate::harness::records`]); a rerun into the same directory runs only the trials of
+//! ends ([`crate::harness::runs::records`]); a rerun into the same directory runs only the trials of
 //! its part that are not recorded (damaged records are set aside and rerun). The results
 //! (`trials.json`, `study.json`, report, figures) are then made from the records by
-//! [`crate::harness::study_merge`], for one directory or for all of a study's shards.
+//! [`crate::harness::study::merge`], for one directory or for all of a study's shards.
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -11,13 +11,13 @@ use anyhow::{Context, Result, bail};
 use proto::RenderPath;
 use sim::sensor::EVENT_RENDER_PERIOD_NS;
 
-pub use crate::harness::records::recorded;
-use crate::harness::records::{HEADER_FILE, write_json};
-use crate::harness::records::{read_json, write_record};
-use crate::harness::render_cache::{Fetched, RenderCache, fly_through};
-use crate::harness::rendered_flight::RenderedFlight;
-use crate::harness::run_files::{PointCostSum, RunCost, RunKind, RunManifest, cpu_s};
-use crate::harness::shard::{Shard, part_of};
+use crate::harness::flight::cache::{Fetched, RenderCache, fly_through};
+use crate::harness::flight::rendered::RenderedFlight;
+use crate::harness::runs::files::{PointCostSum, RunCost, RunKind, RunManifest, cpu_s};
+pub use crate::harness::runs::records::recorded;
+use crate::harness::runs::records::{HEADER_FILE, write_json};
+use crate::harness::runs::records::{read_json, write_record};
+use crate::harness::runs::shard::{Shard, part_of};
 use crate::harness::study::{Point, StudyFile};
 use crate::harness::trials::{TrialsHeader, TrialsOptions, TrialsRun, run_trials};
 
@@ -141,7 +141,7 @@ pub fn run_study_part(
     for (p, indices) in &parts {
         let point = &points[*p];
         let dir = out.join(&point.dir);
-        let (found, damaged) = recorded::<crate::harness::trials_out::TrialRecord>(
+        let (found, damaged) = recorded::<crate::harness::trials::out::TrialRecord>(
             &dir,
             &point.dir,
             study.trials,

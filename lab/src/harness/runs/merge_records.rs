@@ -1,7 +1,7 @@
 //! Records gathered for a merge: one point's records over several directories (the shards of
 //! a run, or one run), who made them, and what a merge accepts beyond one binary on one kind of
-//! host. Shared by the link-study merge ([`crate::harness::study_merge`]) and the baselines
-//! study's ([`crate::harness::baselines_run`]).
+//! host. Shared by the link-study merge ([`crate::harness::study::merge`]) and the baselines
+//! study's ([`crate::harness::study::baselines_run`]).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use serde::Serialize;
 
-use crate::harness::records::{Provenance, Recordable, scan};
+use crate::harness::runs::records::{Provenance, Recordable, scan};
 
 /// What a merge accepts beyond a complete run of one binary on one kind of host.
 #[derive(Debug, Clone, Copy, Default)]

@@ -22,6 +22,18 @@
 //! pooled over the other factors' levels, and every combination. Otherwise each
 //! condition is varied alone, the others held at their `fixed` value (or off); each gets a
 //! section of the report and its figure `success-<key>.svg`. Unknown keys, unknown terms and out-of-range levels are refused at load, naming them.
+//!
+//! Its parts: one condition and its levels ([`vary`]), running a link study ([`run`]), the
+//! merge of records into results ([`merge`]), the report and figures ([`report`], [`figure`]),
+//! and the baselines study of whole missions ([`baselines`], [`baselines_run`]).
+
+pub mod baselines;
+pub mod baselines_run;
+pub mod figure;
+pub mod merge;
+pub mod report;
+pub mod run;
+pub mod vary;
 
 use std::collections::BTreeMap;
 
@@ -31,9 +43,9 @@ use proto::scene::{Formation, Placement};
 use proto::{Modality, Rectification, RenderPath};
 use serde::{Deserialize, Serialize};
 
-use crate::harness::air::PointTracking;
-use crate::harness::baselines::BaselineStudy;
-pub use crate::harness::vary::Vary;
+use crate::harness::flight::air::PointTracking;
+use crate::harness::study::baselines::BaselineStudy;
+pub use crate::harness::study::vary::Vary;
 use commands::common::{parse_bits6, parse_viewpoint};
 
 use crate::harness::trials::TrialsOptions;

@@ -29,11 +29,11 @@ use proto::{FrameChange, Modality};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use crate::harness::link::ObserverOut;
-use crate::harness::records::Provenance;
-use crate::harness::rendered_flight::{
+use crate::harness::flight::rendered::{
     FlightSpec, RenderTrack, RenderedFlight, Update, fly_rendered,
 };
+use crate::harness::link::ObserverOut;
+use crate::harness::runs::records::Provenance;
 
 /// The first bytes of an entry (format version 1).
 const MAGIC: &[u8; 8] = b"WGLRNDR1";

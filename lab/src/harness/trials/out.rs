@@ -5,8 +5,8 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::harness::air::Tracking;
-use crate::harness::pool::{Outcome, Tally};
+use crate::harness::flight::air::Tracking;
+use crate::harness::trials::pool::{Outcome, Tally};
 
 /// How one observer's token stamps compare with the ideal receiver's on the same flight.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

@@ -25,12 +25,12 @@ use anyhow::{Context, Result, bail};
 use perturb::Perturbation;
 use serde::{Deserialize, Serialize};
 
-use crate::harness::air::PointTracking;
-use crate::harness::figure::{FigurePoint, success_figure};
+use crate::harness::flight::air::PointTracking;
 use crate::harness::mission::MissionOptions;
-use crate::harness::mission_trials::MissionTrialsOut;
-use crate::harness::records::{write_atomic, write_json};
-use crate::harness::vary::Vary;
+use crate::harness::mission::trials::MissionTrialsOut;
+use crate::harness::runs::records::{write_atomic, write_json};
+use crate::harness::study::figure::{FigurePoint, success_figure};
+use crate::harness::study::vary::Vary;
 use commands::Policy;
 use proto::Receiver;
 use run_format::case::Case;
@@ -190,11 +190,11 @@ pub(crate) fn arm_result(
     out: &MissionTrialsOut,
 ) -> ArmResult {
     let m = || out.per_trial.iter().map(|t| &t.metrics);
-    let avg = |f: &dyn Fn(&crate::harness::mission_metrics::MissionMetrics) -> f64| {
+    let avg = |f: &dyn Fn(&crate::harness::mission::metrics::MissionMetrics) -> f64| {
         mean(m().map(f)).unwrap_or(f64::NAN)
     };
     let responses = || m().flat_map(|x| x.reassignments.iter());
-    let unsafe_trial = |t: &crate::harness::mission_trials::MissionTrial| {
+    let unsafe_trial = |t: &crate::harness::mission::trials::MissionTrial| {
         t.contact_steps > 0 || t.min_separation_m < SAFE_SEPARATION_M
     };
     ArmResult {

@@ -14,23 +14,23 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use proto::RenderPath;
 
-use crate::harness::air::PointTracking;
-pub use crate::harness::merge_records::MergeOptions;
-use crate::harness::merge_records::{Makers, check_makers, gather_records};
-use crate::harness::records::{write_atomic, write_json};
-use crate::harness::run_files::{RunCost, RunKind, RunManifest};
-use crate::harness::shard::Shard;
+use crate::harness::flight::air::PointTracking;
+use crate::harness::runs::files::{RunCost, RunKind, RunManifest};
+pub use crate::harness::runs::merge_records::MergeOptions;
+use crate::harness::runs::merge_records::{Makers, check_makers, gather_records};
+use crate::harness::runs::records::{write_atomic, write_json};
+use crate::harness::runs::shard::Shard;
+use crate::harness::study::report::{cost_md, figure, marginals, report};
+use crate::harness::study::run::header;
 use crate::harness::study::{Point, PointResult, StudyFile, figure_name};
-use crate::harness::study_report::{cost_md, figure, marginals, report};
-use crate::harness::study_run::header;
 use crate::harness::trials::{ObserverTrial, TrialRecord, TrialsHeader, TrialsOut};
 
 /// What a merge made.
 #[derive(Debug)]
 pub enum Merged {
     Study(Vec<PointResult>),
-    Baselines(Vec<crate::harness::baselines::ArmResult>),
-    Missions(Box<crate::harness::mission_trials::MissionTrialsOut>),
+    Baselines(Vec<crate::harness::study::baselines::ArmResult>),
+    Missions(Box<crate::harness::mission::trials::MissionTrialsOut>),
     Trials(Box<TrialsOut>),
 }
 
@@ -127,7 +127,9 @@ fn costs(sources: &[PathBuf]) -> Result<RunCost> {
 pub fn merge(sources: &[PathBuf], out: &Path, options: MergeOptions) -> Result<Merged> {
     let manifest = common_manifest(sources)?;
     if !sources.iter().any(|s| s == out)
-        && out.join(crate::harness::records::MANIFEST_FILE).exists()
+        && out
+            .join(crate::harness::runs::records::MANIFEST_FILE)
+            .exists()
     {
         bail!(
             "{} is a run directory that is not among those merged: choose another --out",
@@ -149,17 +151,17 @@ pub fn merge(sources: &[PathBuf], out: &Path, options: MergeOptions) -> Result<M
     };
     match manifest.kind {
         RunKind::Baselines => {
-            let study: crate::harness::baselines::BaselineStudy =
+            let study: crate::harness::study::baselines::BaselineStudy =
                 toml::from_str(&manifest.definition)
                     .context("run.json: the study's definition does not parse")?;
             let results =
-                crate::harness::baselines_run::write_results(&study, sources, out, options)
+                crate::harness::study::baselines_run::write_results(&study, sources, out, options)
                     .map_err(|e| anyhow::anyhow!("{e:#}{}", missing_shards(sources)))?;
             write_json(&out.join("cost.json"), &cost)?;
             Ok(Merged::Baselines(results))
         }
         RunKind::Missions => {
-            use crate::harness::mission_trials::{
+            use crate::harness::mission::trials::{
                 MissionTrial, MissionsDefinition, mission_trials_out,
             };
             let opts = MissionsDefinition::options(&manifest.definition, manifest.requested)?;

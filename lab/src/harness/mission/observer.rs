@@ -20,7 +20,7 @@ use sim::render::CameraRenderer;
 use sim::sensor::{ObserverSensor, SensorOutput};
 use sim::world::World;
 
-use crate::harness::mission_options::MissionOptions;
+use crate::harness::mission::options::MissionOptions;
 use proto::Receiver;
 use run_format::case::Case;
 use run_format::run_dir::ObserverRecord;

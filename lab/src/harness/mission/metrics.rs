@@ -43,7 +43,7 @@ pub struct MissionMetrics {
     /// The performer's tracking of its reference, when wind or the cascade controller flew
     /// (absent in still air under ideal stabilisation, so those outputs are as before).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub performer_tracking: Option<crate::harness::air::Tracking>,
+    pub performer_tracking: Option<crate::harness::flight::air::Tracking>,
 }
 
 fn seconds(ns: u64) -> f64 {

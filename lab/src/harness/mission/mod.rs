@@ -10,8 +10,17 @@
 //! references of t_k extrapolated inside the tick (`sim::lockstep`), and at every render
 //! instant the cameras render the published truth mirrored into their own world, as the camera
 //! processes do.
+//!
+//! Its parts: the mission's metrics from the scheduler's log ([`metrics`]), one observer of it
+//! ([`observer`]), how a mission is flown beyond its case ([`options`]) and seeded trials of
+//! whole missions ([`trials`]).
 
-pub use crate::harness::mission_options::MissionOptions;
+pub mod metrics;
+pub mod observer;
+pub mod options;
+pub mod trials;
+
+pub use crate::harness::mission::options::MissionOptions;
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -29,9 +38,9 @@ use sim::lockstep::{TickReferences, mirror, sim_state};
 use sim::render::CameraRenderer;
 use sim::world::World;
 
-use crate::harness::air::{Tracking, set_air};
-use crate::harness::mission_metrics::{MissionMetrics, measure};
-use crate::harness::mission_observer::MissionObserver;
+use crate::harness::flight::air::{Tracking, set_air};
+use crate::harness::mission::metrics::{MissionMetrics, measure};
+use crate::harness::mission::observer::MissionObserver;
 use commands::Policy;
 use proto::Receiver;
 use run_eval::summary::{check_expected, ns_s, provenance_violations};

@@ -3,6 +3,10 @@
 //! One process steps physics, flies the broadcast, renders each observer's camera at its
 //! modality's rate and feeds each observer's receiver only its own sensor data. It is the fast
 //! bench on which receivers are developed and tested without Zenoh.
+//!
+//! Decode success against viewing angle and distance is [`viewpoints`].
+
+pub mod viewpoints;
 
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -19,7 +23,7 @@ use sim::render::CameraRenderer;
 use sim::sensor::{ObserverSensor, SensorOutput};
 use sim::world::World;
 
-use crate::harness::performer_flight::step_along;
+use crate::harness::flight::performer::step_along;
 
 /// What to fly and decode (the options of `waggle link`).
 #[derive(Debug, Clone)]
@@ -235,7 +239,7 @@ pub(crate) fn write_raws<'a>(
 ) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     for (name, events) in names.iter().zip(events) {
-        crate::harness::raw::write_raw(&dir.join(format!("{name}.raw")), events)?;
+        crate::harness::flight::raw::write_raw(&dir.join(format!("{name}.raw")), events)?;
     }
     Ok(())
 }
@@ -321,7 +325,7 @@ impl Chain {
                 SensorOutput::Rgb(f) => self.perception.push(SensorInput::Rgb(f))?,
                 SensorOutput::Events(p) => {
                     if let Some(events) = self.events.as_mut() {
-                        crate::harness::raw::packet_events(p, events);
+                        crate::harness::flight::raw::packet_events(p, events);
                     }
                     self.perception.push(SensorInput::Events(p))?
                 }

@@ -3,7 +3,7 @@
 
 use anyhow::Result;
 
-use crate::harness::vary::Vary;
+use crate::harness::study::vary::Vary;
 
 /// One measured point of a series.
 #[derive(Debug, Clone, PartialEq)]

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 
-use crate::harness::records::write_atomic;
+use crate::harness::runs::records::write_atomic;
 
 /// Resources and placement of the array's tasks.
 #[derive(Debug, Clone)]

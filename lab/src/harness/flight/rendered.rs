@@ -24,9 +24,9 @@ use rand_distr::{Distribution, Normal};
 use sim::render::CameraRenderer;
 use sim::world::World;
 
-use crate::harness::air::Tracking;
+use crate::harness::flight::air::Tracking;
+use crate::harness::flight::performer::step_along;
 use crate::harness::link::{IDEAL_PERIOD_NS, ObserverOut, observer_out};
-use crate::harness::performer_flight::step_along;
 
 /// The performer is drone 0.
 const PERFORMER: usize = 0;
@@ -45,7 +45,7 @@ pub struct FlightSpec {
     /// the seed of the draws. `None`: still air.
     pub gusts: Option<Gusts>,
     /// Wind and the cascade controller (`wind.*`, `flight.cascade`) with the trial's seed, set
-    /// on the world before it flies ([`crate::harness::air::set_air`]). `None`: still air and
+    /// on the world before it flies ([`crate::harness::flight::air::set_air`]). `None`: still air and
     /// the paper's ideal stabilisation.
     pub air: Option<(perturb::Perturbation, u64)>,
 }
@@ -216,7 +216,7 @@ pub fn fly_streamed(
         .map(|i| world.body_pose(i + 1).1)
         .collect();
     if let Some((p, seed)) = &spec.air {
-        crate::harness::air::set_air(&mut world, p, *seed)?;
+        crate::harness::flight::air::set_air(&mut world, p, *seed)?;
     }
     let mut renderer =
         CameraRenderer::new(&world, spec.render).context("creating the offscreen renderer")?;

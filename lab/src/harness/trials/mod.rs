@@ -6,8 +6,15 @@
 //! criterion is fixed before the first trial: every observer releases exactly the broadcast
 //! payloads, in order. Everything a trial records is a function of the condition and its seed
 //! (no wall-clock value), so the same seed gives identical records whatever `--jobs`.
+//!
+//! Its parts: one trial's observers ([`observer`]), what `waggle trials` writes ([`out`]) and the
+//! thread pool trials run on ([`pool`]).
 
-pub use crate::harness::trials_out::{
+pub mod observer;
+pub mod out;
+pub mod pool;
+
+pub use crate::harness::trials::out::{
     ObserverTrial, PlacementOut, TokenTiming, TrialFlight, TrialRecord, TrialsCost, TrialsHeader,
     TrialsOut, TrialsSummary,
 };
@@ -22,11 +29,11 @@ use proto::{Modality, Rectification, RenderPath, Schedule};
 use rand_distr::{Distribution, Normal};
 use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
+use crate::harness::flight::cache::{Fetched, RenderCache, fly_through};
+use crate::harness::flight::rendered::{FlightSpec, Gusts, RenderedFlight};
 use crate::harness::link::{ObserverOut, bits6, broadcast_schedule};
-use crate::harness::pool::run_pool_on;
-use crate::harness::render_cache::{Fetched, RenderCache, fly_through};
-use crate::harness::rendered_flight::{FlightSpec, Gusts, RenderedFlight};
-use crate::harness::trial_observer::{Observed, Sensing, observe_cached, observe_flying};
+use crate::harness::trials::observer::{Observed, Sensing, observe_cached, observe_flying};
+use crate::harness::trials::pool::run_pool_on;
 
 /// One condition and how many times to try it.
 #[derive(Debug, Clone)]
@@ -461,7 +468,7 @@ mod tests {
     use proto::{Modality, Rectification, RenderPath};
 
     use super::{Observed, TrialsOptions, observe_cached, observe_flying};
-    use crate::harness::rendered_flight::fly_rendered;
+    use crate::harness::flight::rendered::fly_rendered;
 
     fn digest(observed: &[Observed]) -> Vec<String> {
         observed

@@ -13,10 +13,10 @@ use perturb::seed::trial_seed;
 use proto::RenderPath;
 use serde::{Deserialize, Serialize};
 
+use crate::harness::mission::metrics::MissionMetrics;
 use crate::harness::mission::{MissionOptions, MissionRun, fly_case_with};
-use crate::harness::mission_metrics::MissionMetrics;
-use crate::harness::pool::{Outcome, Tally, run_pool_on};
-use crate::harness::records::Recordable;
+use crate::harness::runs::records::Recordable;
+use crate::harness::trials::pool::{Outcome, Tally, run_pool_on};
 use commands::Policy;
 use proto::Receiver;
 use run_format::case::Case;

@@ -8,7 +8,7 @@ use std::path::Path;
 use anyhow::{Result, bail};
 use serde::{Deserialize, Serialize};
 
-use crate::harness::records::{MANIFEST_FILE, read_json, write_json};
+use crate::harness::runs::records::{MANIFEST_FILE, read_json, write_json};
 use crate::harness::trials::TrialsCost;
 
 /// Where a run's costs accumulate (beside its records; merged into `cost.json`).
