@@ -72,3 +72,62 @@ fn write_pages(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_man_page_per_command_and_subcommand() {
+        let dir = std::env::temp_dir().join(format!("waggle-man-{}", std::process::id()));
+        let pages = man_pages(&dir).unwrap();
+        let names: Vec<String> = pages
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect();
+        for name in [
+            "waggle.1",
+            "waggle-trials.1",
+            "waggle-study-merge.1",
+            "waggle-run.1",
+        ] {
+            assert!(names.contains(&name.to_owned()), "{name} not in {names:?}");
+        }
+        let top = crate::command().get_subcommands().count() - 1; // without `help`
+        assert!(
+            pages.len() > top,
+            "{} pages for {top} commands",
+            pages.len()
+        );
+        let trials = std::fs::read_to_string(dir.join("waggle-trials.1")).unwrap();
+        assert!(trials.contains("modality"), "{trials}");
+        let _ = std::fs::remove_dir_all(&dir);
+        // A path that cannot be a directory is an error naming it.
+        let file = std::env::temp_dir().join(format!("waggle-man-file-{}", std::process::id()));
+        std::fs::write(&file, b"x").unwrap();
+        let e = man_pages(&file.join("sub")).unwrap_err();
+        assert!(e.to_string().contains("waggle-man-file"), "{e}");
+        let _ = std::fs::remove_file(&file);
+    }
+
+    #[test]
+    fn completions_know_every_command() {
+        for shell in [
+            clap_complete::Shell::Bash,
+            clap_complete::Shell::Zsh,
+            clap_complete::Shell::Fish,
+        ] {
+            let mut out = Vec::new();
+            completions(shell, &mut out);
+            let text = String::from_utf8(out).unwrap();
+            for sub in crate::command().get_subcommands() {
+                assert!(
+                    text.contains(sub.get_name()),
+                    "{shell:?} lacks {}",
+                    sub.get_name()
+                );
+            }
+            assert!(text.contains("--sensor-preset"), "{shell:?}");
+        }
+    }
+}
