@@ -99,19 +99,19 @@ def event_packet(data):
         nonlocal off
         off = (off + n - 1) // n * n
 
-    def u32():
+    def scalar(fmt):
         nonlocal off
-        align(4)
-        (v,) = struct.unpack_from("<I", body, off)
-        off += 4
+        size = struct.calcsize(fmt)
+        align(size)
+        (v,) = struct.unpack_from(fmt, body, off)
+        off += size
         return v
 
+    def u32():
+        return scalar("<I")
+
     def u64():
-        nonlocal off
-        align(8)
-        (v,) = struct.unpack_from("<Q", body, off)
-        off += 8
-        return v
+        return scalar("<Q")
 
     def string():
         nonlocal off
