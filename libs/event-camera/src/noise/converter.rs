@@ -8,7 +8,7 @@ use rand_distr::{Distribution, Poisson, StandardNormal};
 
 use super::leak::LeakModel;
 use super::schedule::LeakSchedule;
-use super::shot::{ShotDraws, ShotMap};
+use super::shot::{PixelKeys, ShotDraws, ShotMap};
 use super::state::{Interval, ORDER_HOT, PixelJudge, State};
 use super::{
     EventNoise, MIN_PIXEL_THRESHOLD, STREAM_HOT, STREAM_SHOT, STREAM_THRESHOLD, rng_stream,
@@ -307,10 +307,11 @@ impl NoisyConverter {
                 (lo[i], span[i]) = bounds;
             }
         }
-        State {
+        let mut state = State {
             first_stamp_ns: stamp_ns,
             last_stamp_ns: stamp_ns,
             prev_keys: keys,
+            coarse: Vec::new(),
             keys: if lo.is_empty() {
                 Vec::new()
             } else {
@@ -352,7 +353,9 @@ impl NoisyConverter {
             flagged: Vec::new(),
             crossings: Vec::new(),
             to_judge: Vec::new(),
-        }
+        };
+        state.set_coarse(&self.shot_map);
+        state
     }
 
     /// Without leak, whole frame: the vectorised key scan, then the flagged chunks.
@@ -378,6 +381,7 @@ impl NoisyConverter {
             }
         }
         std::mem::swap(&mut state.keys, &mut state.prev_keys);
+        state.set_coarse(&self.shot_map);
     }
 
     /// Without leak, only `region`'s pixels.
@@ -392,7 +396,7 @@ impl NoisyConverter {
             for i in row + usize::from(r.x)..row + usize::from(r.x) + usize::from(r.width) {
                 let key = luminance_key(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
                 state.settle(i, key, self.thresholds[i], self.table, at);
-                state.prev_keys[i] = key;
+                state.set_key(i, key, &self.shot_map);
             }
         }
     }
@@ -424,6 +428,7 @@ impl NoisyConverter {
             g1,
             stamp_ns,
             at,
+            shot: &self.shot_map,
         };
         state.crossings.clear();
         let settling = std::mem::take(&mut state.unsettled);
@@ -493,7 +498,10 @@ impl NoisyConverter {
                 n as u32,
                 at.dt,
                 &self.shot_map,
-                &state.prev_keys,
+                &PixelKeys {
+                    luminance: &state.prev_keys,
+                    coarse: &state.coarse,
+                },
             );
         }
         let rows = RowOf::new(self.width);

@@ -77,6 +77,8 @@ pub(super) struct ShotMap {
     /// Per luminance key (0..=[`MAX_KEY`]): a candidate is kept when its 31-bit coin is below
     /// this (empty without the brightness term). See [`keep_below`].
     keep_below: Vec<u32>,
+    /// Per luminance key: the top 8 of the 31 bits of `keep_below` (see [`ShotMap::coarse`]).
+    coarse: Vec<u8>,
 }
 
 /// The integer form of the thinning test `coin / 2³¹ < keep`, `keep = 1 − b·(Y + 20)/275` for
@@ -109,12 +111,36 @@ impl ShotMap {
         } else {
             Vec::new()
         };
+        let coarse = keep_below.iter().map(|&k| coarse_of(k)).collect();
         Self {
             alias,
             mean_weight,
             keep_below,
+            coarse,
         }
     }
+
+    /// Whether the thinning applies at all (the brightness term is on).
+    pub fn thins(&self) -> bool {
+        !self.keep_below.is_empty()
+    }
+
+    /// The coarse thinning bound of luminance key `key`: a per-pixel copy of it, 1 byte where
+    /// the key is 4, lets a candidate be decided from a table that stays in cache (a 640×480
+    /// sensor's keys are 1.2 MB, beyond one core's L2; the byte per pixel 0.3 MB). Waiting for
+    /// the key was a quarter of the shot draw in a profile of a noisy link trial.
+    #[inline(always)]
+    pub fn coarse(&self, key: u32) -> u8 {
+        self.coarse[key as usize]
+    }
+}
+
+/// `keep_below`'s top 8 of 31 bits, clamped to a byte (2³¹ itself, "always keep", becomes 255).
+/// With the coin's own top 8 bits `h`: `h < coarse` keeps exactly, `h > coarse` drops exactly
+/// (then `coarse` is unclamped: `h ≤ 255`), and only `h = coarse` (1 candidate in 256) needs the
+/// full bound (`keep_below_decides_as_the_float_test`).
+fn coarse_of(keep_below: u32) -> u8 {
+    (keep_below >> 23).min(255) as u8
 }
 
 impl ShotMap {
@@ -130,15 +156,28 @@ impl ShotMap {
     }
 
     /// Whether the candidate at `pixel` survives the brightness thinning, from bits 1–31 of its
-    /// second draw `b` (always, without the term).
+    /// second draw `b` (always, without the term): decided by the pixel's coarse bound
+    /// (`keys.coarse`) but for one candidate in 256, which reads its luminance key.
     #[inline(always)]
-    fn keeps(&self, b: u64, pixel: u64, luminance_keys: &[u32]) -> bool {
+    fn keeps(&self, b: u64, pixel: u64, keys: &PixelKeys) -> bool {
         if self.keep_below.is_empty() {
             return true;
         }
         let coin = ((b >> 1) & 0x7FFF_FFFF) as u32;
-        coin < self.keep_below[luminance_keys[pixel as usize] as usize]
+        let (high, coarse) = ((coin >> 23) as u8, keys.coarse[pixel as usize]);
+        if high != coarse {
+            return high < coarse;
+        }
+        coin < self.keep_below[keys.luminance[pixel as usize] as usize]
     }
+}
+
+/// The pixels' luminance keys at the interval's end and their coarse thinning bounds
+/// ([`ShotMap::coarse`] of each key; empty without the brightness term).
+#[derive(Clone, Copy)]
+pub(super) struct PixelKeys<'a> {
+    pub luminance: &'a [u32],
+    pub coarse: &'a [u8],
 }
 
 /// Multiply-shift: a uniform column below `pixels` from the high 32 bits of `a` (bias below
@@ -165,8 +204,8 @@ pub(super) struct ShotDraws {
 impl ShotDraws {
     /// Draws `count` candidates, each at a pixel of `pixels` (uniform or by `map`'s alias), a
     /// uniform integer time offset in `1..=dt` and a fair polarity, keeps each with `map`'s
-    /// brightness probability (`luminance_keys` are the pixels' keys at the interval's end),
-    /// and sorts them by (time, pixel, polarity).
+    /// brightness probability (`keys` are the pixels' keys at the interval's end), and sorts
+    /// them by (time, pixel, polarity).
     pub fn draw(
         &mut self,
         rng: &mut ChaCha8Rng,
@@ -174,18 +213,18 @@ impl ShotDraws {
         pixels: u32,
         dt: u64,
         map: &ShotMap,
-        luminance_keys: &[u32],
+        keys: &PixelKeys,
     ) {
         self.pixel_bits = 32 - pixels.saturating_sub(1).leading_zeros();
         let time_bits = 64 - dt.leading_zeros();
         let bits = time_bits + self.pixel_bits + 1;
         if dt <= u64::from(u32::MAX) {
-            self.draw_batched(rng, count, pixels, dt, map, luminance_keys);
+            self.draw_batched(rng, count, pixels, dt, map, keys);
         } else {
             for _ in 0..count {
                 let (a, b) = (rng.next_u64(), rng.next_u64());
                 let pixel = map.pixel(a, pixels);
-                if map.keeps(b, pixel, luminance_keys) {
+                if map.keeps(b, pixel, keys) {
                     let offset = rng.gen_range(1..=dt);
                     self.keys
                         .push((offset << (self.pixel_bits + 1)) | (pixel << 1) | (b & 1));
@@ -198,9 +237,9 @@ impl ShotDraws {
     /// [`ShotDraws::draw`]'s candidates for `dt` within 32 bits (every candidate then uses
     /// exactly two draws), as a pipeline over small batches: while batch n draws its random
     /// numbers and asks for its alias entries, batch n − `RESOLVE_LAG` resolves its pixels and
-    /// asks for their luminance, and batch n − `PUSH_LAG` makes its keys. Each table read thus
-    /// finds the line asked for several batches of work earlier instead of waiting for a miss
-    /// (the tables of a 640×480 sensor are 2.4 and 1.2 MB: beyond L2). The batch and lags were
+    /// asks for their coarse thinning bounds, and batch n − `PUSH_LAG` makes its keys. Each
+    /// table read thus finds the line asked for several batches of work earlier instead of
+    /// waiting for a miss (a 640×480 sensor's alias table is 2.4 MB: beyond L2). The batch and lags were
     /// measured (`cargo bench -p event-camera --bench noise`: 8/4/8 beat 16–32 per batch with
     /// lags 1/2 by 5–10 %, and waiting for each batch's own prefetches by ≈ 20 %). A candidate
     /// is appended without a branch (thinning is a coin flip no predictor can learn). Same
@@ -212,7 +251,7 @@ impl ShotDraws {
         pixels: u32,
         dt: u64,
         map: &ShotMap,
-        luminance_keys: &[u32],
+        keys: &PixelKeys,
     ) {
         const BATCH: usize = 8;
         const RESOLVE_LAG: usize = 4;
@@ -249,19 +288,13 @@ impl ShotDraws {
                 }
                 if !map.keep_below.is_empty() {
                     for &p in &pixel[s][..m] {
-                        prefetch(luminance_keys, p as usize);
+                        prefetch(keys.coarse, p as usize);
                     }
                 }
             }
             if (PUSH_LAG..batches + PUSH_LAG).contains(&n) {
                 let s = (n - PUSH_LAG) % STAGES;
-                self.push_keys(
-                    &b[s][..len[s]],
-                    &pixel[s][..len[s]],
-                    dt,
-                    map,
-                    luminance_keys,
-                );
+                self.push_keys(&b[s][..len[s]], &pixel[s][..len[s]], dt, map, keys);
             }
         }
     }
@@ -269,21 +302,14 @@ impl ShotDraws {
     /// Appends the keys of one batch's candidates (second draws `b`, resolved pixels) that
     /// survive the brightness thinning.
     #[inline(always)]
-    fn push_keys(
-        &mut self,
-        b: &[u64],
-        pixel: &[u64],
-        dt: u64,
-        map: &ShotMap,
-        luminance_keys: &[u32],
-    ) {
+    fn push_keys(&mut self, b: &[u64], pixel: &[u64], dt: u64, map: &ShotMap, keys: &PixelKeys) {
         let start = self.keys.len();
         self.keys.resize(start + b.len(), 0);
         let mut kept = start;
         for (&b, &pixel) in b.iter().zip(pixel) {
             let offset = 1 + (((b >> 32) * dt) >> 32);
             self.keys[kept] = (offset << (self.pixel_bits + 1)) | (pixel << 1) | (b & 1);
-            kept += usize::from(map.keeps(b, pixel, luminance_keys));
+            kept += usize::from(map.keeps(b, pixel, keys));
         }
         self.keys.truncate(kept);
     }
@@ -359,6 +385,14 @@ mod tests {
             .map(|i| 0.2 * (1.0 + 0.3 * ((f64::from(i) * 0.7).sin())))
             .collect();
         let luminance: Vec<u32> = (0..pixels).map(|i| (i * 7919) % 255_000).collect();
+        let coarse: Vec<Vec<u8>> = [0.0, 0.75]
+            .iter()
+            .map(|&b| {
+                let map = ShotMap::new(0.2, &[0.2], b);
+                let per_key = |k: u32| if map.thins() { map.coarse(k) } else { 0 };
+                luminance.iter().map(|&k| per_key(k)).collect()
+            })
+            .collect();
         let maps = [
             ShotMap::new(0.2, &vec![0.2; pixels as usize], 0.0),
             ShotMap::new(0.2, &vec![0.2; pixels as usize], 0.75),
@@ -370,13 +404,20 @@ mod tests {
                 let dt = 10_000_000;
                 let mut rng = ChaCha8Rng::seed_from_u64(count + 17 * m as u64);
                 let mut drawn = ShotDraws::default();
-                drawn.draw(&mut rng.clone(), count, pixels, dt, map, &luminance);
+                let keys = PixelKeys {
+                    luminance: &luminance,
+                    coarse: &coarse[m % 2],
+                };
+                drawn.draw(&mut rng.clone(), count, pixels, dt, map, &keys);
                 let mut expected = Vec::new();
                 let pixel_bits = 32 - (pixels - 1).leading_zeros();
                 for _ in 0..count {
                     let (a, b) = (rng.next_u64(), rng.next_u64());
                     let pixel = map.pixel(a, pixels);
-                    if map.keeps(b, pixel, &luminance) {
+                    // The full bound, as the statement reads: the coarse one decides the same.
+                    let coin = ((b >> 1) & 0x7FFF_FFFF) as u32;
+                    let key = luminance[pixel as usize] as usize;
+                    if map.keep_below.is_empty() || coin < map.keep_below[key] {
                         let offset = 1 + (((b >> 32) * dt) >> 32);
                         expected.push((offset << (pixel_bits + 1)) | (pixel << 1) | (b & 1));
                     }
@@ -388,7 +429,8 @@ mod tests {
     }
 
     /// The table against the float test it replaces, at every key and the coins around each
-    /// key's boundary (and the extremes), for v2e's b and the edge values of b.
+    /// key's boundary and around its coarse bound (and the extremes), for v2e's b and the edge
+    /// values of b: the coarse decision and the full bound both decide as the float test.
     #[test]
     fn keep_below_decides_as_the_float_test() {
         for bright_drop in [0.75, 1.0, 0.3, 1e-9] {
@@ -397,19 +439,28 @@ mod tests {
                 let y = f64::from(key) / 1000.0;
                 let keep = 1.0 - bright_drop * (y + 20.0) / 275.0;
                 let bound = map.keep_below[key as usize];
+                let coarse = u32::from(map.coarse(key)) << 23;
+                let keys = PixelKeys {
+                    luminance: &[key],
+                    coarse: &[map.coarse(key)],
+                };
                 for coin in [
                     0,
                     1,
                     bound.saturating_sub(1),
                     bound,
                     bound + 1,
+                    coarse.saturating_sub(1),
+                    coarse,
+                    coarse + (1 << 23) - 1,
+                    coarse + (1 << 23),
                     (1 << 31) - 1,
                 ] {
                     let coin = coin.min((1 << 31) - 1);
                     let float = f64::from(coin) / f64::from(1u32 << 31) < keep;
                     let b = u64::from(coin) << 1;
                     assert_eq!(
-                        map.keeps(b, 0, &[key]),
+                        map.keeps(b, 0, &keys),
                         float,
                         "b {bright_drop}, key {key}, coin {coin}"
                     );

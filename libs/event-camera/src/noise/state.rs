@@ -5,6 +5,7 @@
 use super::LOWPASS_SETTLED;
 use super::leak::{JitterCache, LeakModel};
 use super::schedule::LeakSchedule;
+use super::shot::ShotMap;
 use crate::converter::no_event_bounds;
 use crate::event::Polarity;
 use crate::prefetch::prefetch;
@@ -22,6 +23,9 @@ pub(super) struct State {
     pub(super) last_stamp_ns: u64,
     /// Keys of the previous frame (start of the interpolation interval).
     pub(super) prev_keys: Vec<u32>,
+    /// With shot noise thinned by brightness: [`ShotMap::coarse`] of each pixel's key in
+    /// `prev_keys`, kept with it by [`State::set_key`].
+    pub(super) coarse: Vec<u8>,
     /// Without leak: scratch for the keys of the frame being converted (swapped afterwards).
     pub(super) keys: Vec<u32>,
     /// Without leak: each pixel's closed no-event key interval `[lo, lo + span]`.
@@ -120,6 +124,7 @@ pub(super) struct PixelJudge<'a> {
     pub(super) g1: f64,
     pub(super) stamp_ns: u64,
     pub(super) at: &'a Interval,
+    pub(super) shot: &'a ShotMap,
 }
 
 impl PixelJudge<'_> {
@@ -230,8 +235,14 @@ impl PixelJudge<'_> {
             );
             state.level[i] = level;
         }
-        state.prev_keys[i] = key;
-        if let Some(leak) = self.leak {
+        if key != state.prev_keys[i] {
+            state.set_key(i, key, self.shot);
+        }
+        // A pixel still settling is judged again at the next frame from the settling list, so
+        // its leak crossing need not be scheduled until it has settled (an entry it already has
+        // may still hand it out: judging a pixel at any frame follows the exact rule).
+        let settling = self.cutoff_hz > 0.0 && state.is_unsettled[i];
+        if let Some(leak) = self.leak.filter(|_| !settling) {
             let due = leak.due(&state.jitter, i, level, delta, c);
             // Judged early (inside the margin) without crossing: due again at the next frame.
             let due = if due <= self.g1 {
@@ -245,6 +256,24 @@ impl PixelJudge<'_> {
 }
 
 impl State {
+    /// Pixel `i`'s key at the frame is now `key`.
+    #[inline(always)]
+    pub(super) fn set_key(&mut self, i: usize, key: u32, shot: &ShotMap) {
+        self.prev_keys[i] = key;
+        if let Some(coarse) = self.coarse.get_mut(i) {
+            *coarse = shot.coarse(key);
+        }
+    }
+
+    /// Every pixel's coarse thinning bound from its key (after the keys were replaced whole).
+    pub(super) fn set_coarse(&mut self, shot: &ShotMap) {
+        if shot.thins() {
+            self.coarse.clear();
+            self.coarse
+                .extend(self.prev_keys.iter().map(|&key| shot.coarse(key)));
+        }
+    }
+
     /// Without leak: pixel `i` (threshold `c`) now has key `key` (its previous key still in
     /// `prev_keys`): records its crossings and its new level and bounds. No-op in bounds.
     #[inline]
