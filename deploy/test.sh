@@ -27,7 +27,8 @@
 #   5. clippy       cargo clippy --workspace --all-targets --release -D warnings (after the build,
 #                   whose build-script outputs it reuses; it checks every dependency again in
 #                   check mode, ≈ 217 of its ≈ 267 core-s, which no cargo option shares)
-#   6. test         deploy/test-binaries.sh: the test binaries two at a time, then the doc
+#   6. docs         with --full only: cargo doc --workspace --no-deps, rustdoc warnings denied
+#   7. test         deploy/test-binaries.sh: the test binaries two at a time, then the doc
 #                   tests (cargo test --release ARGS… when other arguments are given)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -87,6 +88,13 @@ cargo build --release --workspace --lib --bins --tests --examples ||
 step "clippy: cargo clippy --workspace --all-targets --release -- -D warnings"
 cargo clippy --workspace --all-targets --release -- -D warnings ||
   fail "clippy reports warnings (denied, above): fix them, or \`#[expect(lint, reason = \"…\")]\` where the lint is wrong"
+
+if [ "${1:-}" = "--full" ]; then
+  # About a minute more than the default run's budget allows; the links it checks change rarely.
+  step "docs: cargo doc --workspace --no-deps with rustdoc warnings denied"
+  RUSTDOCFLAGS="-D warnings" cargo doc --release --workspace --no-deps ||
+    fail "rustdoc reports warnings (denied, above): fix the doc links or the HTML in doc comments"
+fi
 
 step "test"
 # The default and --full runs go through deploy/test-binaries.sh: every test binary, two at a

@@ -1,5 +1,5 @@
 //! Faults the launcher injects: the case's `[[faults]]` plus the command line's `--black O2`,
-//! `--kill O2@35` and `--throttle O1@0:250:0`, each parsed by [`FromStr`] (so clap rejects a
+//! `--kill O2@35` and `--throttle O1@0:250:0`, each parsed by [`FromStr`](std::str::FromStr) (so clap rejects a
 //! bad one naming it) and checked against the case's observers.
 
 use proto::scene::observer_name;
@@ -20,7 +20,7 @@ pub struct UnknownObserver {
 /// Faults injected beyond the case's own: the command line's `--black`, `--kill` and
 /// `--throttle`, and a compose file's `[faults]` table, where each is written as on the command
 /// line (`black = ["O2"]`, `kill = ["O2@35"]`, `throttle = ["O1@0:250:0"]`) and parsed by the
-/// same [`FromStr`], so a bad one is refused naming it.
+/// same [`FromStr`](std::str::FromStr), so a bad one is refused naming it.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ExtraFaults {

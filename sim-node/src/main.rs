@@ -1,4 +1,6 @@
 //! `sim-node`: the physics process of a Waggle session, plus tools that exercise the scene.
+// `--help` texts name files such as `O<i>.png`, which rustdoc would read as HTML.
+#![allow(rustdoc::invalid_html_tags)]
 
 use std::path::PathBuf;
 use std::time::Instant;

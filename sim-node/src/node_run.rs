@@ -4,7 +4,7 @@
 //! (t_{k−1}, t_k] (every 10 ms; tick 0 has the single instant 0), `sim/contacts{k}`, then
 //! `clock{k}`. It then waits for the performer's `setpoint{k}` and the scheduler's `cmd{k}`, and
 //! steps tick k+1 with those references extrapolated inside the tick with their feed-forward
-//! velocity and acceleration ([`Reference::extrapolated`]). A `cmd` flagged `mission_end` ends
+//! velocity and acceleration ([`Kinematics::extrapolated`](proto::Kinematics::extrapolated)). A `cmd` flagged `mission_end` ends
 //! the run.
 
 use std::collections::BTreeMap;

@@ -124,7 +124,7 @@ pub fn open_config(session: &str, endpoints: &Endpoints) -> Result<zenoh::Config
 const LINGER_AFTER_REPORT: Duration = Duration::from_secs(30);
 
 /// Serves the session's router until Ctrl-C, or until the mission report has been seen and
-/// every process of the session has left (or [`LINGER_AFTER_REPORT`] has passed).
+/// every process of the session has left (or `LINGER_AFTER_REPORT` has passed).
 pub fn serve(
     session: &str,
     config: zenoh::Config,

@@ -5,7 +5,7 @@
 //! bench on which receivers are developed and tested without Zenoh.
 //!
 //! With `--sensor-preset`/`--perturb events.*` the event sensors are not the paper's ideal
-//! ones: see [`fly_link_with_sensors`].
+//! ones: see `fly_link_with_sensors`.
 
 use std::time::Instant;
 

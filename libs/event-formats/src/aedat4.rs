@@ -152,7 +152,7 @@ impl Compression {
     }
 }
 
-/// How [`write`] lays the events out.
+/// How [`write()`] lays the events out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct WriteOptions {
     pub compression: Compression,

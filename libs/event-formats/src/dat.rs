@@ -1,4 +1,4 @@
-//! Prophesee DAT (`.dat`, `td` files of CD events): the `%` header of [`crate::header`]
+//! Prophesee DAT (`.dat`, `td` files of CD events): the `%` header of `crate::header`
 //! (`% Version 2`, `% Width`, `% Height`, …), then, from version 2 on, two bytes — the event
 //! type and the event size — then fixed-size little-endian events. A CD event (type `0x0C`, or
 //! `0x00` in older files) is 8 bytes: a `u32` µs timestamp, then a `u32` holding x (bits 0–13),

@@ -1,5 +1,5 @@
 //! Prophesee EVT 2.0 (`.raw`, the Gen3 and Gen4 cameras' format): the `%` header of
-//! [`crate::header`] (`% evt 2.0`, or `% format EVT2;…`), then little-endian 32-bit words whose
+//! `crate::header` (`% evt 2.0`, or `% format EVT2;…`), then little-endian 32-bit words whose
 //! top four bits give their type (Prophesee's "EVT 2.0 format" documentation, Metavision SDK):
 //!
 //! | type | word | payload |

@@ -104,7 +104,7 @@ pub fn write(
 }
 
 /// One EVT 3.0 word stream written in pieces: the pieces, concatenated, are exactly the data
-/// [`write`] writes for all their events (after the header). A piece can be made a place where
+/// [`write()`] writes for all their events (after the header). A piece can be made a place where
 /// a decoder may start ([`StreamEncoder::restart`]): its first event then repeats `TIME_HIGH`,
 /// `TIME_LOW` and `ADDR_Y`, as a camera's USB buffer does — ROS 2 `event_camera_msgs` packets
 /// with `encoding: "evt3"` are such pieces.

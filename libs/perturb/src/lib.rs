@@ -11,7 +11,7 @@
 //! * `check` — what terms mean together ([`Perturbation::check`]: the event sensor's shot noise
 //!   with darkness's added stays within its own range).
 //! * [`preset`] — named sensor presets (v2e's `clean`, default and `noisy` values), cited.
-//! * [`reference`] — the user guide's page of every term and preset, rendered from the tables.
+//! * [`reference`](mod@reference) — the user guide's page of every term and preset, rendered from the tables.
 //! * [`seed`] — one trial seed → independent, reproducible streams per term and observer.
 //! * [`stats`] — the Wilson score interval for success rates.
 //!

@@ -53,7 +53,7 @@
 //! rest-to-rest minimum-jerk blend with whole-tick duration, so every transition (arrival,
 //! service end, return) falls on a tick. The return flies the outbound path backwards.
 //!
-//! **Concurrent mode** ([`SchedulerConfig::flights`] = [`FlightMode::Concurrent`]): every queued
+//! **Concurrent mode** ([`SchedulerConfig::flights`] = [`FlightMode::Concurrent`](proto::FlightMode::Concurrent)): every queued
 //! trip, in queue order, departs as soon as its whole reserved trajectory (out, service hover,
 //! back, then home) keeps the 0.4 m clearance from every trip already in the air at every
 //! instant ([`reservation`]: sampled every 20 ms with a bound on what two drones at ≤ 1 m/s can
@@ -69,19 +69,19 @@
 //!
 //! A round is *settled* once its window is closed, no trip is queued or flying, and either
 //! every live observer has decided or the deadline has passed. Then, in this order:
-//! - (b) nobody decided in the round → the mission ends ([`EndReason::NoDecision`]; only-A:
+//! - (b) nobody decided in the round → the mission ends ([`EndReason::NoDecision`](proto::EndReason::NoDecision); only-A:
 //!   one offer, nobody can decide, so the mission ends at window close + 20 s, nobody departs);
-//! - (a) it was the last round → the mission ends ([`EndReason::RoundsComplete`]; every trip is
+//! - (a) it was the last round → the mission ends ([`EndReason::RoundsComplete`](proto::EndReason::RoundsComplete); every trip is
 //!   back home by construction);
-//! - (a′) no work is left anywhere → the mission ends ([`EndReason::AllWorkDone`]);
+//! - (a′) no work is left anywhere → the mission ends ([`EndReason::AllWorkDone`](proto::EndReason::AllWorkDone));
 //! - otherwise the next round starts on the same tick with offers from the task state as it is
 //!   now (O2-black: O2 never decides, so round 1 settles after O1's and O3's trips and the
 //!   deadline, and round 2 sends A `011001`).
 //!
 //! (c) A round that broadcasts nothing ([`SchedulerConfig::without_broadcast`]) ends the mission
-//! [`Timing::idle_end_ns`] (15 s) after it started ([`EndReason::NoBroadcast`]); decisions in
+//! [`Timing::idle_end_ns`] (15 s) after it started ([`EndReason::NoBroadcast`](proto::EndReason::NoBroadcast)); decisions in
 //! such a round are rejected. Optionally, [`SchedulerConfig::time_limit_ns`] ends the mission
-//! ([`EndReason::TimeLimit`]); anything in flight then hovers where it is.
+//! ([`EndReason::TimeLimit`](proto::EndReason::TimeLimit)); anything in flight then hovers where it is.
 //!
 //! Session controls on mission end: `WindowClose` (if still open), then `MissionEnd`.
 

@@ -1,6 +1,6 @@
 //! The `baselines` study: whole missions under each allocation arm — Waggle with RGB or event
 //! cameras, the ideal-message receiver (ground truth in every camera) and the fixed-allocation
-//! policy (no communication) — with the outcome measures of [`MissionMetrics`] side by side.
+//! policy (no communication) — with the outcome measures of [`MissionMetrics`](crate::harness::mission::metrics::MissionMetrics) side by side.
 //!
 //! ```toml
 //! name = "baselines"

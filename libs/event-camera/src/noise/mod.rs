@@ -37,7 +37,7 @@
 //! * refractory filter: a crossing at `t` is emitted only if `t ≥ t_emit + refractory_ns`,
 //!   `t_emit` the time of the pixel's previous emitted crossing (always emitted if none);
 //!   filtered crossings still move the level;
-//! * shot noise: see [`shot`];
+//! * shot noise: see the `shot` module;
 //! * hot pixel j (distinct pixels chosen by the seed, phase `ψ_j ~ U[0, 1)`): ON events at
 //!   `t_first + max(1, ceil((k + ψ_j) · 1e9 / hot_pixel_hz))`, k = 0, 1, …, each in the
 //!   interval containing it.

@@ -55,7 +55,7 @@ pub const MEMORY_NS: u64 = 8_000_000_000;
 
 /// Packets with flow a cell's model must have seen before it keeps anything (≈ 0.5 s: short
 /// enough to see a performer's first moves; the young models' leaks are lines, which
-/// [`MIN_MINOR_SPREAD_PX`] drops).
+/// `MIN_MINOR_SPREAD_PX` drops).
 pub const WARM_UP_PACKETS: u32 = 12;
 
 /// The margin of the explained count: relative (`κ`), in standard deviations of a Poisson count
