@@ -7,6 +7,7 @@ pub mod events;
 pub mod link;
 pub mod mission;
 pub mod report;
+pub mod sensor_fit;
 pub mod shard;
 pub mod study;
 pub mod sweep;

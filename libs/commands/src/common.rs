@@ -17,8 +17,9 @@ pub struct FlightsArg {
 /// `--sensor-preset NAME` and `--perturb KEY=VALUE…`, shared by the commands that perturb.
 #[derive(Debug, Clone, clap::Args)]
 pub struct PerturbArgs {
-    /// A named sensor preset (`v2e-clean`, `v2e-default`, `v2e-noisy`, `dvs-dim`): its `events.*` terms,
-    /// under any --perturb given too. None: the paper's ideal sensors.
+    /// A named sensor preset (`v2e-clean`, `v2e-default`, `v2e-noisy`, `dvs-dim`) or a preset
+    /// file (`waggle sensor-fit --out`; any value with `.` or `/`): its `events.*` terms, under
+    /// any --perturb given too. None: the paper's ideal sensors.
     #[arg(long = "sensor-preset", value_name = "NAME")]
     pub sensor_preset: Option<String>,
     /// A perturbation term KEY=VALUE (repeatable; `waggle trials --help` lists them).
@@ -50,11 +51,17 @@ impl FlightsArg {
 impl PerturbArgs {
     /// The preset's terms, then every --perturb over them.
     pub fn perturbation(&self) -> anyhow::Result<perturb::Perturbation> {
-        Ok(perturb::Perturbation::with_preset(
-            self.sensor_preset.as_deref(),
-            &self.perturb,
-        )?)
+        sensor_perturbation(self.sensor_preset.as_deref(), &self.perturb)
     }
+}
+
+/// The terms of `preset` — a built-in preset's name or a preset file's path — then
+/// `assignments` over them.
+pub fn sensor_perturbation<S: AsRef<str>>(
+    preset: Option<&str>,
+    assignments: &[S],
+) -> anyhow::Result<perturb::Perturbation> {
+    Ok(node_args::preset_perturbation(preset, assignments)?)
 }
 
 /// `--jobs N`: a whole number of at least 1 (0 used to run one job without a word).

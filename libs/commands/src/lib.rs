@@ -32,6 +32,7 @@ pub mod replay;
 pub mod report;
 pub mod router;
 pub mod run;
+pub mod sensor_fit;
 pub mod shard;
 pub mod shell;
 pub mod study;
@@ -134,6 +135,9 @@ pub enum DataCommand {
     Decode(decode::DecodeArgs),
     /// Synthetic event camera tools (convert PNG frames into events).
     Events(events::EventsArgs),
+    /// Measure a real camera from its recording: background activity by polarity, hot pixels,
+    /// the refractory floor; optionally write them as a preset file for `--sensor-preset`.
+    SensorFit(sensor_fit::SensorFitArgs),
     /// Export a run's recording for other tools: `export ros2 RUN_DIR --out BAG_DIR` writes a
     /// ROS 2 bag (rosbag2 of ROS 2 Jazzy, MCAP storage).
     Export(export::ExportArgs),
@@ -169,7 +173,9 @@ impl Command {
             Command::Deploy(DeployCommand::Mission(_) | DeployCommand::Link(_))
             | Command::Inspect(InspectCommand::Report(_))
             | Command::Studies(_)
-            | Command::Data(DataCommand::Decode(_) | DataCommand::Events(_)) => Binary::Lab,
+            | Command::Data(
+                DataCommand::Decode(_) | DataCommand::Events(_) | DataCommand::SensorFit(_),
+            ) => Binary::Lab,
             Command::Deploy(_) | Command::Inspect(_) | Command::Data(_) | Command::Shell(_) => {
                 Binary::Waggle
             }

@@ -51,6 +51,7 @@ pub mod camera;
 pub mod converter;
 pub mod error;
 pub mod event;
+pub mod fit;
 mod kernel;
 pub mod luminance;
 pub mod noise;

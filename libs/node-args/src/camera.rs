@@ -115,7 +115,8 @@ impl std::fmt::Display for CameraThrottle {
 /// session's nodes and outputs are the ones it always had.
 #[derive(Debug, Clone, Default, PartialEq, Eq, clap::Args)]
 pub struct SensorArgs {
-    /// A named sensor preset (`v2e-clean`, `v2e-default`, `v2e-noisy`, …): its `events.*` terms.
+    /// A named sensor preset (`v2e-clean`, `v2e-default`, `v2e-noisy`, …) or a preset file's
+    /// path (`waggle sensor-fit --out`): its `events.*` terms.
     #[arg(long = "sensor-preset", value_name = "NAME")]
     pub preset: Option<String>,
     /// An `events.*` term KEY=VALUE over the preset's (repeatable, later ones win).
@@ -151,8 +152,7 @@ impl SensorArgs {
     /// event sensor only (`rgb.*`, `link.*`, `geometry.*` and `flight.*` terms are modelled by
     /// `waggle trials` and `waggle mission`).
     pub fn perturbation(&self) -> Result<perturb::Perturbation, NodeArgsError> {
-        let p = perturb::Perturbation::with_preset(self.preset.as_deref(), &self.perturb)
-            .map_err(|e| NodeArgsError::Sensor(e.to_string()))?;
+        let p = preset_perturbation(self.preset.as_deref(), &self.perturb)?;
         if let Some(a) = self
             .perturb
             .iter()
@@ -198,5 +198,28 @@ impl SensorArgs {
         let p = self.perturbation()?;
         let seed = perturb::seed::stream_seed(self.seed, perturb::seed::Stream::EventSensor, index);
         Ok(Some(p.event_sensor(seed)))
+    }
+}
+
+/// The terms of `preset` — a built-in preset's name or the path of a preset file (any value
+/// with `.` or `/`, read here: a node on another host needs the file at the same path) — then
+/// `assignments` over them.
+pub fn preset_perturbation<S: AsRef<str>>(
+    preset: Option<&str>,
+    assignments: &[S],
+) -> Result<perturb::Perturbation, NodeArgsError> {
+    let sensor = |e: String| NodeArgsError::Sensor(e);
+    match preset {
+        Some(path) if perturb::preset::is_preset_file(path) => {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| sensor(format!("reading the preset file {path}: {e}")))?;
+            let terms = perturb::preset::parse_preset_file(&text)
+                .map_err(|e| sensor(format!("the preset file {path}: {e}")))?;
+            perturb::Perturbation::with_preset_terms(&terms, assignments)
+                .map_err(|e| sensor(format!("the preset file {path}: {e}")))
+        }
+        name => {
+            perturb::Perturbation::with_preset(name, assignments).map_err(|e| sensor(e.to_string()))
+        }
     }
 }

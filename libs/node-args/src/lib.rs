@@ -22,7 +22,7 @@ mod observer;
 mod recorder;
 mod scheduler;
 
-pub use camera::{CameraArgs, CameraThrottle, SensorArgs};
+pub use camera::{CameraArgs, CameraThrottle, SensorArgs, preset_perturbation};
 pub use command::{NodeArgsError, NodeCommand, NodeLine};
 pub use logging::init_logging;
 pub use observer::{DEFAULT_GRACE_MS, ObserverArgs};

@@ -125,7 +125,51 @@ pub fn preset(name: &str) -> Result<&'static Preset, PerturbError> {
     })
 }
 
+/// True when `--sensor-preset`'s value names a preset file rather than a built-in preset
+/// (whose names hold neither `.` nor `/`).
+pub fn is_preset_file(name: &str) -> bool {
+    name.contains('.') || name.contains('/')
+}
+
+/// The assignments of a preset file's text (as `waggle sensor-fit --out` writes it): one
+/// `KEY = VALUE` per line, `#` comments and blank lines skipped. The terms are checked when
+/// applied, like `--perturb`'s.
+pub fn parse_preset_file(text: &str) -> Result<Vec<String>, PerturbError> {
+    let mut terms = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let Some((key, value)) = line.split_once('=') else {
+            return Err(PerturbError::PresetFileLine {
+                line: k + 1,
+                reason: format!("{line:?} is not KEY = VALUE"),
+            });
+        };
+        terms.push(format!("{}={}", key.trim(), value.trim()));
+    }
+    Ok(terms)
+}
+
 impl Perturbation {
+    /// A preset file's `terms` (from [`parse_preset_file`]), then `assignments` over them.
+    pub fn with_preset_terms<S: AsRef<str>>(
+        terms: &[String],
+        assignments: &[S],
+    ) -> Result<Self, PerturbError> {
+        let mut p = Self::default();
+        for a in terms
+            .iter()
+            .map(String::as_str)
+            .chain(assignments.iter().map(AsRef::as_ref))
+        {
+            p.assign(a)?;
+        }
+        p.check()?;
+        Ok(p)
+    }
+
     /// The preset `name`'s terms (none: nothing), then `assignments` (`KEY=VALUE` each) over
     /// them.
     pub fn with_preset<S: AsRef<str>>(
@@ -161,6 +205,27 @@ mod tests {
                 assert_eq!(p.get(key), value, "{} {key}", preset.name);
             }
         }
+    }
+
+    #[test]
+    fn preset_files_parse_and_apply_with_overrides() {
+        let text = "# fitted\nevents.shot_noise_hz = 2.5\n\nevents.leak_hz=0.2 # ON only\n";
+        let terms = parse_preset_file(text).unwrap();
+        assert_eq!(terms, ["events.shot_noise_hz=2.5", "events.leak_hz=0.2"]);
+        let p = Perturbation::with_preset_terms(&terms, &["events.leak_hz=0.3"]).unwrap();
+        assert_eq!(p.get("events.shot_noise_hz"), 2.5);
+        assert_eq!(p.get("events.leak_hz"), 0.3);
+        assert_eq!(
+            parse_preset_file("events.leak_hz 0.2"),
+            Err(PerturbError::PresetFileLine {
+                line: 1,
+                reason: "\"events.leak_hz 0.2\" is not KEY = VALUE".into()
+            })
+        );
+        let bad = parse_preset_file("events.loud = 1").unwrap();
+        assert!(Perturbation::with_preset_terms::<&str>(&bad, &[]).is_err());
+        assert!(is_preset_file("fit/davis.preset") && is_preset_file("dim.toml"));
+        assert!(PRESETS.iter().all(|p| !is_preset_file(p.name)));
     }
 
     #[test]

@@ -351,6 +351,8 @@ pub enum PerturbError {
     UnknownKey { key: String, known: String },
     #[error("unknown sensor preset {name:?} (known: {known})")]
     UnknownPreset { name: String, known: String },
+    #[error("preset file line {line}: {reason}")]
+    PresetFileLine { line: usize, reason: String },
     #[error("perturbation {0:?} is not KEY=VALUE (e.g. events.shot_noise_hz=0.5)")]
     NotAnAssignment(String),
     #[error("perturbation {key}: {value:?} is not a number")]

@@ -38,7 +38,6 @@ pub mod vary;
 use std::collections::BTreeMap;
 
 use anyhow::{Context, Result, bail};
-use perturb::Perturbation;
 use proto::scene::{Formation, Placement};
 use proto::{Modality, Rectification, RenderPath};
 use serde::{Deserialize, Serialize};
@@ -297,8 +296,9 @@ impl StudyFile {
             .map(|p| parse_bits6(p).map_err(anyhow::Error::msg))
             .collect::<Result<Vec<u8>>>()
             .context("link")?;
-        let mut base = Perturbation::with_preset::<&str>(self.sensor_preset.as_deref(), &[])
-            .context("sensor_preset")?;
+        let mut base =
+            commands::common::sensor_perturbation::<&str>(self.sensor_preset.as_deref(), &[])
+                .context("sensor_preset")?;
         for (k, v) in &self.fixed {
             base.set(k, *v).context("fixed")?;
         }
