@@ -35,6 +35,24 @@ fn a_real_recordings_fit_is_a_preset_that_trials_accept() {
         assert!(report.contains(line), "{line:?} missing from:\n{report}");
     }
     let text = std::fs::read_to_string(&preset).unwrap();
+    let out = succeed(
+        waggle()
+            .arg("sensor-fit")
+            .arg(&file)
+            .args(["--json", "--static", "0:2"]),
+        "waggle sensor-fit --json",
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_eq!(json["background"], "static", "{json}");
+    assert_eq!(
+        [&json["width_px"], &json["height_px"]],
+        [346, 260],
+        "{json}"
+    );
+    assert!(
+        json["terms"]["events.shot_noise_hz"].as_f64().unwrap() > 0.0,
+        "{json}"
+    );
     assert!(text.contains("events.shot_noise_hz = "), "{text}");
     let trials = dir.join("trials");
     let out = succeed(

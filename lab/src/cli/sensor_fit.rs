@@ -32,13 +32,20 @@ pub fn run(args: SensorFitArgs) -> Result<()> {
     let fitted =
         fit(&read.events, width, height, background).with_context(|| format!("fitting {name}"))?;
     let span_s = read.events.last().map_or(0, |e| e.t_ns - first) as f64 * 1e-9;
+    if let Some(out) = &args.out {
+        std::fs::write(out, preset_file(&name, &fitted))
+            .with_context(|| format!("writing {}", out.display()))?;
+    }
+    if args.json {
+        let json = to_json(&name, &read.format, read.events.len(), span_s, &fitted);
+        println!("{}", serde_json::to_string_pretty(&json)?);
+        return Ok(());
+    }
     print!(
         "{}",
         report(&name, &read.format, read.events.len(), span_s, &fitted)
     );
     if let Some(out) = &args.out {
-        std::fs::write(out, preset_file(&name, &fitted))
-            .with_context(|| format!("writing {}", out.display()))?;
         println!(
             "preset written: {} (use it as --sensor-preset {})",
             out.display(),
@@ -46,6 +53,41 @@ pub fn run(args: SensorFitArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The measurement as JSON (serde_json's map keeps its keys sorted).
+fn to_json(
+    name: &str,
+    format: &str,
+    events: usize,
+    span_s: f64,
+    f: &SensorFit,
+) -> serde_json::Value {
+    let (background, window_ns) = match f.background {
+        Background::Static { start_ns, end_ns } => ("static", Some([start_ns, end_ns])),
+        Background::Isolated => ("isolated", None),
+    };
+    serde_json::json!({
+        "file": name,
+        "format": format,
+        "width_px": f.width,
+        "height_px": f.height,
+        "events": events,
+        "span_s": span_s,
+        "background": background,
+        "static_window_ns": window_ns,
+        "background_events": f.background_events,
+        "background_s": f.duration_s,
+        "on_hz": f.on_hz,
+        "off_hz": f.off_hz,
+        "shot_noise_hz": f.shot_noise_hz,
+        "leak_hz": f.leak_hz,
+        "rate_spread_decades": f.rate_spread_decades,
+        "hot_pixels": f.hot_pixels,
+        "hot_pixel_hz": f.hot_pixel_hz,
+        "refractory_floor_ns": f.refractory_floor_ns,
+        "terms": f.terms().into_iter().map(|(k, v)| (k.to_owned(), v)).collect::<std::collections::BTreeMap<_, _>>(),
+    })
 }
 
 fn report(name: &str, format: &str, events: usize, span_s: f64, f: &SensorFit) -> String {

@@ -24,6 +24,9 @@ pub struct SensorFitArgs {
     /// study file's `sensor_preset`).
     #[arg(long, value_name = "PRESET")]
     pub out: Option<PathBuf>,
+    /// Print the measurement as one JSON object (keys sorted) instead of the report.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `START_S:END_S`, seconds, `0 ≤ START < END`.
