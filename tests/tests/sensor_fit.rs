@@ -30,6 +30,7 @@ fn a_real_recordings_fit_is_a_preset_that_trials_accept() {
         "shot_noise_hz",
         "leak_hz",
         "refractory floor",
+        "events per crossing",
         "preset written",
     ] {
         assert!(report.contains(line), "{line:?} missing from:\n{report}");
@@ -53,6 +54,11 @@ fn a_real_recordings_fit_is_a_preset_that_trials_accept() {
         json["terms"]["events.shot_noise_hz"].as_f64().unwrap() > 0.0,
         "{json}"
     );
+    // The DAVIS346's scene moves: its crossings make one to a few events each.
+    for key in ["on_events_per_crossing", "off_events_per_crossing"] {
+        let per = json[key].as_f64().unwrap_or(0.0);
+        assert!((1.0..4.0).contains(&per), "{key} {per}: {json}");
+    }
     assert!(text.contains("events.shot_noise_hz = "), "{text}");
     let trials = dir.join("trials");
     let out = succeed(

@@ -83,6 +83,12 @@ fn to_json(
         "shot_noise_hz": f.shot_noise_hz,
         "leak_hz": f.leak_hz,
         "rate_spread_decades": f.rate_spread_decades,
+        "on_spread_decades": f.on_spread_decades,
+        "off_spread_decades": f.off_spread_decades,
+        "on_crossings": f.crossings.on_crossings,
+        "off_crossings": f.crossings.off_crossings,
+        "on_events_per_crossing": f.crossings.on_events_per_crossing,
+        "off_events_per_crossing": f.crossings.off_events_per_crossing,
         "hot_pixels": f.hot_pixels,
         "hot_pixel_hz": f.hot_pixel_hz,
         "refractory_floor_ns": f.refractory_floor_ns,
@@ -125,6 +131,11 @@ fn report(name: &str, format: &str, events: usize, span_s: f64, f: &SensorFit) -
     );
     let _ = writeln!(
         s,
+        "    by polarity         ON {:.3}, OFF {:.3}",
+        f.on_spread_decades, f.off_spread_decades
+    );
+    let _ = writeln!(
+        s,
         "  hot pixels            {} (median {:.3} Hz){}",
         f.hot_pixels.len(),
         f.hot_pixel_hz,
@@ -145,10 +156,20 @@ fn report(name: &str, format: &str, events: usize, span_s: f64, f: &SensorFit) -
             "  refractory floor      not measured (too few intervals)"
         ),
     };
+    let per_crossing = |mean: Option<f64>, count: u64| match mean {
+        Some(m) => format!("{m:.3} over {count} crossings"),
+        None => format!("not measured ({count} crossings)"),
+    };
     let _ = writeln!(
         s,
-        "not measured: threshold mismatch, brightness dependence, events per edge crossing"
+        "  events per crossing   ON {}, OFF {} (a sharp edge of log contrast c: c / threshold)",
+        per_crossing(f.crossings.on_events_per_crossing, f.crossings.on_crossings),
+        per_crossing(
+            f.crossings.off_events_per_crossing,
+            f.crossings.off_crossings
+        )
     );
+    let _ = writeln!(s, "not measured: threshold mismatch, brightness dependence");
     s
 }
 

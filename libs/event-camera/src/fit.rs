@@ -16,8 +16,15 @@
 //! * **spread**: the excess of the counts' variance over a Poisson process's, as a lognormal
 //!   spread of the pixels' rates in decades (reported; Waggle's model spreads only the leak).
 //!
+//! The spread is also given per polarity (ON counts alone, OFF counts alone).
+//!
 //! From every event (signal included): the **refractory floor**, the 0.1 % quantile of the
-//! intervals between consecutive events of one pixel. Events per edge crossing are not measured.
+//! intervals between consecutive events of one pixel.
+//!
+//! From the signal (the events that have a neighbour, at pixels that are not hot): **events per
+//! edge crossing**, by polarity. An edge passing a pixel makes a run of events of one polarity,
+//! each within [`CROSSING_GAP_NS`] of the one before; a sharp edge of log contrast `c` makes
+//! `⌊c / threshold⌋` of them, so the mean run tells contrast from threshold when one is known.
 
 use crate::event::{Event, Polarity};
 
@@ -31,6 +38,10 @@ pub const HOT_FACTOR: f64 = 10.0;
 pub const REFRACTORY_QUANTILE: f64 = 0.001;
 /// Fewest same-pixel intervals for a refractory floor to be reported.
 pub const MIN_INTERVALS: usize = 1000;
+/// Longest interval between two events of one edge crossing at one pixel, ns.
+pub const CROSSING_GAP_NS: u64 = 10_000_000;
+/// Fewest crossings of a polarity for its events per crossing to be reported.
+pub const MIN_CROSSINGS: u64 = 100;
 
 /// How the background was told from the signal.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,11 +72,26 @@ pub struct SensorFit {
     /// Lognormal spread of the pixels' background rates, decades (0 when the counts vary no
     /// more than a Poisson process's).
     pub rate_spread_decades: f64,
+    /// The same spread from the ON counts alone and from the OFF counts alone, decades.
+    pub on_spread_decades: f64,
+    pub off_spread_decades: f64,
     /// Hot pixels (x, y), sorted, and their median rate, Hz.
     pub hot_pixels: Vec<(u16, u16)>,
     pub hot_pixel_hz: f64,
     /// The refractory floor, ns (None: fewer than [`MIN_INTERVALS`] intervals).
     pub refractory_floor_ns: Option<u64>,
+    /// Edge crossings found in the signal, and their mean events by polarity (None: fewer than
+    /// [`MIN_CROSSINGS`] of that polarity).
+    pub crossings: Crossings,
+}
+
+/// Runs of one polarity at one pixel in the signal: what an edge passing it makes.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Crossings {
+    pub on_crossings: u64,
+    pub off_crossings: u64,
+    pub on_events_per_crossing: Option<f64>,
+    pub off_events_per_crossing: Option<f64>,
 }
 
 /// Why a recording cannot be fitted.
@@ -127,6 +153,7 @@ pub fn fit(
         events.first().map_or(0, |e| e.t_ns),
         events.last().map_or(0, |e| e.t_ns),
     );
+    let alone = isolated(events, width, height);
     let (keep, duration_ns): (Vec<bool>, u64) = match background {
         Background::Static { start_ns, end_ns } => (
             events
@@ -135,7 +162,7 @@ pub fn fit(
                 .collect(),
             end_ns.saturating_sub(start_ns),
         ),
-        Background::Isolated => (isolated(events, width, height), last - first),
+        Background::Isolated => (alone.clone(), last - first),
     };
     if duration_ns == 0 {
         return Err(FitError::NoDuration {
@@ -199,10 +226,48 @@ pub fn fit(
         shot_noise_hz: 2.0 * off_hz,
         leak_hz: (on_hz - off_hz).max(0.0),
         rate_spread_decades: spread_decades(&total, &is_hot),
+        on_spread_decades: spread_decades(&on, &is_hot),
+        off_spread_decades: spread_decades(&off, &is_hot),
         hot_pixel_hz: hot_rates.get(hot_rates.len() / 2).copied().unwrap_or(0.0),
         hot_pixels,
         refractory_floor_ns: refractory_floor(events, n, pixel),
+        crossings: crossings(events, &alone, &is_hot, pixel),
     })
+}
+
+/// Runs of one polarity at one pixel among the signal events (not `alone`, not hot), each
+/// event within [`CROSSING_GAP_NS`] of the one before; a background event at the pixel does not
+/// break a run (it is noise beside the edge, not a new one).
+fn crossings(
+    events: &[Event],
+    alone: &[bool],
+    is_hot: &[bool],
+    pixel: impl Fn(&Event) -> usize,
+) -> Crossings {
+    // Per pixel: the last signal event's time and polarity (None: no run open).
+    let mut open: Vec<Option<(u64, Polarity)>> = vec![None; is_hot.len()];
+    let (mut runs, mut run_events) = ([0u64; 2], [0u64; 2]);
+    let slot = |p: Polarity| usize::from(p == Polarity::Off);
+    for (e, _) in events.iter().zip(alone).filter(|(_, a)| !**a) {
+        let i = pixel(e);
+        if is_hot[i] {
+            continue;
+        }
+        let continues = matches!(open[i], Some((t, p)) if p == e.polarity
+            && e.t_ns - t <= CROSSING_GAP_NS);
+        if !continues {
+            runs[slot(e.polarity)] += 1;
+        }
+        run_events[slot(e.polarity)] += 1;
+        open[i] = Some((e.t_ns, e.polarity));
+    }
+    let mean = |k: usize| (runs[k] >= MIN_CROSSINGS).then(|| run_events[k] as f64 / runs[k] as f64);
+    Crossings {
+        on_crossings: runs[0],
+        off_crossings: runs[1],
+        on_events_per_crossing: mean(0),
+        off_events_per_crossing: mean(1),
+    }
 }
 
 /// Per event: no event at any of the 8 neighbours within the window before or after it.

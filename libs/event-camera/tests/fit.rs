@@ -137,3 +137,86 @@ fn without_a_static_stretch_the_isolated_events_give_the_background_of_a_moving_
     within("shot noise", fitted.shot_noise_hz, 3.0, 0.1);
     within("leak", fitted.leak_hz, 0.4, 0.1);
 }
+
+/// A bar of grey `bar` on grey `ground`, its sharp edges moving 1 px a render, through a
+/// sensor with threshold `c`: every pixel the bar passes sees a rise and a fall of `ln(ground/bar)`.
+fn bar_stream(c: f64, ground: u8, bar: u8, noise: &EventNoise) -> Vec<Event> {
+    let (w, h, bar_px) = (120usize, 40usize, 12usize);
+    let mut sensor = NoisyConverter::new(w as u16, h as u16, c, noise).expect("sensor");
+    let mut events = Vec::new();
+    for k in 0..300usize {
+        let left = k % (w + bar_px);
+        let mut rgb = vec![ground; w * h * 3];
+        for y in 0..h {
+            for x in left.saturating_sub(bar_px)..left.min(w) {
+                rgb[3 * (y * w + x)..][..3].fill(bar);
+            }
+        }
+        sensor
+            .push(k as u64 * RENDER_NS, &rgb, &mut events)
+            .expect("frame");
+    }
+    events
+}
+
+#[test]
+fn events_per_edge_crossing_are_the_contrast_over_the_threshold() {
+    // ln(160/40) = 1.386: 3 events a crossing at threshold 0.4, 5 at 0.25, under shot noise.
+    let noise = EventNoise {
+        shot_noise_hz: 0.5,
+        seed: 3,
+        ..EventNoise::default()
+    };
+    for (c, want) in [(0.4, 3.0), (0.25, 5.0)] {
+        let events = bar_stream(c, 160, 40, &noise);
+        let fitted = fit(&events, 120, 40, Background::Isolated).expect("fit");
+        let x = fitted.crossings;
+        assert!(x.on_crossings > 1000 && x.off_crossings > 1000, "{x:?}");
+        within(
+            "ON per crossing",
+            x.on_events_per_crossing.expect("ON"),
+            want,
+            0.1,
+        );
+        within(
+            "OFF per crossing",
+            x.off_events_per_crossing.expect("OFF"),
+            want,
+            0.1,
+        );
+    }
+}
+
+#[test]
+fn the_spread_is_given_by_polarity() {
+    // Leak (ON only) spread across pixels, unspread shot noise: the ON counts spread, the OFF
+    // counts are Poisson.
+    let noise = EventNoise {
+        leak_hz: 3.0,
+        leak_spread_decades: 0.3,
+        shot_noise_hz: 1.0,
+        seed: 6,
+        ..EventNoise::default()
+    };
+    let events = static_stream(96, 72, 30, &noise);
+    let fitted = fit(
+        &events,
+        96,
+        72,
+        Background::Static {
+            start_ns: 0,
+            end_ns: 30_000_000_000,
+        },
+    )
+    .expect("fit");
+    assert!(
+        fitted.on_spread_decades > 0.2,
+        "{}",
+        fitted.on_spread_decades
+    );
+    assert!(
+        fitted.off_spread_decades < 0.05,
+        "{}",
+        fitted.off_spread_decades
+    );
+}
