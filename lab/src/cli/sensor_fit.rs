@@ -15,20 +15,8 @@ pub fn run(args: SensorFitArgs) -> Result<()> {
     let Some(first) = read.events.first().map(|e| e.t_ns) else {
         bail!("{name}: the recording holds no events");
     };
-    let (width, height) = match read.size {
-        Some(size) => size,
-        // A file that does not state its size: the smallest sensor holding every event.
-        None => read.events.iter().fold((1, 1), |(w, h), e| {
-            (w.max(e.x.saturating_add(1)), h.max(e.y.saturating_add(1)))
-        }),
-    };
-    let background = match args.static_window {
-        Some((start_s, end_s)) => Background::Static {
-            start_ns: first.saturating_add((start_s * 1e9) as u64),
-            end_ns: first.saturating_add((end_s * 1e9) as u64),
-        },
-        None => Background::Isolated,
-    };
+    let (width, height) = read.sensor_size();
+    let background = Background::from_window(first, args.static_window);
     let fitted =
         fit(&read.events, width, height, background).with_context(|| format!("fitting {name}"))?;
     let span_s = read.events.last().map_or(0, |e| e.t_ns - first) as f64 * 1e-9;

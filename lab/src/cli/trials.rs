@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use perturb::Perturbation;
-use proto::Receiver;
+use proto::{Modality, Receiver};
 use proto::scene::{Formation, MAX_OBSERVERS};
 
 use crate::harness::mission::trials::{
@@ -28,13 +28,22 @@ fn default_jobs() -> usize {
 }
 
 pub fn run(args: TrialsArgs) -> Result<()> {
-    let perturbation = args.perturb.perturbation()?;
+    let mut perturbation = args.perturb.perturbation()?;
+    if let Some(spec) = &args.real_noise {
+        let source = crate::harness::decode::real_noise::load(spec, args.real_noise_static)
+            .context("--real-noise")?;
+        perturbation = perturbation.with_real_noise(source);
+    }
+    perturbation.check_real_noise()?;
     if args.case.is_some() {
         return run_case(args, perturbation);
     }
     let Some(modality) = args.modality.sensor() else {
         bail!("--link trials need a sensor: --modality rgb or events (ideal is for --case)");
     };
+    if args.real_noise.is_some() && modality != Modality::Events {
+        bail!("--real-noise is an event camera's background: it needs --modality events");
+    }
     let formation = if args.viewpoints.is_empty() {
         Formation::standard(args.observers).map_err(|_| {
             anyhow::anyhow!(
@@ -162,15 +171,21 @@ fn write_results(dir: &std::path::Path, stop: &AtomicBool) -> Result<()> {
     println!(
         "{} ({}): {} -> {}",
         out.header.modality,
-        if out.header.perturb.is_empty() {
-            "no perturbation".to_owned()
-        } else {
-            out.header
+        {
+            let mut terms: Vec<String> = out
+                .header
                 .perturb
                 .iter()
                 .map(|(k, v)| format!("{k}={v}"))
-                .collect::<Vec<_>>()
-                .join(" ")
+                .collect();
+            if let Some(real) = &out.header.real_noise {
+                terms.push(format!("real noise {}", real.file));
+            }
+            if terms.is_empty() {
+                "no perturbation".to_owned()
+            } else {
+                terms.join(" ")
+            }
         },
         outcome_line(&out.tally, "trials succeeded"),
         path.display()

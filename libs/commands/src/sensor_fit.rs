@@ -30,7 +30,7 @@ pub struct SensorFitArgs {
 }
 
 /// `START_S:END_S`, seconds, `0 ≤ START < END`.
-fn parse_window(s: &str) -> Result<(f64, f64), String> {
+pub fn parse_window(s: &str) -> Result<(f64, f64), String> {
     let (a, b) = s
         .split_once(':')
         .ok_or_else(|| format!("{s:?} is not START_S:END_S (e.g. 0:2.5)"))?;

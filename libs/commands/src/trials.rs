@@ -37,6 +37,17 @@ pub struct TrialsArgs {
     pub seed: u64,
     #[command(flatten)]
     pub perturb: crate::common::PerturbArgs,
+    /// A real camera's background laid over the event sensor's noise: a recording `waggle
+    /// decode --events` reads, or PACKAGE/FILE for one setup fetched into
+    /// `third_party/PACKAGE/data/` (`faery/evt3.raw`). `events.real_noise_copies` scales it,
+    /// `events.real_noise_fitted=1` swaps it for the model fitted from it.
+    #[arg(long = "real-noise", value_name = "FILE", conflicts_with = "case")]
+    pub real_noise: Option<String>,
+    /// The stretch of --real-noise where nothing moved, START_S:END_S from its first event
+    /// (default: its events with no neighbour within 10 ms).
+    #[arg(long = "real-noise-static", value_name = "START_S:END_S",
+          value_parser = crate::sensor_fit::parse_window, requires = "real_noise")]
+    pub real_noise_static: Option<(f64, f64)>,
     /// Trials at once (threads; default: the machine's cores).
     #[arg(long, value_parser = crate::common::parse_jobs)]
     pub jobs: Option<usize>,

@@ -23,6 +23,7 @@ use crate::converter::Converter;
 use crate::error::{CameraError, ConvertError};
 use crate::event::{DEFAULT_THRESHOLD, Event};
 use crate::noise::{EventNoise, NoisyConverter};
+use crate::real_noise::RealNoiseTiler;
 
 /// Sensor and timing configuration of one event camera.
 #[derive(Debug, Clone, PartialEq)]
@@ -161,6 +162,8 @@ pub struct EventCamera {
     last_stamp_ns: u64,
     /// Render gaps `(previous render, render)` that may still overlap unsent packets.
     gaps: VecDeque<(u64, u64)>,
+    /// A real recording's background laid over the converted events (None: none).
+    real_noise: Option<RealNoiseTiler>,
 }
 
 impl std::fmt::Debug for EventCamera {
@@ -194,7 +197,15 @@ impl EventCamera {
             first_stamp_ns: 0,
             last_stamp_ns: 0,
             gaps: VecDeque::new(),
+            real_noise: None,
         })
+    }
+
+    /// This camera with a real recording's background added to what it converts, from its
+    /// first render on ([`crate::real_noise`]).
+    pub fn with_real_noise(mut self, tiler: RealNoiseTiler) -> Self {
+        self.real_noise = Some(tiler);
+        self
     }
 
     pub fn config(&self) -> &CameraConfig {
@@ -240,6 +251,7 @@ impl EventCamera {
             FrameChange::Within(r) => Some(Some(r)),
             FrameChange::Nothing => Some(None),
         };
+        let converted_from = self.pending.len();
         match region {
             None if self.config.black_input => {
                 self.converter
@@ -251,6 +263,15 @@ impl EventCamera {
                 .push_region(stamp_ns, rgb, r, &mut self.pending)?,
         }
         self.fed_black = self.config.black_input;
+        if let Some(tiler) = &mut self.real_noise {
+            // The sensor's own noise goes on under a black input; the converter's events come
+            // first among those of one instant (a stable sort).
+            tiler.start(stamp_ns);
+            tiler.fill(stamp_ns, &mut self.pending);
+            if self.pending.len() > converted_from {
+                self.pending[converted_from..].sort_by_key(|e| e.t_ns);
+            }
+        }
         let period = self.config.packet_period_ns;
         let Some(mut k) = self.next_packet else {
             self.first_stamp_ns = stamp_ns;

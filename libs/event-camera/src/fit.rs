@@ -52,6 +52,20 @@ pub enum Background {
     Isolated,
 }
 
+impl Background {
+    /// The stretch `window_s` (seconds from the recording's first event at `first_ns`), or
+    /// the isolated events without one.
+    pub fn from_window(first_ns: u64, window_s: Option<(f64, f64)>) -> Self {
+        match window_s {
+            Some((start_s, end_s)) => Background::Static {
+                start_ns: first_ns.saturating_add((start_s * 1e9) as u64),
+                end_ns: first_ns.saturating_add((end_s * 1e9) as u64),
+            },
+            None => Background::Isolated,
+        }
+    }
+}
+
 /// What a recording says of its sensor's terms.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SensorFit {
@@ -271,7 +285,7 @@ fn crossings(
 }
 
 /// Per event: no event at any of the 8 neighbours within the window before or after it.
-fn isolated(events: &[Event], width: u16, height: u16) -> Vec<bool> {
+pub(crate) fn isolated(events: &[Event], width: u16, height: u16) -> Vec<bool> {
     let (w, h) = (usize::from(width), usize::from(height));
     let mut isolated = vec![true; events.len()];
     let mut last = vec![u64::MAX; w * h];

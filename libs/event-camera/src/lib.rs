@@ -57,6 +57,7 @@ pub mod luminance;
 pub mod noise;
 pub mod picture;
 mod prefetch;
+pub mod real_noise;
 pub mod reference;
 pub mod synthetic;
 

@@ -10,6 +10,8 @@
 //!   blur, bandwidth and background activity follow.
 //! * `check` — what terms mean together ([`Perturbation::check`]: the event sensor's shot noise
 //!   with darkness's added stays within its own range).
+//! * [`real`] — a real recording's background as the event sensor's noise, or the model
+//!   fitted from it (`events.real_noise_*`).
 //! * [`preset`] — named sensor presets (v2e's `clean`, default and `noisy` values), cited.
 //! * [`reference`](mod@reference) — the user guide's page of every term and preset, rendered from the tables.
 //! * [`seed`] — one trial seed → independent, reproducible streams per term and observer.
@@ -24,6 +26,7 @@ pub mod flight;
 pub mod light;
 pub mod link;
 pub mod preset;
+pub mod real;
 pub mod reference;
 pub mod rgb;
 pub mod seed;

@@ -6,6 +6,9 @@
 
 use std::collections::BTreeMap;
 
+use std::sync::Arc;
+
+use event_camera::real_noise::RealNoise;
 use event_camera::{EventNoise, EventSensorModel};
 
 use crate::link::LinkNoise;
@@ -155,6 +158,26 @@ pub const PARAMETERS: &[Parameter] = &[
         1000.0,
         false,
         "rate of each hot pixel",
+    ),
+    p(
+        "events.real_noise_copies",
+        "copies",
+        1.0,
+        1.0,
+        event_camera::real_noise::MAX_COPIES as f64,
+        true,
+        "with a real-noise source (--real-noise FILE): copies of its background laid over the \
+         sensor, each at its own seeded offset in time and image (the rate × copies)",
+    ),
+    p(
+        "events.real_noise_fitted",
+        "0/1",
+        0.0,
+        0.0,
+        1.0,
+        true,
+        "with a real-noise source: 1 replaces its events by the model's terms fitted from the \
+         same background (shot noise, leak, hot pixels, each × events.real_noise_copies)",
     ),
     p(
         "rgb.read_noise_grey",
@@ -355,6 +378,17 @@ pub enum PerturbError {
     PresetFileLine { line: usize, reason: String },
     #[error("perturbation {0:?} is not KEY=VALUE (e.g. events.shot_noise_hz=0.5)")]
     NotAnAssignment(String),
+    #[error("{0} needs a real-noise source (--real-noise FILE, or a study's real_noise)")]
+    RealNoiseWithoutSource(&'static str),
+    #[error(
+        "the real-noise source fitted × {copies} copies gives {key} = {value}, past its {max}"
+    )]
+    RealNoiseFitTooLoud {
+        key: &'static str,
+        value: f64,
+        copies: u32,
+        max: f64,
+    },
     #[error("perturbation {key}: {value:?} is not a number")]
     NotANumber { key: String, value: String },
     #[error("perturbation {key} = {value}: must be {min}–{max} {unit}{whole}")]
@@ -407,6 +441,8 @@ pub fn parameter(key: &str) -> Result<&'static Parameter, PerturbError> {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Perturbation {
     set: BTreeMap<&'static str, f64>,
+    /// A real recording's background for the event sensor (`crate::real`).
+    pub(crate) real_noise: Option<Arc<RealNoise>>,
 }
 
 impl Perturbation {
@@ -479,7 +515,7 @@ impl Perturbation {
 
     /// True when nothing is perturbed.
     pub fn is_none(&self) -> bool {
-        self.set.is_empty()
+        self.set.is_empty() && self.real_noise.is_none()
     }
 
     /// True when a trial must fly its own flight (placement, gusts, wind or the cascade with its
@@ -502,7 +538,7 @@ impl Perturbation {
     /// The event sensor's noise terms, seeded with `seed`.
     pub fn event_noise(&self, seed: u64) -> EventNoise {
         let hot_pixels = self.get("events.hot_pixels") as u32;
-        EventNoise {
+        let mut noise = EventNoise {
             threshold_sigma: self.get("events.threshold_sigma"),
             refractory_ns: (self.get("events.refractory_ms") * 1e6).round() as u64,
             leak_hz: self.get("events.leak_hz"),
@@ -519,7 +555,9 @@ impl Perturbation {
                 0.0
             },
             seed,
-        }
+        };
+        self.add_fitted_real_noise(&mut noise);
+        noise
     }
 
     /// Scene illuminance, lx (0: not modelled).

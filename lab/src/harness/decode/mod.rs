@@ -19,6 +19,7 @@ pub mod convert;
 
 pub mod calibration;
 pub mod images;
+pub mod real_noise;
 pub mod source;
 
 use std::path::PathBuf;

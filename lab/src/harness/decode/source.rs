@@ -20,6 +20,17 @@ pub struct EventRead {
     pub events: Vec<Event>,
 }
 
+impl EventRead {
+    /// The sensor's size: the file's, else the smallest sensor holding every event.
+    pub fn sensor_size(&self) -> (u16, u16) {
+        self.size.unwrap_or_else(|| {
+            self.events.iter().fold((1, 1), |(w, h), e| {
+                (w.max(e.x.saturating_add(1)), h.max(e.y.saturating_add(1)))
+            })
+        })
+    }
+}
+
 /// A format, once told.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Known {

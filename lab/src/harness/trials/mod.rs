@@ -15,7 +15,7 @@ pub mod out;
 pub mod pool;
 
 pub use crate::harness::trials::out::{
-    ObserverTrial, PlacementOut, TokenTiming, TrialFlight, TrialRecord, TrialsCost, TrialsHeader,
+    ObserverTrial, PlacementOut, RealNoiseOut, TokenTiming, TrialFlight, TrialRecord, TrialsCost, TrialsHeader,
     TrialsOut, TrialsSummary,
 };
 use std::collections::BTreeMap;
@@ -433,6 +433,7 @@ pub fn run_trials(
             .cloned()
             .zip(nominal_ideal.iter().map(|o| o.payloads.clone()))
             .collect(),
+        real_noise: opts.perturbation.real_noise().map(|s| RealNoiseOut::of(s)),
     };
     Ok(TrialsRun {
         header,
@@ -447,7 +448,7 @@ pub fn run_trials(
 pub fn definition(opts: &TrialsOptions) -> String {
     format!(
         "link {:?}; placements {:?}; modality {}; trials {}; seed {}; perturb {:?}; \
-         rectification {:?}; acquisition {:?}",
+         rectification {:?}; acquisition {:?}{}",
         opts.want(),
         opts.formation.placements(),
         opts.modality,
@@ -455,7 +456,11 @@ pub fn definition(opts: &TrialsOptions) -> String {
         opts.seed,
         opts.perturbation.recorded(),
         opts.rectification,
-        opts.acquisition
+        opts.acquisition,
+        // Only with a source, so a run without one keeps its fingerprint.
+        opts.perturbation
+            .real_noise()
+            .map_or_else(String::new, |s| format!("; real noise {:?}", RealNoiseOut::of(s)))
     )
 }
 

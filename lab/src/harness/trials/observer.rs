@@ -75,11 +75,18 @@ impl Observer {
             Perception::for_camera(opts.modality, placement.camera(), opts.rectification)?;
         let sensor = match opts.modality {
             Modality::Events => {
-                let config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX).with_model(
-                    opts.perturbation
-                        .event_sensor(stream_seed(seed, Stream::EventSensor, i)),
-                );
-                Sensor::Events(Box::new(EventCamera::new(config).context("event camera")?))
+                let sensor_seed = stream_seed(seed, Stream::EventSensor, i);
+                let config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX)
+                    .with_model(opts.perturbation.event_sensor(sensor_seed));
+                let mut camera = EventCamera::new(config).context("event camera")?;
+                if let Some(tiler) = opts.perturbation.real_noise_tiler(
+                    IMAGE_WIDTH_PX,
+                    IMAGE_HEIGHT_PX,
+                    sensor_seed,
+                ) {
+                    camera = camera.with_real_noise(tiler);
+                }
+                Sensor::Events(Box::new(camera))
             }
             Modality::Rgb => {
                 let noise = opts.perturbation.rgb();

@@ -115,6 +115,39 @@ pub struct TrialsHeader {
     pub flight: String,
     pub seed: u64,
     pub ideal_released: BTreeMap<String, Vec<String>>,
+    /// The real-noise source (`--real-noise`), when one was laid over the event sensor.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub real_noise: Option<RealNoiseOut>,
+}
+
+/// A real-noise source as `trials.json` records it: which file (by digest) and which of its
+/// events were taken as background.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RealNoiseOut {
+    pub file: String,
+    pub sha256: String,
+    /// `isolated`, or `static START_NS–END_NS` (the recording's clock).
+    pub background: String,
+    pub background_events: u64,
+    pub background_s: f64,
+    pub size_px: [u16; 2],
+}
+
+impl RealNoiseOut {
+    pub fn of(source: &event_camera::real_noise::RealNoise) -> Self {
+        use event_camera::fit::Background;
+        Self {
+            file: source.name.clone(),
+            sha256: source.digest.clone(),
+            background: match source.fitted.background {
+                Background::Isolated => "isolated".to_owned(),
+                Background::Static { start_ns, end_ns } => format!("static {start_ns}–{end_ns}"),
+            },
+            background_events: source.len() as u64,
+            background_s: source.duration_ns as f64 * 1e-9,
+            size_px: [source.width, source.height],
+        }
+    }
 }
 
 fn mean(values: impl Iterator<Item = f64>) -> Option<f64> {
