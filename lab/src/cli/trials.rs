@@ -6,8 +6,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use perturb::Perturbation;
-use proto::{Modality, Receiver};
 use proto::scene::{Formation, MAX_OBSERVERS};
+use proto::{Modality, Receiver};
 
 use crate::harness::mission::trials::{
     MissionTrial, MissionTrialsOptions, MissionsDefinition, mission_criterion,
@@ -27,7 +27,8 @@ fn default_jobs() -> usize {
     std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
 }
 
-pub fn run(args: TrialsArgs) -> Result<()> {
+/// The preset and terms, with the real-noise source when one is named.
+fn perturbation(args: &TrialsArgs) -> Result<Perturbation> {
     let mut perturbation = args.perturb.perturbation()?;
     if let Some(spec) = &args.real_noise {
         let source = crate::harness::decode::real_noise::load(spec, args.real_noise_static)
@@ -35,15 +36,26 @@ pub fn run(args: TrialsArgs) -> Result<()> {
         perturbation = perturbation.with_real_noise(source);
     }
     perturbation.check_real_noise()?;
-    if args.case.is_some() {
-        return run_case(args, perturbation);
-    }
+    Ok(perturbation)
+}
+
+/// The camera of link trials (real noise only for events).
+fn link_modality(args: &TrialsArgs) -> Result<Modality> {
     let Some(modality) = args.modality.sensor() else {
         bail!("--link trials need a sensor: --modality rgb or events (ideal is for --case)");
     };
     if args.real_noise.is_some() && modality != Modality::Events {
         bail!("--real-noise is an event camera's background: it needs --modality events");
     }
+    Ok(modality)
+}
+
+pub fn run(args: TrialsArgs) -> Result<()> {
+    let perturbation = perturbation(&args)?;
+    if args.case.is_some() {
+        return run_case(args, perturbation);
+    }
+    let modality = link_modality(&args)?;
     let formation = if args.viewpoints.is_empty() {
         Formation::standard(args.observers).map_err(|_| {
             anyhow::anyhow!(

@@ -42,7 +42,10 @@ impl Perturbation {
     /// The replay of the source's events into a `width`×`height` sensor seeded with the
     /// sensor's `seed` (None without a source, or when the fitted model stands in for it).
     pub fn real_noise_tiler(&self, width: u16, height: u16, seed: u64) -> Option<RealNoiseTiler> {
-        let source = self.real_noise.as_ref().filter(|_| !self.real_noise_fitted())?;
+        let source = self
+            .real_noise
+            .as_ref()
+            .filter(|_| !self.real_noise_fitted())?;
         Some(RealNoiseTiler::new(
             source.clone(),
             self.real_noise_copies(),
@@ -54,7 +57,11 @@ impl Perturbation {
 
     /// Adds the fitted source's terms to `noise` when `events.real_noise_fitted = 1`.
     pub(crate) fn add_fitted_real_noise(&self, noise: &mut EventNoise) {
-        let Some(source) = self.real_noise.as_ref().filter(|_| self.real_noise_fitted()) else {
+        let Some(source) = self
+            .real_noise
+            .as_ref()
+            .filter(|_| self.real_noise_fitted())
+        else {
             return;
         };
         let (copies, fit) = (f64::from(self.real_noise_copies()), &source.fitted);

@@ -146,7 +146,7 @@ pub const PARAMETERS: &[Parameter] = &[
         "pixels",
         0.0,
         0.0,
-        10_000.0,
+        100_000.0,
         true,
         "hot pixels: this many pixels fire ON events at events.hot_pixel_hz",
     ),
@@ -380,9 +380,7 @@ pub enum PerturbError {
     NotAnAssignment(String),
     #[error("{0} needs a real-noise source (--real-noise FILE, or a study's real_noise)")]
     RealNoiseWithoutSource(&'static str),
-    #[error(
-        "the real-noise source fitted × {copies} copies gives {key} = {value}, past its {max}"
-    )]
+    #[error("the real-noise source fitted × {copies} copies gives {key} = {value}, past its {max}")]
     RealNoiseFitTooLoud {
         key: &'static str,
         value: f64,

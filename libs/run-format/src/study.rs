@@ -26,6 +26,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
     ("light", include_str!("../../../deploy/studies/light.toml")),
     ("wind", include_str!("../../../deploy/studies/wind.toml")),
     (
+        "real-noise",
+        include_str!("../../../deploy/studies/real-noise.toml"),
+    ),
+    (
         "wind-links",
         include_str!("../../../deploy/studies/wind-links.toml"),
     ),

@@ -3,7 +3,7 @@
 //! background told from its signal as `waggle sensor-fit` tells it.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use anyhow::{Context, Result, bail};
 use commands::decode::EventFormat;
@@ -37,17 +37,37 @@ pub fn resolve(spec: &str) -> Result<PathBuf> {
     bail!("real-noise source {spec:?}: no such file")
 }
 
+/// Sources read by this process, by file and window: a study's points share one.
+type Loaded = Vec<((PathBuf, Option<(u64, u64)>), Arc<RealNoise>)>;
+static LOADED: Mutex<Loaded> = Mutex::new(Vec::new());
+
 /// The background of the recording `spec` names: the stretch `static_s` (seconds from its
 /// first event) or its isolated events.
 pub fn load(spec: &str, static_s: Option<(f64, f64)>) -> Result<Arc<RealNoise>> {
     let path = resolve(spec)?;
-    let bytes = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+    let key = (
+        path.clone(),
+        static_s.map(|(a, b)| (a.to_bits(), b.to_bits())),
+    );
+    let mut loaded = LOADED
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some((_, source)) = loaded.iter().find(|(k, _)| *k == key) {
+        return Ok(source.clone());
+    }
+    let source = read_source(spec, &path, static_s)?;
+    loaded.push((key, source.clone()));
+    Ok(source)
+}
+
+fn read_source(spec: &str, path: &Path, static_s: Option<(f64, f64)>) -> Result<Arc<RealNoise>> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
     let digest: String = Sha256::digest(&bytes)
         .iter()
         .map(|b| format!("{b:02x}"))
         .collect();
     drop(bytes);
-    let read = read_events(&path, EventFormat::Auto, None)?;
+    let read = read_events(path, EventFormat::Auto, None)?;
     let Some(first) = read.events.first().map(|e| e.t_ns) else {
         bail!("real-noise source {spec}: the recording holds no events");
     };

@@ -12,6 +12,7 @@
 //! criterion = "exact-payloads"
 //! sensor_preset = "v2e-default"          # optional: a named sensor preset under `fixed`
 //! fixed = { "link.drop_rate" = 0.0 }      # optional: terms held at one value
+//! real_noise = "faery/evt3.raw"           # optional: a real camera's background (events)
 //! rectify = "frontal"                     # optional: off | pitched (default) | frontal
 //! [[vary]]                                # one table per condition; several allowed
 //! key = "events.shot_noise_hz"            # a perturbation term, or viewpoint.azimuth_deg /
@@ -130,6 +131,13 @@ pub struct StudyFile {
     /// Perturbation terms every point holds (`{ "wind.intensity" = 0.25 }`).
     #[serde(default)]
     pub fixed: BTreeMap<String, f64>,
+    /// A real recording's background over every point's event sensor (as `waggle trials
+    /// --real-noise`: a path or `PACKAGE/FILE`; RGB points are not affected).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub real_noise: Option<String>,
+    /// Its static stretch, `[start_s, end_s]` from its first event (default: isolated events).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub real_noise_static: Option<[f64; 2]>,
     /// The receivers' viewpoint rectification: `off`, `pitched` (default) or `frontal`.
     #[serde(default)]
     pub rectify: Option<String>,
@@ -302,6 +310,14 @@ impl StudyFile {
         for (k, v) in &self.fixed {
             base.set(k, *v).context("fixed")?;
         }
+        if let Some(spec) = &self.real_noise {
+            let window = self.real_noise_static.map(|[a, b]| (a, b));
+            let source =
+                crate::harness::decode::real_noise::load(spec, window).context("real_noise")?;
+            base = base.with_real_noise(source);
+        } else if self.real_noise_static.is_some() {
+            bail!("real_noise_static needs real_noise");
+        }
         let rectification = match &self.rectify {
             Some(r) => <Rectification as clap::ValueEnum>::from_str(r, true)
                 .map_err(|e| anyhow::anyhow!("rectify {r:?}: {e}"))?,
@@ -329,6 +345,7 @@ impl StudyFile {
                     }
                 }
                 perturbation.check().context("vary")?;
+                perturbation.check_real_noise().context("vary")?;
                 let formation = self.formation(&axes)?;
                 let (key, level) = setting[0];
                 let dir = if self.cross {

@@ -15,8 +15,8 @@ pub mod out;
 pub mod pool;
 
 pub use crate::harness::trials::out::{
-    ObserverTrial, PlacementOut, RealNoiseOut, TokenTiming, TrialFlight, TrialRecord, TrialsCost, TrialsHeader,
-    TrialsOut, TrialsSummary,
+    ObserverTrial, PlacementOut, RealNoiseOut, TokenTiming, TrialFlight, TrialRecord, TrialsCost,
+    TrialsHeader, TrialsOut, TrialsSummary,
 };
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
@@ -460,7 +460,10 @@ pub fn definition(opts: &TrialsOptions) -> String {
         // Only with a source, so a run without one keeps its fingerprint.
         opts.perturbation
             .real_noise()
-            .map_or_else(String::new, |s| format!("; real noise {:?}", RealNoiseOut::of(s)))
+            .map_or_else(String::new, |s| format!(
+                "; real noise {:?}",
+                RealNoiseOut::of(s)
+            ))
     )
 }
 

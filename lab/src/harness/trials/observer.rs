@@ -79,11 +79,10 @@ impl Observer {
                 let config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX)
                     .with_model(opts.perturbation.event_sensor(sensor_seed));
                 let mut camera = EventCamera::new(config).context("event camera")?;
-                if let Some(tiler) = opts.perturbation.real_noise_tiler(
-                    IMAGE_WIDTH_PX,
-                    IMAGE_HEIGHT_PX,
-                    sensor_seed,
-                ) {
+                if let Some(tiler) =
+                    opts.perturbation
+                        .real_noise_tiler(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX, sensor_seed)
+                {
                     camera = camera.with_real_noise(tiler);
                 }
                 Sensor::Events(Box::new(camera))
