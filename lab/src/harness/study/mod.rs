@@ -552,6 +552,28 @@ levels = [0.0, 0.5]
     }
 
     #[test]
+    fn real_noise_terms_and_a_stretch_without_a_source_are_refused() {
+        let e = parse(&GOOD.replace("trials = 10", "trials = 10\nreal_noise_static = [0.0, 1.0]"))
+            .unwrap_err();
+        assert!(
+            format!("{e:#}").contains("real_noise_static needs real_noise"),
+            "{e:#}"
+        );
+        let e = parse(&GOOD.replace(
+            "trials = 10",
+            "trials = 10\nfixed = { \"events.real_noise_copies\" = 4.0 }",
+        ))
+        .unwrap_err();
+        assert!(
+            format!("{e:#}").contains("needs a real-noise source"),
+            "{e:#}"
+        );
+        let e = parse(&GOOD.replace("trials = 10", "trials = 10\nreal_noise = \"nope/x.raw\""))
+            .unwrap_err();
+        assert!(format!("{e:#}").contains("nope/x.raw"), "{e:#}");
+    }
+
+    #[test]
     fn a_sensor_preset_is_the_base_of_every_point_under_fixed_and_vary() {
         let with = GOOD.replace("trials = 10", "trials = 10\nsensor_preset = \"v2e-noisy\"");
         let pts = parse(&with)
