@@ -35,9 +35,10 @@ fn main() -> anyhow::Result<()> {
             DataCommand::Export(args) => cli::export::run(args),
             DataCommand::Payload(args) => cli::payload::run(args),
             DataCommand::Allocate(args) => cli::allocate::run(args),
-            DataCommand::Decode(_) | DataCommand::Events(_) | DataCommand::SensorFit(_) => {
-                unreachable_lab()
-            }
+            DataCommand::Decode(_)
+            | DataCommand::Observe(_)
+            | DataCommand::Events(_)
+            | DataCommand::SensorFit(_) => unreachable_lab(),
         },
         Command::Shell(c) => match c {
             ShellCommand::Completions(args) => {

@@ -5,10 +5,12 @@ use anyhow::{Result, bail};
 use proto::scene::{Formation, MAX_OBSERVERS, Placement, observer_name};
 
 use crate::harness::decode::{DecodeInput, DecodeOptions, decode};
+use commands::common::CameraPlaceArgs;
 use commands::decode::DecodeArgs;
 use commands::decode::EventFormat;
 
-fn placement(args: &DecodeArgs) -> Result<Placement> {
+/// Where the camera was: its viewpoint, or its observer's place in the built-in formation.
+pub(crate) fn placement(args: &CameraPlaceArgs) -> Result<Placement> {
     if let Some(p) = args.viewpoint {
         return Ok(p);
     }
@@ -52,7 +54,7 @@ pub fn run(args: DecodeArgs) -> Result<()> {
     };
     let out = decode(&DecodeOptions {
         input,
-        placement: placement(&args)?,
+        placement: placement(&args.camera)?,
         rectification: args.rectify,
         calibration: args.calibration.clone(),
         tail_s: args.tail_s,

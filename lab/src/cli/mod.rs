@@ -6,6 +6,7 @@ pub mod decode;
 pub mod events;
 pub mod link;
 pub mod mission;
+pub mod observe;
 pub mod report;
 pub mod sensor_fit;
 pub mod shard;

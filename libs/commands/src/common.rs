@@ -1,4 +1,4 @@
-//! Argument groups and value parsers shared by several commands: `--flights`, `--sensor-preset`/`--perturb`, `--render`, `--jobs`, `--payload`, `--viewpoint` and `--policy`.
+//! Argument groups and value parsers shared by several commands: `--flights`, `--sensor-preset`/`--perturb`, `--render`, `--jobs`, `--payload`, `--viewpoint`, where a recorded or live camera was (`--viewpoint`/`--observer`) and `--policy`.
 
 use anyhow::Result;
 use proto::scene::Placement;
@@ -25,6 +25,21 @@ pub struct PerturbArgs {
     /// A perturbation term KEY=VALUE (repeatable; `waggle trials --help` lists them).
     #[arg(long = "perturb", value_name = "KEY=VALUE")]
     pub perturb: Vec<String>,
+}
+
+/// Where a recorded or live camera was (`waggle decode`, `waggle observe`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct CameraPlaceArgs {
+    /// Where the camera was: AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M from the performer's hover
+    /// point (as `waggle link --viewpoint`).
+    #[arg(long, value_name = "AZ,EL,DIST", value_parser = parse_viewpoint, allow_hyphen_values = true, conflicts_with = "observer")]
+    pub viewpoint: Option<Placement>,
+    /// Or: the camera was observer OBSERVER (e.g. O2) of the built-in formation of --observers.
+    #[arg(long)]
+    pub observer: Option<String>,
+    /// Size of the built-in formation --observer refers to.
+    #[arg(long, default_value_t = 3)]
+    pub observers: usize,
 }
 
 /// `--render raster|damage|full`, shared by every command that renders cameras.

@@ -1,9 +1,8 @@
 //! `waggle decode`: a camera's recording decoded by one observer's receiver, and the recording formats it reads.
 
-use crate::common::parse_viewpoint;
+use crate::common::CameraPlaceArgs;
 use clap::{Args, ValueEnum};
 use proto::Rectification;
-use proto::scene::Placement;
 use std::path::PathBuf;
 
 #[derive(Debug, Args)]
@@ -34,16 +33,8 @@ pub struct DecodeArgs {
     /// of another size is taken to have the reference's field of view.
     #[arg(long, value_name = "YAML")]
     pub calibration: Option<PathBuf>,
-    /// Where the camera was: AZIMUTH_DEG,ELEVATION_DEG,DISTANCE_M from the performer's hover
-    /// point (as `waggle link --viewpoint`).
-    #[arg(long, value_name = "AZ,EL,DIST", value_parser = parse_viewpoint, allow_hyphen_values = true, conflicts_with = "observer")]
-    pub viewpoint: Option<Placement>,
-    /// Or: the camera was observer OBSERVER (e.g. O2) of the built-in formation of --observers.
-    #[arg(long)]
-    pub observer: Option<String>,
-    /// Size of the built-in formation --observer refers to.
-    #[arg(long, default_value_t = 3)]
-    pub observers: usize,
+    #[command(flatten)]
+    pub camera: CameraPlaceArgs,
     /// Viewpoint rectification of the receiver's trajectory before template matching.
     #[arg(long, value_enum, default_value_t = Rectification::default())]
     pub rectify: Rectification,

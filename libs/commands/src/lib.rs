@@ -27,6 +27,7 @@ pub mod export;
 pub mod fault;
 pub mod link;
 pub mod mission;
+pub mod observe;
 pub mod payload;
 pub mod replay;
 pub mod report;
@@ -133,6 +134,10 @@ pub enum DataCommand {
     /// Decode a camera's recording (EVT 3.0 or 2.0 `.raw`, DAT, AEDAT4, a ROS 2 bag, PNG frames)
     /// with one observer's receiver: tokens, frames and payloads.
     Decode(decode::DecodeArgs),
+    /// Decode a live camera, a ROS 2 topic on rmw_zenoh (`event_camera_msgs` EventPacket in
+    /// evt3, or images), with one observer's receiver; its tokens and frames published back
+    /// as ROS 2 messages.
+    Observe(observe::ObserveArgs),
     /// Synthetic event camera tools (convert PNG frames into events).
     Events(events::EventsArgs),
     /// Measure a real camera from its recording: background activity by polarity, hot pixels,
@@ -174,7 +179,10 @@ impl Command {
             | Command::Inspect(InspectCommand::Report(_))
             | Command::Studies(_)
             | Command::Data(
-                DataCommand::Decode(_) | DataCommand::Events(_) | DataCommand::SensorFit(_),
+                DataCommand::Decode(_)
+                | DataCommand::Observe(_)
+                | DataCommand::Events(_)
+                | DataCommand::SensorFit(_),
             ) => Binary::Lab,
             Command::Deploy(_) | Command::Inspect(_) | Command::Data(_) | Command::Shell(_) => {
                 Binary::Waggle

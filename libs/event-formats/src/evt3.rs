@@ -279,6 +279,12 @@ impl StreamDecoder {
         Ok(())
     }
 
+    /// The stream's clock after the words decoded so far, µs (`None` before its first
+    /// `TIME_HIGH`): time the stream has reached even where it carried no event.
+    pub fn time_us(&self) -> Option<u64> {
+        self.high.map(|h| (self.wraps << 24) | (h << 12) | self.low)
+    }
+
     fn time(&self, offset: usize) -> Result<u64, Evt3Error> {
         self.high
             .map(|h| (self.wraps << 24) | (h << 12) | self.low)

@@ -6,6 +6,9 @@
 //! Event times are the EVT 3.0 stream's own clock at microsecond resolution, as in a `.raw`
 //! file: for bags of `waggle export ros2` that is sim time (`time_base` 0); header stamps and
 //! `time_base` are not used. Only `encoding: "evt3"`, little-endian, is read.
+//!
+//! [`PacketDecoder`] and [`image_from_cdr`] decode one message at a time, for a bag here and for
+//! a live topic (`waggle observe`).
 
 use std::path::{Path, PathBuf};
 
@@ -137,15 +140,8 @@ impl ImageBag {
             .iter()
             .enumerate()
             .map(|(i, (_, log_time, cdr))| {
-                let at =
-                    |reason: String| message_error(&self.path, &self.topic, i, *log_time, reason);
-                if self.compressed {
-                    let msg = CompressedImageMsg::from_cdr(cdr).map_err(|e| at(e.to_string()))?;
-                    compressed_image(&msg).map_err(at)
-                } else {
-                    let msg = ImageMsg::from_cdr(cdr).map_err(|e| at(e.to_string()))?;
-                    raw_image(&msg).map_err(at)
-                }
+                image_from_cdr(cdr, self.compressed)
+                    .map_err(|reason| message_error(&self.path, &self.topic, i, *log_time, reason))
             })
     }
 }
@@ -369,43 +365,96 @@ pub fn read_event_bag(
 }
 
 fn decode_packets(path: &Path, found: TopicMessages) -> Result<EventBag, Ros2Error> {
-    let mut out = EventBag {
-        topic: found.topic,
-        messages: 0,
-        width: 0,
-        height: 0,
-        events: Vec::new(),
-    };
-    let mut decoder = StreamDecoder::new();
-    let mut triggers = Vec::new();
+    let mut decoder = PacketDecoder::default();
+    let mut events = Vec::new();
     for (i, (_, log_time, cdr)) in found.messages.iter().enumerate() {
-        let at = |reason: String| message_error(path, &out.topic, i, *log_time, reason);
-        let msg = EventPacketMsg::from_cdr(cdr).map_err(|e| at(e.to_string()))?;
+        decoder
+            .push(cdr, &mut events)
+            .map_err(|reason| message_error(path, &found.topic, i, *log_time, reason))?;
+    }
+    let (width, height) = decoder.size().unwrap_or((0, 0));
+    Ok(EventBag {
+        topic: found.topic,
+        messages: decoder.messages(),
+        width,
+        height,
+        events,
+    })
+}
+
+/// `event_camera_msgs/msg/EventPacket` messages of one camera decoded one at a time, in the
+/// order they come (a bag's, or a live topic's): every message `evt3`, little-endian, of one
+/// sensor size; the EVT 3.0 state carries from one message to the next.
+#[derive(Debug, Clone, Default)]
+pub struct PacketDecoder {
+    decoder: StreamDecoder,
+    size: Option<(u16, u16)>,
+    messages: u64,
+    triggers: Vec<event_formats::evt3::Trigger>,
+}
+
+impl PacketDecoder {
+    /// The sensor's size, once a message has stated it.
+    pub fn size(&self) -> Option<(u16, u16)> {
+        self.size
+    }
+
+    /// Messages decoded.
+    pub fn messages(&self) -> u64 {
+        self.messages
+    }
+
+    /// The EVT 3.0 stream's clock after the messages decoded so far, ns: the stream has
+    /// reached it even where it carried no event.
+    pub fn stream_time_ns(&self) -> Option<u64> {
+        self.decoder.time_us().map(|t_us| t_us * 1000)
+    }
+
+    /// Decodes one message's CDR bytes, appending its events to `events`. A message that is
+    /// refused adds no event (its reason is returned); the stream's state stays as it was
+    /// after the words decoded before the fault.
+    pub fn push(&mut self, cdr: &[u8], events: &mut Vec<Event>) -> Result<(), String> {
+        let msg = EventPacketMsg::from_cdr(cdr).map_err(|e| e.to_string())?;
         if msg.encoding != "evt3" || msg.is_bigendian {
-            return Err(at(format!(
+            return Err(format!(
                 "encoding {:?}{}: only little-endian evt3 is read",
                 msg.encoding,
                 if msg.is_bigendian { ", big-endian" } else { "" }
-            )));
+            ));
         }
         let size = (u16::try_from(msg.width), u16::try_from(msg.height));
         let (Ok(width), Ok(height)) = size else {
-            return Err(at(format!("sensor {}×{}", msg.width, msg.height)));
+            return Err(format!("sensor {}×{}", msg.width, msg.height));
         };
-        if i == 0 {
-            (out.width, out.height) = (width, height);
-        } else if (width, height) != (out.width, out.height) {
-            return Err(at(format!(
-                "sensor {width}×{height} after {}×{}",
-                out.width, out.height
-            )));
+        match self.size {
+            None => self.size = Some((width, height)),
+            Some((w, h)) if (w, h) != (width, height) => {
+                return Err(format!("sensor {width}×{height} after {w}×{h}"));
+            }
+            Some(_) => {}
         }
-        decoder
-            .decode(&msg.events, 0, &mut out.events, &mut triggers)
-            .map_err(|e| at(format!("events payload: {e}")))?;
-        out.messages += 1;
+        let before = events.len();
+        self.triggers.clear();
+        if let Err(e) = self
+            .decoder
+            .decode(&msg.events, 0, events, &mut self.triggers)
+        {
+            events.truncate(before);
+            return Err(format!("events payload: {e}"));
+        }
+        self.messages += 1;
+        Ok(())
     }
-    Ok(out)
+}
+
+/// One `sensor_msgs/msg/CompressedImage` (PNG; `compressed`) or `sensor_msgs/msg/Image`
+/// message's CDR bytes as an 8-bit RGB image, or why not.
+pub fn image_from_cdr(cdr: &[u8], compressed: bool) -> Result<BagImage, String> {
+    if compressed {
+        compressed_image(&CompressedImageMsg::from_cdr(cdr).map_err(|e| e.to_string())?)
+    } else {
+        raw_image(&ImageMsg::from_cdr(cdr).map_err(|e| e.to_string())?)
+    }
 }
 
 #[cfg(test)]

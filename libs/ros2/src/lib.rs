@@ -20,8 +20,10 @@
 //! - [`export`]: a recording (`session.mcap`) → a bag, deterministic (the same run gives the same
 //!   bytes) and sorted by time;
 //! - [`rmw_zenoh`] and [`live`]: the same messages published live as ROS 2 Jazzy's Zenoh
-//!   middleware publishes them (`waggle run --ros2-domain N`);
-//! - [`ingest`]: an `event_camera_msgs` bag read back into events (`waggle decode`).
+//!   middleware publishes them (`waggle run --ros2-domain N`), and a camera's topic received
+//!   as its subscriptions receive (`waggle observe`);
+//! - [`ingest`]: an `event_camera_msgs` bag read back into events (`waggle decode`), and one
+//!   camera message at a time (`waggle observe`).
 //!
 //! Pure apart from the files it reads and writes and [`live`]'s Zenoh session; errors are
 //! [`Ros2Error`].

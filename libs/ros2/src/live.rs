@@ -8,21 +8,28 @@
 //! liveliness tokens, so the ROS graph lists them. A sample's source timestamp is the wall
 //! clock at publication, as `rmw_zenoh` stamps it; it is output only. A sample that cannot be
 //! converted or sent is counted, never fatal: the recording comes first.
+//!
+//! The same node can also listen ([`LiveView::subscribe`]): a camera driver's topic, received
+//! as an `rmw_zenoh` subscription receives it (`waggle observe`), its publishers followed by
+//! their liveliness tokens so the listener knows when the camera has gone.
 
-use std::collections::BTreeMap;
-use std::time::{SystemTime, UNIX_EPOCH};
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use recording::Decoded;
 use zenoh::Wait;
+use zenoh::handlers::FifoChannelHandler;
 use zenoh::liveliness::LivelinessToken;
-use zenoh::pubsub::Publisher;
+use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
+use zenoh::sample::{Sample, SampleKind};
 
+use crate::bag::QosProfile;
 use crate::convert::ExportOptions;
 use crate::convert::RosConverter;
 use crate::error::Ros2Error;
 use crate::export::formation_pitches;
-use crate::rmw_zenoh::{NodeEntities, Publication};
+use crate::rmw_zenoh::{ADMIN_SPACE, NodeEntities, Publication, is_publisher_of};
 
 /// The node name the view publishes as.
 pub const NODE_NAME: &str = "waggle_recorder";
@@ -60,6 +67,7 @@ struct Topic {
 /// A running view.
 pub struct LiveView {
     session: zenoh::Session,
+    domain: u32,
     node: NodeEntities,
     _node_token: LivelinessToken,
     converter: RosConverter,
@@ -74,12 +82,21 @@ fn live_err(what: &str, e: impl std::fmt::Display) -> Ros2Error {
 }
 
 impl LiveView {
-    /// Connects to the ROS side's router and declares the node.
+    /// Connects to the ROS side's router and declares the node ([`NODE_NAME`]).
     ///
     /// # Errors
     ///
     /// A router that cannot be reached, or an endpoint Zenoh refuses.
     pub fn start(options: &LiveOptions) -> Result<Self, Ros2Error> {
+        Self::start_node(options, NODE_NAME)
+    }
+
+    /// As [`LiveView::start`], for the node `node_name`.
+    ///
+    /// # Errors
+    ///
+    /// As [`LiveView::start`], and a node name ROS would refuse.
+    pub fn start_node(options: &LiveOptions, node_name: &str) -> Result<Self, Ros2Error> {
         let mut config = zenoh::Config::default();
         let endpoint = serde_json_string(&options.router);
         for (key, value) in [
@@ -100,7 +117,7 @@ impl LiveView {
                 e,
             )
         })?;
-        let node = NodeEntities::new(options.domain, &session.zid().to_string(), NODE_NAME, "/")?;
+        let node = NodeEntities::new(options.domain, &session.zid().to_string(), node_name, "/")?;
         let node_token = session
             .liveliness()
             .declare_token(node.node_token())
@@ -108,6 +125,7 @@ impl LiveView {
             .map_err(|e| live_err("declaring the node's liveliness token", e))?;
         Ok(Self {
             session,
+            domain: options.domain,
             node,
             _node_token: node_token,
             converter: RosConverter::new(
@@ -142,7 +160,7 @@ impl LiveView {
         &mut self,
         topic: &str,
         type_name: &str,
-        qos: crate::QosProfile,
+        qos: QosProfile,
         cdr: Vec<u8>,
     ) -> Result<(), Ros2Error> {
         if !self.topics.contains_key(topic) {
@@ -180,6 +198,52 @@ impl LiveView {
             .map_err(|e| live_err(&format!("publishing on {topic}"), e))?;
         *self.counts.published.entry(topic.to_string()).or_insert(0) += 1;
         Ok(())
+    }
+
+    /// Subscribes to `topic` of `type_name` as an `rmw_zenoh` subscription does: its data key
+    /// (any type hash), its `MS` liveliness token, and a watch on the topic's publishers' tokens.
+    ///
+    /// # Errors
+    ///
+    /// A topic or type [`NodeEntities::subscription`] refuses, or Zenoh refusing a declaration.
+    pub fn subscribe(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+    ) -> Result<LiveSubscription, Ros2Error> {
+        let sub = self
+            .node
+            .subscription(topic, type_name, QosProfile::VOLATILE)?;
+        let data = self
+            .session
+            .declare_subscriber(sub.key.clone())
+            .wait()
+            .map_err(|e| live_err(&format!("subscribing to {topic}"), e))?;
+        let publishers = self
+            .session
+            .liveliness()
+            .declare_subscriber(format!("{ADMIN_SPACE}/{}/**", self.domain))
+            .history(true)
+            .wait()
+            .map_err(|e| live_err(&format!("watching the publishers of {topic}"), e))?;
+        // Declared after the subscriber, so a publisher that waits for this token before
+        // publishing finds the subscriber in place.
+        let token = self
+            .session
+            .liveliness()
+            .declare_token(sub.token.clone())
+            .wait()
+            .map_err(|e| live_err(&format!("declaring the token of {topic}"), e))?;
+        Ok(LiveSubscription {
+            domain: self.domain,
+            topic: topic.to_string(),
+            mangled_topic: sub.mangled_topic,
+            data,
+            publishers,
+            _token: token,
+            alive: BTreeSet::new(),
+            seen: 0,
+        })
     }
 
     /// What was published so far.
@@ -226,4 +290,91 @@ fn serde_json_string(s: &str) -> String {
     }
     out.push('"');
     out
+}
+
+/// A topic subscribed to ([`LiveView::subscribe`]): its samples in arrival order, and whether
+/// the publishers that appeared on it have all left.
+pub struct LiveSubscription {
+    domain: u32,
+    topic: String,
+    mangled_topic: String,
+    data: Subscriber<FifoChannelHandler<Sample>>,
+    publishers: Subscriber<FifoChannelHandler<Sample>>,
+    _token: LivelinessToken,
+    /// The topic's publishers' tokens now declared.
+    alive: BTreeSet<String>,
+    /// Publishers seen since the subscription began.
+    seen: u64,
+}
+
+/// What [`LiveSubscription::next`] found.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LiveInput {
+    /// A sample's payload (the message's CDR bytes).
+    Message(Vec<u8>),
+    /// Nothing arrived before the deadline.
+    Idle,
+    /// Every publisher seen on the topic has withdrawn its token, and every sample that came
+    /// before the withdrawal has been handed out.
+    PublishersGone,
+}
+
+impl LiveSubscription {
+    /// The topic.
+    pub fn topic(&self) -> &str {
+        &self.topic
+    }
+
+    /// Publishers of the topic seen so far.
+    pub fn publishers_seen(&self) -> u64 {
+        self.seen
+    }
+
+    fn watch_publishers(&mut self) {
+        while let Ok(Some(sample)) = self.publishers.try_recv() {
+            let token = sample.key_expr().as_str();
+            if !is_publisher_of(token, self.domain, &self.mangled_topic) {
+                continue;
+            }
+            match sample.kind() {
+                SampleKind::Put => {
+                    if self.alive.insert(token.to_string()) {
+                        self.seen += 1;
+                    }
+                }
+                SampleKind::Delete => {
+                    self.alive.remove(token);
+                }
+            }
+        }
+    }
+
+    /// The next sample, waiting up to `timeout`. A publisher's samples travel before its
+    /// token's withdrawal, so the data queue is drained before [`LiveInput::PublishersGone`].
+    pub fn next(&mut self, timeout: Duration) -> LiveInput {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Ok(Some(sample)) = self.data.try_recv() {
+                return LiveInput::Message(sample.payload().to_bytes().into_owned());
+            }
+            self.watch_publishers();
+            if self.seen > 0 && self.alive.is_empty() {
+                return match self.data.try_recv() {
+                    Ok(Some(sample)) => {
+                        LiveInput::Message(sample.payload().to_bytes().into_owned())
+                    }
+                    _ => LiveInput::PublishersGone,
+                };
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                return LiveInput::Idle;
+            }
+            // Short waits on the data queue, so a withdrawn token is noticed within 20 ms.
+            let wait = (deadline - now).min(Duration::from_millis(20));
+            if let Ok(Some(sample)) = self.data.recv_timeout(wait) {
+                return LiveInput::Message(sample.payload().to_bytes().into_owned());
+            }
+        }
+    }
 }

@@ -215,6 +215,58 @@ impl NodeEntities {
     }
 }
 
+/// One subscription: the key expression it listens on (any type hash: a camera driver built
+/// against another revision of the message still reaches it) and its token.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Subscription {
+    pub key: String,
+    pub token: String,
+    /// The topic's mangled name, as publishers' tokens carry it.
+    pub mangled_topic: String,
+}
+
+impl NodeEntities {
+    /// A new subscription of `topic` with `type_name` (the next entity id; `MS` token).
+    ///
+    /// # Errors
+    ///
+    /// As [`topic_key`].
+    pub fn subscription(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+        qos: QosProfile,
+    ) -> Result<Subscription, Ros2Error> {
+        check_name("topic", topic, true)?;
+        let dds = dds_type_name(type_name)?;
+        let id = self.next_id;
+        self.next_id += 1;
+        Ok(Subscription {
+            key: format!("{}/{}/{dds}/*", self.domain, topic.trim_matches('/')),
+            token: format!(
+                "{}/{}/{dds}/{}/{}",
+                self.entity_prefix(id, "MS"),
+                mangle(topic),
+                type_hash(type_name)?,
+                qos_text(qos)
+            ),
+            mangled_topic: mangle(topic),
+        })
+    }
+}
+
+/// Whether liveliness token `token` is a publisher (`MP`) of the topic whose mangled name is
+/// `mangled_topic` in `domain`: `@ros2_lv/<domain>/<zid>/<nid>/<eid>/MP/<enclave>/<ns>/<node>/
+/// <topic>/…`.
+pub fn is_publisher_of(token: &str, domain: u32, mangled_topic: &str) -> bool {
+    let parts: Vec<&str> = token.split('/').collect();
+    parts.len() >= 10
+        && parts[0] == ADMIN_SPACE
+        && parts[1] == domain.to_string()
+        && parts[5] == "MP"
+        && parts[9] == mangled_topic
+}
+
 impl Publication {
     /// The attachment of this publisher's next sample, sent at `source_timestamp_ns`.
     pub fn next_attachment(&mut self, source_timestamp_ns: i64) -> [u8; ATTACHMENT_LEN] {
@@ -325,6 +377,33 @@ mod tests {
             assert!(NodeEntities::new(0, "ab", name, ns).is_err(), "{name} {ns}");
         }
         assert!(NodeEntities::new(0, "xyz", "n", "/").is_err());
+        let s = node
+            .subscription(
+                "/camera/events",
+                "event_camera_msgs/msg/EventPacket",
+                QosProfile::VOLATILE,
+            )
+            .unwrap();
+        assert_eq!(
+            s.key,
+            "42/camera/events/event_camera_msgs::msg::dds_::EventPacket_/*"
+        );
+        assert_eq!(
+            s.token,
+            format!(
+                "@ros2_lv/42/a1b2c3/0/3/MS/%/%/waggle_recorder/%camera%events/\
+                 event_camera_msgs::msg::dds_::EventPacket_/{ev}/::,:,:,:,,"
+            )
+        );
+        assert!(is_publisher_of(
+            &p.token.replace("%O1%events", "%camera%events"),
+            42,
+            &s.mangled_topic
+        ));
+        assert!(!is_publisher_of(&s.token, 42, &s.mangled_topic));
+        assert!(!is_publisher_of(&p.token, 42, &s.mangled_topic));
+        assert!(!is_publisher_of(&p.token, 7, "%O1%events"));
+        assert!(is_publisher_of(&p.token, 42, "%O1%events"));
         let n = NodeEntities::new(3, "ff", "n", "/robot_1").unwrap();
         assert_eq!(n.node_token(), "@ros2_lv/3/ff/0/0/NN/%/%robot_1/n");
     }

@@ -18,11 +18,11 @@ use crate::harness::decode::convert::{frame_paths, stamp_ns};
 use crate::harness::link::observer_out;
 
 /// One image as read: stamp, size and RGB bytes.
-struct Image {
-    stamp_ns: u64,
-    width: u16,
-    height: u16,
-    rgb: Vec<u8>,
+pub(crate) struct Image {
+    pub(crate) stamp_ns: u64,
+    pub(crate) width: u16,
+    pub(crate) height: u16,
+    pub(crate) rgb: Vec<u8>,
 }
 
 /// Whether `path` is a bag rather than a directory of PNG frames.
@@ -37,7 +37,7 @@ fn is_bag(path: &Path) -> bool {
 }
 
 /// The receiver, fed one image at a time.
-struct Feed {
+pub(crate) struct Feed {
     perception: Perception,
     /// The remap every image goes through, once the first image's size is known.
     remap: Option<Option<ImageRemap>>,
@@ -50,7 +50,73 @@ struct Feed {
 }
 
 impl Feed {
-    fn push(&mut self, image: Image) -> Result<()> {
+    /// The RGB receiver of a camera at `placement`, remapping through `calibration`.
+    pub(crate) fn new(
+        placement: proto::scene::Placement,
+        rectification: proto::Rectification,
+        calibration: Option<std::path::PathBuf>,
+    ) -> Result<Self> {
+        Ok(Self {
+            perception: Perception::for_camera(Modality::Rgb, placement.camera(), rectification)?,
+            remap: None,
+            calibration,
+            size: None,
+            seq: 0,
+            last: None,
+            tokens: Vec::new(),
+            frames: Vec::new(),
+        })
+    }
+
+    /// Images given to the receiver.
+    pub(crate) fn images(&self) -> u64 {
+        self.seq
+    }
+
+    /// The first image's size, once one has come.
+    pub(crate) fn size(&self) -> Option<(u16, u16)> {
+        self.size
+    }
+
+    /// Whether images are remapped into the reference camera.
+    pub(crate) fn remapped(&self) -> bool {
+        self.remap.as_ref().is_some_and(Option::is_some)
+    }
+
+    /// The tokens confirmed and frames released so far.
+    pub(crate) fn tokens_and_frames(&self) -> (&[proto::SegmentToken], &[proto::ReleasedFrame]) {
+        (&self.tokens, &self.frames)
+    }
+
+    /// The tokens and frames so far.
+    pub(crate) fn decoded(&self) -> crate::harness::link::ObserverOut {
+        observer_out(&self.tokens, &self.frames)
+    }
+
+    /// Holds the last image still for `tail_s` (one frame per 40 ms) and returns the time the
+    /// last frame ends, ns; `None` when no image came.
+    pub(crate) fn finish(&mut self, tail_s: f64) -> Result<Option<u64>> {
+        let Some(last) = self.last.take() else {
+            return Ok(None);
+        };
+        let tail_ns = (tail_s * 1e9).round() as u64;
+        let end_ns = last.stamp_ns + tail_ns;
+        let mut stamp = last.stamp_ns + PACKET_NS;
+        let (width, height, rgb) = (last.width, last.height, last.rgb);
+        while stamp <= end_ns {
+            let rgb = rgb.clone();
+            self.push(Image {
+                stamp_ns: stamp,
+                width,
+                height,
+                rgb,
+            })?;
+            stamp += PACKET_NS;
+        }
+        Ok(Some(end_ns))
+    }
+
+    pub(crate) fn push(&mut self, image: Image) -> Result<()> {
         let size = (image.width, image.height);
         match self.size {
             None => {
@@ -106,20 +172,7 @@ pub(super) fn decode_images(
     topic: Option<&str>,
     fps: u32,
 ) -> Result<DecodeOut> {
-    let mut feed = Feed {
-        perception: Perception::for_camera(
-            Modality::Rgb,
-            opts.placement.camera(),
-            opts.rectification,
-        )?,
-        remap: None,
-        calibration: opts.calibration.clone(),
-        size: None,
-        seq: 0,
-        last: None,
-        tokens: Vec::new(),
-        frames: Vec::new(),
-    };
+    let mut feed = Feed::new(opts.placement, opts.rectification, opts.calibration.clone())?;
     let format = if is_bag(path) {
         let bag = ros2_bag::ingest::read_image_bag(
             path,
@@ -166,36 +219,21 @@ pub(super) fn decode_images(
         format!("png directory at {fps} Hz")
     };
     let images = feed.seq;
-    let Some(last) = feed.last.take() else {
+    let Some(end_ns) = feed.finish(opts.tail_s)? else {
         bail!("{}: no images", path.display());
     };
-    // The tail: the last image held still.
-    let tail_ns = (opts.tail_s * 1e9).round() as u64;
-    let end_ns = last.stamp_ns + tail_ns;
-    let mut stamp = last.stamp_ns + PACKET_NS;
-    let (width, height, rgb) = (last.width, last.height, last.rgb);
-    while stamp <= end_ns {
-        let rgb = rgb.clone();
-        feed.push(Image {
-            stamp_ns: stamp,
-            width,
-            height,
-            rgb,
-        })?;
-        stamp += PACKET_NS;
-    }
     let (width_px, height_px) = feed.size.unwrap_or((IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX));
     Ok(DecodeOut {
         file: path.display().to_string(),
         format,
         width_px,
         height_px,
-        remapped: feed.remap.as_ref().is_some_and(Option::is_some),
+        remapped: feed.remapped(),
         events: None,
         events_outside: None,
         images: Some(images),
         packets: feed.seq,
         sim_seconds: end_ns as f64 * 1e-9,
-        decoded: observer_out(&feed.tokens, &feed.frames),
+        decoded: feed.decoded(),
     })
 }

@@ -13,12 +13,15 @@
 //! point) sets the receiver's rectification, as in `waggle link`.
 //!
 //! PNG frames converted into synthetic events offline (`waggle events convert`) are
-//! [`convert`].
+//! [`convert`]. A live camera, a ROS 2 topic, goes through the same receivers and the same
+//! packet cutting in [`live`] (`waggle observe`).
 
 pub mod convert;
 
 pub mod calibration;
 pub mod images;
+pub mod live;
+pub mod packets;
 pub mod real_noise;
 pub mod source;
 
@@ -28,10 +31,11 @@ use anyhow::{Result, bail};
 use event_camera::Event;
 use perception::{Perception, SensorInput};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, Placement};
-use proto::{EventPacket, Modality, Rectification};
+use proto::{EventPacket, Modality, Rectification, ReleasedFrame, SegmentToken};
 use serde::Serialize;
 
 use self::calibration::{EventRemap, Intrinsics};
+use self::packets::Packetizer;
 use self::source::read_events;
 use crate::harness::link::{ObserverOut, observer_out};
 use commands::decode::EventFormat;
@@ -97,7 +101,10 @@ pub struct DecodeOut {
 
 /// The camera of a `width`×`height` recording: the calibration file's, or one like the
 /// reference; `None` when nothing needs remapping.
-fn camera(calibration: Option<&PathBuf>, size: Option<(u16, u16)>) -> Result<Option<Intrinsics>> {
+pub(crate) fn camera(
+    calibration: Option<&PathBuf>,
+    size: Option<(u16, u16)>,
+) -> Result<Option<Intrinsics>> {
     let reference = (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX);
     match calibration {
         Some(path) => {
@@ -118,7 +125,7 @@ fn camera(calibration: Option<&PathBuf>, size: Option<(u16, u16)>) -> Result<Opt
     }
 }
 
-fn check_tail(tail_s: f64) -> Result<()> {
+pub(crate) fn check_tail(tail_s: f64) -> Result<()> {
     if !(tail_s.is_finite() && (0.0..=600.0).contains(&tail_s)) {
         bail!("--tail-s {tail_s} must be 0–600 s");
     }
@@ -159,32 +166,18 @@ fn decode_events(
     events.sort_by_key(|e| e.t_ns);
     let last_ns = events.last().map_or(0, |e| e.t_ns);
     let end_ns = last_ns + (opts.tail_s * 1e9).round() as u64;
-    let packets = end_ns.div_ceil(PACKET_NS).max(1);
-    let mut perception = Perception::for_camera(
-        Modality::Events,
-        opts.placement.camera(),
-        opts.rectification,
-    )?;
-    let (mut tokens, mut frames) = (Vec::new(), Vec::new());
-    let mut next = 0usize;
-    for k in 0..packets {
-        let (start, end) = (k * PACKET_NS, (k + 1) * PACKET_NS);
-        let mut inside = Vec::new();
-        while let Some(e) = events.get(next) {
-            // (start, end]; an event exactly at t = 0 joins the first packet.
-            if e.t_ns > end {
-                break;
-            }
-            let dt = e.t_ns.saturating_sub(start) as u32;
-            inside.push((e.x, e.y, dt, e.polarity));
-            next += 1;
-        }
-        let packet =
-            EventPacket::from_events(k, (start, end), (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX), &inside);
-        let step = perception.push(SensorInput::Events(&packet))?;
-        tokens.extend(step.tokens);
-        frames.extend(step.frames);
+    let mut receiver = EventReceiver::new(opts.placement, opts.rectification)?;
+    let mut packetizer = Packetizer::new();
+    for e in &events {
+        packetizer.push(e, |p| {
+            receiver.take(&p);
+        });
     }
+    packetizer.finish(end_ns, |p| {
+        receiver.take(&p);
+    });
+    let packets = packetizer.packets();
+    let decoded = receiver.finish()?;
     Ok(DecodeOut {
         file: file.display().to_string(),
         format: read.format,
@@ -196,13 +189,70 @@ fn decode_events(
         images: None,
         packets,
         sim_seconds: end_ns as f64 * 1e-9,
-        decoded: observer_out(&tokens, &frames),
+        decoded,
     })
 }
 
+/// One observer's event receiver fed packet by packet, keeping its tokens and frames; the
+/// first fault stops it and is returned by [`EventReceiver::finish`].
+pub(crate) struct EventReceiver {
+    perception: Perception,
+    tokens: Vec<SegmentToken>,
+    frames: Vec<ReleasedFrame>,
+    fault: Option<anyhow::Error>,
+}
+
+impl EventReceiver {
+    /// The receiver of a camera at `placement`.
+    pub(crate) fn new(placement: Placement, rectification: Rectification) -> Result<Self> {
+        Ok(Self {
+            perception: Perception::for_camera(
+                Modality::Events,
+                placement.camera(),
+                rectification,
+            )?,
+            tokens: Vec::new(),
+            frames: Vec::new(),
+            fault: None,
+        })
+    }
+
+    /// Gives the receiver one packet; what it confirms and releases is returned as well as
+    /// kept.
+    pub(crate) fn take(&mut self, packet: &EventPacket) -> (Vec<SegmentToken>, Vec<ReleasedFrame>) {
+        if self.fault.is_some() {
+            return (Vec::new(), Vec::new());
+        }
+        match self.perception.push(SensorInput::Events(packet)) {
+            Ok(step) => {
+                self.tokens.extend(step.tokens.iter().cloned());
+                self.frames.extend(step.frames.iter().cloned());
+                (step.tokens, step.frames)
+            }
+            Err(e) => {
+                self.fault = Some(e.into());
+                (Vec::new(), Vec::new())
+            }
+        }
+    }
+
+    /// What the receiver decoded, or its first fault.
+    pub(crate) fn finish(self) -> Result<ObserverOut> {
+        match self.fault {
+            Some(e) => Err(e),
+            None => Ok(observer_out(&self.tokens, &self.frames)),
+        }
+    }
+}
+
 /// Moves `events` into the reference camera, dropping those outside it; returns how many.
-fn remap_events(cam: &Intrinsics, events: &mut Vec<Event>) -> u64 {
-    let remap = EventRemap::new(cam);
+pub(crate) fn remap_events(cam: &Intrinsics, events: &mut Vec<Event>) -> u64 {
+    remap_with(&EventRemap::new(cam), events)
+}
+
+/// Moves `events` through `remap`, dropping those outside the reference camera; returns how
+/// many.
+pub(crate) fn remap_with(remap: &EventRemap, events: &mut Vec<Event>) -> u64 {
     let before = events.len();
     events.retain_mut(|e| match remap.map(e.x, e.y) {
         Some((x, y)) => {
