@@ -13,6 +13,7 @@ use sim::world::World;
 mod events;
 mod node_camera;
 mod node_run;
+mod ros2_source;
 
 #[derive(Parser)]
 #[command(

@@ -24,6 +24,8 @@ use proto::{
 };
 use sim::lockstep::mirror;
 use sim::render::{CameraRenderer, RenderCounts, RenderPath};
+
+use crate::ros2_source::Ros2Camera;
 use sim::sensor::{ObserverSensor, SensorFeed, SensorOutput};
 use sim::world::World;
 
@@ -309,6 +311,9 @@ fn command_line_faults(args: &CameraArgs) -> Vec<Fault> {
 
 pub fn run(cli: CameraCli) -> Result<()> {
     let CameraCli { camera: args, node } = cli;
+    if let Some(topic) = args.ros2_source.topic.clone() {
+        return run_ros2(&args, &node, &topic);
+    }
     let mut faults = command_line_faults(&args);
     let index = observer_index(&args.observer, node.observers)?;
     let mut world = World::new(node.observers).context("building the scene")?;
@@ -414,6 +419,91 @@ pub fn run(cli: CameraCli) -> Result<()> {
         args.render,
         (outbox.published, outbox.dropped, outbox.digest),
         renderer.counts(),
+    );
+    bus.put(&keys.camera_report(&args.observer), &report)?;
+    bus.put(
+        &keys.rejects(Role::Camera, args.observer.as_str())?,
+        &rejects.report(),
+    )?;
+    bus.close()?;
+    Ok(())
+}
+
+/// The camera process with a real camera on a ROS 2 topic as its source
+/// ([`crate::ros2_source`]): the same bus contract, faults (but black input, which needs a
+/// render) and report, with packets from the topic instead of renders.
+fn run_ros2(args: &CameraArgs, node: &NodeArgs, topic: &str) -> Result<()> {
+    if args.modality != Modality::Events {
+        anyhow::bail!("--ros2-source {topic}: a ROS 2 camera feeds event cameras only");
+    }
+    if args.black || args.publish_input {
+        anyhow::bail!("--ros2-source {topic}: --black and --publish-input need a rendering camera");
+    }
+    let mut faults = command_line_faults(args);
+    let mut camera = Ros2Camera::start(&args.ros2_source, topic, &args.observer)?;
+    let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
+    let keys = bus.keys().clone();
+    bus.subscribe(&keys.sim_state())?;
+    bus.subscribe(&keys.fault(&args.observer))?;
+    node.join(
+        &mut bus,
+        &Process::new(Role::Camera, args.observer.as_str()),
+    )
+    .context("start-up handshake")?;
+    let mut outbox = Outbox {
+        observer: args.observer.clone(),
+        out_key: keys.sensor_events(&args.observer),
+        dropped_key: keys.sensor_dropped(&args.observer),
+        published: 0,
+        dropped: 0,
+        digest: 0,
+        last_rgb_seq: None,
+    };
+    let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
+    let mut started = false;
+    let mut last_state_ns: Option<u64> = None;
+    let mut rejects = Rejects::new(format!("camera-{}", args.observer), &keys);
+    loop {
+        camera.poll();
+        if let Some(now_ns) = last_state_ns {
+            while let Some(packet) = camera.due(now_ns) {
+                // A dropout ends the stream; a throttle drops or delays as for a rendered one.
+                let Some((_, throttle)) = in_force(&faults, packet.end_ns) else {
+                    continue;
+                };
+                let output = SensorOutput::Events(packet);
+                outbox.send(&mut bus, &output, throttle, FrameChange::All)?;
+            }
+        }
+        // Short waits: the ROS topic is polled between the bus's messages.
+        let Some(item) = bus.recv(Duration::from_millis(10)) else {
+            if started && !bus.is_alive(&sim_alive) {
+                break;
+            }
+            continue;
+        };
+        match item {
+            Inbound::Data { key, payload } if key == keys.sim_state() => {
+                if let Some(state) = admit_state(&mut rejects, &key, &payload, last_state_ns) {
+                    started = true;
+                    last_state_ns = Some(state.stamp_ns);
+                }
+            }
+            Inbound::Data { key, payload } if key == keys.fault(&args.observer) => {
+                take_fault(&mut rejects, &key, &payload, &args.observer, &mut faults);
+            }
+            Inbound::Data { key, .. } => {
+                rejects.reject(&key, RejectReason::UnexpectedKey, &"not subscribed");
+            }
+            Inbound::Liveliness { key, alive: false } if key == sim_alive => break,
+            Inbound::Liveliness { .. } => {}
+        }
+    }
+    let report = camera_report(
+        &args.observer,
+        args.render,
+        (outbox.published, outbox.dropped, outbox.digest),
+        RenderCounts::default(),
     );
     bus.put(&keys.camera_report(&args.observer), &report)?;
     bus.put(

@@ -276,3 +276,74 @@ levels = [0.0003]
 "#
     )
 }
+
+/// `tools/ros2/publish_events.py publish`: a camera driver on `rmw_zenoh`, written with Eclipse
+/// Zenoh's own Python client and `rosbags`, listening on a free loopback port. It publishes
+/// once a subscription to its topic appears and reports to a JSON file when it has finished.
+pub struct RosCameraDriver {
+    child: std::process::Child,
+    /// Where the ROS side's router would be: the driver's listener.
+    pub endpoint: String,
+    report: PathBuf,
+}
+
+impl RosCameraDriver {
+    /// Starts the driver publishing `source` (an EVT 3.0 file or a bag) on `topic` of
+    /// `domain`, with the script's further `args`, reporting into `dir`; returns once it
+    /// listens.
+    ///
+    /// # Panics
+    ///
+    /// If the script cannot start.
+    pub fn start(dir: &Path, domain: u32, topic: &str, source: &Path, args: &[&str]) -> Self {
+        use std::io::BufRead;
+        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+        let report = dir.join("driver.json");
+        let mut child = Command::new(venv_python_with("zenoh.ext, rosbags, evt3"))
+            .arg(workspace_root().join("tools/ros2/publish_events.py"))
+            .args(["publish", &endpoint, &domain.to_string(), topic])
+            .arg(source)
+            .arg(&report)
+            .args(args)
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .expect("starting publish_events.py");
+        let mut line = String::new();
+        std::io::BufReader::new(child.stdout.take().expect("its stdout"))
+            .read_line(&mut line)
+            .expect("reading publish_events.py");
+        assert_eq!(line.trim(), "ready", "publish_events.py did not start");
+        Self {
+            child,
+            endpoint,
+            report,
+        }
+    }
+
+    /// Waits (at most `limit`) for the driver to finish and returns its report.
+    ///
+    /// # Panics
+    ///
+    /// If it fails, or is still running after `limit` (it is killed then).
+    pub fn finish(mut self, limit: std::time::Duration) -> serde_json::Value {
+        let deadline = std::time::Instant::now() + limit;
+        let status = loop {
+            if let Some(status) = self
+                .child
+                .try_wait()
+                .expect("waiting for publish_events.py")
+            {
+                break status;
+            }
+            if std::time::Instant::now() >= deadline {
+                let _ = self.child.kill();
+                let _ = self.child.wait();
+                panic!("publish_events.py did not finish in {limit:?}");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        };
+        assert!(status.success(), "publish_events.py failed");
+        serde_json::from_slice(&std::fs::read(&self.report).expect("the driver's report"))
+            .expect("the driver's JSON")
+    }
+}

@@ -9,7 +9,9 @@
 //! types identical to ROS 2 Jazzy's with matching type hashes, and each camera's EVT 3.0
 //! payloads decoding — by the independent `evt3` decoder — to exactly the recorded events at
 //! microsecond resolution. Exporting the same run twice gives the same bytes; a damaged
-//! recording is refused with the file and byte range named, and leaves no bag.
+//! recording is refused with the file and byte range named, and leaves no bag. The RGB bags'
+//! O1 images, published live by a camera driver (`tools/ros2/publish_events.py`), decode with
+//! `waggle observe` as `waggle decode` decodes the bag.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -18,7 +20,9 @@ use std::sync::{Mutex, OnceLock};
 
 use recording::{Decoded, MessageKind, RAW_ENCODING, ReadError, decode, read_recording};
 use serde_json::Value;
-use waggle_tests::{export_ros2, succeed, waggle, waggle_with_nodes, workspace_root};
+use waggle_tests::{
+    RosCameraDriver, export_ros2, succeed, waggle, waggle_with_nodes, workspace_root,
+};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("waggle-ros2-{}-{name}", std::process::id()));
@@ -184,6 +188,16 @@ fn recorded(run: &Path) -> Recorded {
 /// PNG directory) through O1's receiver, from O1's place in the formation; the decoded tokens'
 /// names.
 fn decode_bag(input: &str, bag: &Path, topic: &str) -> Vec<String> {
+    decode_bag_json(input, bag, topic)["decoded"]["tokens"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t["token"].as_str().unwrap().to_owned())
+        .collect()
+}
+
+/// `waggle decode INPUT BAG --topic TOPIC --observer O1 --json`.
+fn decode_bag_json(input: &str, bag: &Path, topic: &str) -> Value {
     let out = succeed(
         waggle().args(["decode", input]).arg(bag).args([
             "--topic",
@@ -194,13 +208,46 @@ fn decode_bag(input: &str, bag: &Path, topic: &str) -> Vec<String> {
         ]),
         &format!("waggle decode {input} {}", bag.display()),
     );
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
-    v["decoded"]["tokens"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|t| t["token"].as_str().unwrap().to_owned())
-        .collect()
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// The bag's O1 images published live by a camera driver (three malformed messages among
+/// them) and decoded by `waggle observe --kind KIND`, as `waggle decode` decodes the bag.
+fn assert_observes_as_decoded(bag: &Path, topic: &str, kind: &str) {
+    const DOMAIN: u32 = 23;
+    let dir = bag.with_extension("live");
+    std::fs::create_dir_all(&dir).unwrap();
+    let driver = RosCameraDriver::start(
+        &dir,
+        DOMAIN,
+        "/camera/image",
+        bag,
+        &["--bag-topic", topic, "--junk"],
+    );
+    let out = succeed(
+        waggle()
+            .args(["observe", "--topic", "/camera/image", "--kind", kind])
+            .args(["--ros2-domain", &DOMAIN.to_string(), "--ros2-router"])
+            .arg(&driver.endpoint)
+            .args(["--observer", "O1", "--idle-s", "60", "--json"]),
+        &format!("waggle observe --kind {kind}"),
+    );
+    let driven = driver.finish(std::time::Duration::from_secs(120));
+    let observed: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let decoded = decode_bag_json("--rgb", bag, topic);
+    assert_eq!(observed["ended"], "publishers left", "{observed}");
+    assert_eq!(observed["refused"], 3, "{observed}");
+    assert_eq!(
+        observed["messages"].as_u64(),
+        driven["messages"].as_u64().map(|n| n + 3),
+        "{observed}"
+    );
+    assert_eq!(observed["packets"], decoded["packets"], "{observed}");
+    assert_eq!(observed["decoded"], decoded["decoded"], "{kind}");
+    assert!(
+        !decoded["decoded"]["tokens"].as_array().unwrap().is_empty(),
+        "{decoded}"
+    );
 }
 
 /// The bag's O1 camera, decoded offline, gives the tokens O1 confirmed live.
@@ -323,6 +370,12 @@ fn only_a_rgb_exports_png_images_and_raw_images_on_request() {
     export(run, &dir.join("raw"), &["--raw-images"]);
     let report = assert_bag_matches(&dir.join("raw"), &rec, "/camera/image_raw");
     assert_o1_decodes_as_live("--rgb", &dir.join("raw"), "/O1/camera/image_raw", &rec);
+    assert_observes_as_decoded(
+        &dir.join("png"),
+        "/O1/camera/image_raw/compressed",
+        "compressed-image",
+    );
+    assert_observes_as_decoded(&dir.join("raw"), "/O1/camera/image_raw", "image");
     for img in report["images"].as_object().unwrap().values() {
         assert_eq!(
             img["sizes"],

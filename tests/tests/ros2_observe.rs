@@ -16,13 +16,11 @@
 //! - The real EVK4 recording (`evt3.raw` of the faery source package): every event arrives,
 //!   the count equals the file's and the publisher's, and the decode equals `waggle decode`'s.
 
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use serde_json::Value;
-use waggle_tests::{free_port, succeed, waggle, workspace_root};
+use waggle_tests::{RosCameraDriver, export_ros2, succeed, waggle, workspace_root};
 
 const DOMAIN: u32 = 17;
 const TOPIC: &str = "/event_camera/events";
@@ -35,55 +33,29 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-fn python() -> PathBuf {
-    waggle_tests::venv_python_with("zenoh.ext, rosbags")
-}
-
-/// Publishes `source` (an EVT 3.0 file) while `waggle observe VIEW…` listens; both reports.
+/// Publishes `source` while `waggle observe VIEW…` listens; both reports.
 fn observe(dir: &Path, source: &Path, view: &[&str], publisher_args: &[&str]) -> (Value, Value) {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let published = dir.join("published.json");
-    let mut publisher = Command::new(python())
-        .arg(workspace_root().join("tools/ros2/publish_events.py"))
-        .args(["publish", &endpoint, &DOMAIN.to_string(), TOPIC])
-        .arg(source)
-        .arg(&published)
-        .args(publisher_args)
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut line = String::new();
-    BufReader::new(publisher.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    assert_eq!(line.trim(), "ready", "publish_events.py did not start");
+    let driver = RosCameraDriver::start(dir, DOMAIN, TOPIC, source, publisher_args);
     let observer = waggle()
         .args(["observe", "--topic", TOPIC, "--ros2-domain"])
         .arg(DOMAIN.to_string())
-        .args(["--ros2-router", &endpoint, "--idle-s", "60", "--json"])
+        .args([
+            "--ros2-router",
+            &driver.endpoint,
+            "--idle-s",
+            "60",
+            "--json",
+        ])
         .args(view)
         .output()
         .unwrap();
-    let deadline = Instant::now() + Duration::from_secs(60);
-    let status = loop {
-        if let Some(status) = publisher.try_wait().unwrap() {
-            break status;
-        }
-        if Instant::now() >= deadline {
-            let _ = publisher.kill();
-            panic!("publish_events.py did not finish");
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    };
+    let published = driver.finish(Duration::from_secs(60));
     assert!(
         observer.status.success(),
         "waggle observe: {}",
         String::from_utf8_lossy(&observer.stderr)
     );
-    assert!(status.success(), "publish_events.py failed");
     let observed: Value = serde_json::from_slice(&observer.stdout).expect("JSON output");
-    let published: Value =
-        serde_json::from_slice(&std::fs::read(&published).unwrap()).expect("publisher's JSON");
     (observed, published)
 }
 
@@ -225,4 +197,63 @@ fn bad_arguments_are_refused_naming_them() {
         assert!(stderr.contains(named), "{args:?}: {stderr}");
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
     }
+}
+
+#[test]
+#[ignore = "two whole only-a missions as processes (≈ 40 s): deploy/test.sh --full"]
+fn a_session_camera_on_a_ros2_topic_flies_as_the_simulated_one() {
+    let dir = scratch("session-camera");
+    let reference = dir.join("simulated");
+    succeed(
+        waggle()
+            .args(["run", "only-a", "--modality", "events", "--quiet", "--out"])
+            .arg(&reference),
+        "waggle run only-a",
+    );
+    let bag = dir.join("bag");
+    succeed(&mut export_ros2(&reference, &bag), "waggle export ros2");
+    // O2's recorded camera, republished by a driver on a topic of its own.
+    let topic = "/camera_o2/events";
+    let driver = RosCameraDriver::start(
+        &dir,
+        DOMAIN,
+        topic,
+        &bag,
+        &["--bag-topic", "/O2/events", "--listen-s", "2"],
+    );
+    let real = dir.join("ros2-camera");
+    let run = waggle()
+        .args(["run", "only-a", "--modality", "events", "--quiet", "--json"])
+        .args(["--ros2-domain", &DOMAIN.to_string(), "--ros2-router"])
+        .arg(&driver.endpoint)
+        .args(["--ros2-camera", &format!("O2={topic}"), "--out"])
+        .arg(&real)
+        .output()
+        .unwrap();
+    let published = driver.finish(Duration::from_secs(120));
+    assert!(
+        run.status.success(),
+        "waggle run --ros2-camera: {}\n{}",
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let read = |run: &Path| -> Value {
+        serde_json::from_slice(&std::fs::read(run.join("observers.json")).unwrap()).unwrap()
+    };
+    assert_eq!(read(&real), read(&reference), "O2 on the ROS 2 camera");
+    // O2's camera published the driver's packets; the live view carried them and O2's first
+    // tokens back to the driver while it listened.
+    let log = std::fs::read_to_string(real.join("logs/camera-O2.log")).unwrap_or_default();
+    assert!(!log.contains("camera message refused"), "{log}");
+    let received = published["received"].as_object().unwrap();
+    for needed in ["O2/tokens", "O2/events"] {
+        assert!(
+            received
+                .keys()
+                .any(|k| k.starts_with(&format!("{DOMAIN}/{needed}/"))),
+            "{needed}: {:?}",
+            received.keys().collect::<Vec<_>>()
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -45,6 +45,7 @@ pub fn session_options(session: SessionArgs) -> Result<(Case, Modality, RunOptio
         render: session.render.path,
         live: None,
         ros2: None,
+        ros2_cameras: Default::default(),
         sensor,
     };
     Ok((case, modality, opts))
@@ -69,6 +70,11 @@ pub fn run(args: RunArgs) -> Result<()> {
     opts.quiet = launch.quiet;
     opts.live = launch.live;
     opts.endpoints = args.endpoints;
+    opts.ros2_cameras = args
+        .ros2_camera
+        .into_iter()
+        .map(|c| (c.observer, c.topic))
+        .collect();
     let done = run_case(&case, modality, &opts)?;
     if opts.out.is_none() && !launch.json {
         println!("summary and logs in {}", done.out_dir.display());

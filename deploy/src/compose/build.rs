@@ -51,6 +51,8 @@ pub struct ComposeOptions {
     pub router_connect: Vec<String>,
     /// `ROLE=HOST` placements, applied in order (default: every node on [`DEFAULT_HOST`]).
     pub placements: Vec<HostPlacement>,
+    /// Observers whose camera is a real one on a ROS 2 topic (`--ros2-camera`).
+    pub ros2_cameras: std::collections::BTreeMap<ObserverId, node_args::Ros2Source>,
 }
 
 /// The compose file of `case` with `opts`.
@@ -147,6 +149,7 @@ impl NodeArgs<'_> {
                 render: self.opts.render,
                 sensor: self.opts.sensor.clone(),
                 publish_input: keep_input,
+                ros2_source: self.opts.ros2_cameras.get(o).cloned().unwrap_or_default(),
             };
             out.push(node(
                 Process::new(Role::Camera, o.as_str()),

@@ -31,6 +31,7 @@ fn options(case: &str, placements: &[&str], router: &[&str]) -> (Case, ComposeOp
         router_listen: router.iter().map(|s| s.to_string()).collect(),
         router_connect: Vec::new(),
         placements: placements.iter().map(|p| p.parse().unwrap()).collect(),
+        ros2_cameras: Default::default(),
     };
     (case_value, opts)
 }

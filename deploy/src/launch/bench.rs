@@ -169,6 +169,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                     render,
                     live: None,
                     ros2: None,
+                    ros2_cameras: Default::default(),
                     sensor: node_args::SensorArgs::default(),
                 },
             )?;

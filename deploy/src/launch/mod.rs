@@ -82,6 +82,8 @@ pub struct RunOptions {
     pub live: Option<u16>,
     /// Publish the session live as ROS 2 topics on `rmw_zenoh`.
     pub ros2: Option<up::Ros2View>,
+    /// Observers whose camera is a ROS 2 topic of the `ros2` graph, and the topic.
+    pub ros2_cameras: std::collections::BTreeMap<proto::ObserverId, String>,
     /// The event cameras' sensor model (default: the paper's ideal sensors).
     pub sensor: SensorArgs,
 }
@@ -161,7 +163,48 @@ impl RunOptions {
             router_listen: self.endpoints.listen.clone(),
             router_connect: self.endpoints.connect.clone(),
             placements: Vec::new(),
+            ros2_cameras: self.ros2_sources(case)?,
         })
+    }
+
+    /// The cameras of `--ros2-camera`, each on the ROS graph of the live view's domain and
+    /// router; an observer the case lacks, or a topic the live view itself publishes, is
+    /// refused.
+    fn ros2_sources(
+        &self,
+        case: &Case,
+    ) -> Result<std::collections::BTreeMap<proto::ObserverId, node_args::Ros2Source>> {
+        let mut out = std::collections::BTreeMap::new();
+        for (observer, topic) in &self.ros2_cameras {
+            let Some(view) = &self.ros2 else {
+                bail!("--ros2-camera {observer}={topic} needs --ros2-domain");
+            };
+            if !(0..case.observers).any(|i| proto::ObserverId::from_index(i) == *observer) {
+                bail!(
+                    "--ros2-camera {observer}={topic}: the case has {} observers",
+                    case.observers
+                );
+            }
+            if (0..case.observers)
+                .any(|i| *topic == format!("/{}/events", proto::ObserverId::from_index(i)))
+            {
+                bail!(
+                    "--ros2-camera {observer}={topic}: the live view publishes {topic} itself \
+                     (a loop); name the camera's own topic"
+                );
+            }
+            let source = node_args::Ros2Source {
+                topic: Some(topic.clone()),
+                domain: view.domain,
+                router: view
+                    .router
+                    .clone()
+                    .unwrap_or_else(|| node_args::DEFAULT_ROS2_ROUTER.to_string()),
+                calibration: None,
+            };
+            out.insert(observer.clone(), source);
+        }
+        Ok(out)
     }
 }
 

@@ -121,6 +121,37 @@ pub struct RunArgs {
     /// connect to every listen endpoint given here, plus every connect endpoint.
     #[command(flatten)]
     pub endpoints: Endpoints,
+    /// A real camera for an observer, `O2=TOPIC`: O2's event packets come from this ROS 2
+    /// topic of the --ros2-domain graph (`event_camera_msgs/msg/EventPacket` in evt3, the
+    /// camera's clock the session's) instead of a render; its observer process, the session
+    /// controls and the live view run as for a simulated camera (repeatable; events only).
+    #[arg(long, value_name = "OBSERVER=TOPIC", value_parser = parse_ros2_camera, requires = "ros2_domain")]
+    pub ros2_camera: Vec<Ros2Camera>,
+}
+
+/// `--ros2-camera OBSERVER=TOPIC`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Ros2Camera {
+    pub observer: proto::ObserverId,
+    pub topic: String,
+}
+
+fn parse_ros2_camera(s: &str) -> Result<Ros2Camera, String> {
+    let Some((observer, topic)) = s.split_once('=') else {
+        return Err(format!(
+            "{s:?} is not OBSERVER=TOPIC (e.g. O2=/camera/events)"
+        ));
+    };
+    let observer = proto::ObserverId::new(observer).map_err(|e| format!("{observer:?}: {e}"))?;
+    if !topic.starts_with('/') || topic.len() < 2 {
+        return Err(format!(
+            "topic {topic:?} is not an absolute ROS name (e.g. /camera/events)"
+        ));
+    }
+    Ok(Ros2Camera {
+        observer,
+        topic: topic.to_string(),
+    })
 }
 
 /// What a recording keeps of the event cameras (`--record-events`).

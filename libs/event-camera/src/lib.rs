@@ -1,7 +1,9 @@
 //! Synthetic event camera: an exact threshold-crossing converter and a 40 ms packetiser.
 //!
-//! Pure code (no I/O): the camera process feeds rendered RGB frames and publishes the packets;
-//! `waggle events convert` feeds PNG frames from disk.
+//! Pure code (no I/O but a calibration file read on request): the camera process feeds
+//! rendered RGB frames and publishes the packets; `waggle events convert` feeds PNG frames from
+//! disk. A real camera's recorded or live events are moved into the receivers' reference camera
+//! by [`calibration`] and cut into the same packets by [`packets`].
 //!
 //! # The model (docs/DESIGN.md §7, the paper's "Synthetic event generation")
 //!
@@ -47,6 +49,7 @@
 //! the noise is ideal ([`EventNoise::is_ideal`]). [`CameraConfig::noise`] defaults to the ideal
 //! sensor, for which [`EventCamera`] keeps using the exact [`Converter`].
 
+pub mod calibration;
 pub mod camera;
 pub mod converter;
 pub mod error;
@@ -55,6 +58,7 @@ pub mod fit;
 mod kernel;
 pub mod luminance;
 pub mod noise;
+pub mod packets;
 pub mod picture;
 mod prefetch;
 pub mod real_noise;

@@ -165,9 +165,26 @@ impl StreamEncoder {
         Ok(())
     }
 
-    /// The words of one checked event.
-    fn push(&mut self, e: &Event, buf: &mut Vec<u8>) {
-        let t_us = e.t_ns / 1000;
+    /// Appends the time words of `t_ns` (µs resolution) with no event: the stream's clock
+    /// has reached it, which a decoder can tell from silence (a camera's stream carries its
+    /// time through quiet stretches too). Later events must not be earlier.
+    pub fn advance(&mut self, t_ns: u64, buf: &mut Vec<u8>) -> Result<(), Evt3Error> {
+        if t_ns < self.previous_ns {
+            return Err(EventsError::NotSorted {
+                t_ns,
+                previous_ns: self.previous_ns,
+            }
+            .into());
+        }
+        self.time_words(t_ns / 1000, buf);
+        self.restart = false;
+        self.previous_ns = t_ns;
+        Ok(())
+    }
+
+    /// The words that set the stream's time to `t_us` (as little as changed, or all after a
+    /// restart).
+    fn time_words(&mut self, t_us: u64, buf: &mut Vec<u8>) {
         // The high part as a monotone count (wraps every 2^24 µs are implied by it decreasing).
         let h = t_us >> 12;
         // Each wrap of the 24-bit time crossed since the last event is written as a visible
@@ -190,12 +207,17 @@ impl StreamEncoder {
             self.high = Some(h);
             self.low = None;
         }
-        self.restart = false;
         let l = (t_us & 0xFFF) as u16;
         if self.low != Some(l) {
             buf.extend_from_slice(&word(TIME_LOW, l));
             self.low = Some(l);
         }
+    }
+
+    /// The words of one checked event.
+    fn push(&mut self, e: &Event, buf: &mut Vec<u8>) {
+        self.time_words(e.t_ns / 1000, buf);
+        self.restart = false;
         if self.y_last != Some(e.y) {
             buf.extend_from_slice(&word(ADDR_Y, e.y));
             self.y_last = Some(e.y);
@@ -405,6 +427,36 @@ mod tests {
                 channel: 3,
                 rising: true
             }]
+        );
+    }
+
+    #[test]
+    fn the_clock_runs_through_silence_and_across_wraps() {
+        let mut encoder = StreamEncoder::new(64, 48).unwrap();
+        let mut decoder = StreamDecoder::new();
+        let (mut events, mut triggers, mut buf) = (Vec::new(), Vec::new(), Vec::new());
+        encoder.encode(&[ev(3_000, 1, 2, true)], &mut buf).unwrap();
+        // Silence to 40 ms, then across two 2^24 µs wraps, then an event again.
+        for t_ns in [40_000_000, 40_000_000, 35_000_000_000] {
+            encoder.advance(t_ns, &mut buf).unwrap();
+            decoder.decode(&buf, 0, &mut events, &mut triggers).unwrap();
+            buf.clear();
+            assert_eq!(decoder.time_us(), Some(t_ns / 1000));
+        }
+        encoder
+            .encode(&[ev(34_000_000_000, 5, 6, false)], &mut buf)
+            .unwrap_err();
+        encoder
+            .encode(&[ev(35_000_001_000, 5, 6, false)], &mut buf)
+            .unwrap();
+        decoder.decode(&buf, 0, &mut events, &mut triggers).unwrap();
+        assert_eq!(
+            events,
+            [ev(3_000, 1, 2, true), ev(35_000_001_000, 5, 6, false)]
+        );
+        assert!(
+            encoder.advance(1_000, &mut buf).is_err(),
+            "the clock never runs back"
         );
     }
 

@@ -40,6 +40,60 @@ pub struct CameraArgs {
     /// packets on replay (the recording of a noisy sensor stays small).
     #[arg(long)]
     pub publish_input: bool,
+    #[command(flatten)]
+    pub ros2_source: Ros2Source,
+}
+
+/// Where `rmw_zenohd`, the ROS side's router, listens by default.
+pub const DEFAULT_ROS2_ROUTER: &str = "tcp/localhost:7447";
+
+/// A real camera in place of the simulated one: its packets come from a ROS 2 topic on
+/// `rmw_zenoh` (`event_camera_msgs/msg/EventPacket`, `evt3`), cut on the session's 40 ms grid
+/// from t = 0 of the camera's clock, which must be the session's; nothing is rendered.
+#[derive(Debug, Clone, PartialEq, Eq, clap::Args)]
+pub struct Ros2Source {
+    /// Take the event packets from this ROS 2 topic instead of rendering (events only).
+    #[arg(long = "ros2-source", value_name = "TOPIC")]
+    pub topic: Option<String>,
+    /// The ROS domain of --ros2-source.
+    #[arg(long = "ros2-source-domain", value_name = "N", default_value_t = 0)]
+    pub domain: u32,
+    /// The ROS side's Zenoh router of --ros2-source.
+    #[arg(long = "ros2-source-router", value_name = "ENDPOINT", default_value = DEFAULT_ROS2_ROUTER)]
+    pub router: String,
+    /// The real camera's calibration (ROS `camera_info` or OpenCV YAML): its events are
+    /// remapped into the reference camera.
+    #[arg(long = "ros2-source-calibration", value_name = "YAML")]
+    pub calibration: Option<std::path::PathBuf>,
+}
+
+impl Default for Ros2Source {
+    fn default() -> Self {
+        Self {
+            topic: None,
+            domain: 0,
+            router: DEFAULT_ROS2_ROUTER.to_string(),
+            calibration: None,
+        }
+    }
+}
+
+impl Ros2Source {
+    /// The arguments that reproduce these (none without a topic).
+    pub fn to_args(&self) -> Vec<String> {
+        let Some(topic) = &self.topic else {
+            return Vec::new();
+        };
+        ArgList::new()
+            .value("--ros2-source", topic)
+            .value("--ros2-source-domain", self.domain)
+            .value("--ros2-source-router", &self.router)
+            .opt(
+                "--ros2-source-calibration",
+                self.calibration.as_ref().map(|p| p.display()),
+            )
+            .done()
+    }
 }
 
 impl CameraArgs {
@@ -57,6 +111,7 @@ impl CameraArgs {
             a.extend(["--throttle".to_string(), t.to_string()]);
         }
         a.extend(self.sensor.to_args());
+        a.extend(self.ros2_source.to_args());
         a
     }
 }

@@ -22,7 +22,9 @@ mod observer;
 mod recorder;
 mod scheduler;
 
-pub use camera::{CameraArgs, CameraThrottle, SensorArgs, preset_perturbation};
+pub use camera::{
+    CameraArgs, CameraThrottle, DEFAULT_ROS2_ROUTER, Ros2Source, SensorArgs, preset_perturbation,
+};
 pub use command::{NodeArgsError, NodeCommand, NodeLine};
 pub use logging::init_logging;
 pub use observer::{DEFAULT_GRACE_MS, ObserverArgs};

@@ -3,7 +3,7 @@
 
 use node_args::{
     CameraArgs, CameraThrottle, NodeArgsError, NodeCommand, NodeLine, ObserverArgs, RecorderArgs,
-    RecorderOutput, SchedulerArgs, SensorArgs,
+    RecorderOutput, Ros2Source, SchedulerArgs, SensorArgs,
 };
 use proptest::prelude::*;
 use proto::{FlightMode, Modality, ObserverId, RenderPath};
@@ -43,6 +43,25 @@ fn sensor() -> impl Strategy<Value = SensorArgs> {
     ]
 }
 
+/// No ROS 2 source (the default), or a topic with a domain, router and maybe a calibration.
+fn ros2_source() -> impl Strategy<Value = Ros2Source> {
+    prop_oneof![
+        Just(Ros2Source::default()),
+        (
+            "/[a-z][a-z0-9_]{0,8}(/[a-z][a-z0-9_]{0,8}){0,2}",
+            0u32..233,
+            "tcp/127\\.0\\.0\\.1:[1-9][0-9]{3}",
+            proptest::option::of("/[a-z]{1,8}/[a-z]{1,8}\\.yaml"),
+        )
+            .prop_map(|(topic, domain, router, calibration)| Ros2Source {
+                topic: Some(topic),
+                domain,
+                router,
+                calibration: calibration.map(Into::into),
+            }),
+    ]
+}
+
 fn command() -> impl Strategy<Value = NodeCommand> {
     prop_oneof![
         Just(NodeCommand::Sim),
@@ -73,7 +92,7 @@ fn command() -> impl Strategy<Value = NodeCommand> {
                 Just(RenderPath::Full),
                 Just(RenderPath::Raster)
             ],
-            (sensor(), any::<bool>()),
+            (sensor(), any::<bool>(), ros2_source()),
             proptest::collection::vec((any::<u64>(), 0u16..=1000, any::<u32>()), 0..3),
         )
             .prop_map(
@@ -83,7 +102,7 @@ fn command() -> impl Strategy<Value = NodeCommand> {
                     black,
                     dropout_ns,
                     render,
-                    (sensor, publish_input),
+                    (sensor, publish_input, ros2_source),
                     throttle,
                 )| {
                     NodeCommand::Camera(CameraArgs {
@@ -102,6 +121,7 @@ fn command() -> impl Strategy<Value = NodeCommand> {
                         render,
                         sensor,
                         publish_input,
+                        ros2_source,
                     })
                 },
             ),

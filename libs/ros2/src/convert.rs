@@ -189,6 +189,9 @@ impl RosConverter {
         let mut words = Vec::with_capacity(events.len() * 2 + 8);
         encoder.restart();
         encoder.encode(&events, &mut words).map_err(evt3_error)?;
+        // The packet's end: the stream's clock passes through silence as a camera's does, so
+        // a live reader can hand on a packet without waiting for the next event.
+        encoder.advance(p.end_ns, &mut words).map_err(evt3_error)?;
         self.events += events.len() as u64;
         let msg = EventPacketMsg {
             header: HeaderMsg::at(p.start_ns, optical_frame(observer))?,

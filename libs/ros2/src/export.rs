@@ -14,7 +14,8 @@
 //! Event packets are stamped with their start watermark and cover (stamp, stamp + 40 ms]; their
 //! EVT 3.0 words, concatenated per camera, are one EVT 3.0 stream (time-high wraps made visible,
 //! `time_base` 0), and each packet repeats the time and row words first so a decoder may start
-//! at any packet. Other keys (clock, status, tracks, setpoints, truth, scheduler, rejects) are
+//! at any packet, and ends with the time words of its end watermark, so the stream's clock
+//! runs through packets without events as a camera's does. Other keys (clock, status, tracks, setpoints, truth, scheduler, rejects) are
 //! not exported and are counted in [`ExportReport::not_exported`].
 //!
 //! Output is sorted by log time within a sliding window ([`REORDER_WINDOW_NS`]; ties keep the

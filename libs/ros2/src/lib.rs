@@ -23,12 +23,14 @@
 //!   middleware publishes them (`waggle run --ros2-domain N`), and a camera's topic received
 //!   as its subscriptions receive (`waggle observe`);
 //! - [`ingest`]: an `event_camera_msgs` bag read back into events (`waggle decode`), and one
-//!   camera message at a time (`waggle observe`).
+//!   camera message at a time; [`camera`]: a live camera's messages cut into the receivers'
+//!   packets (`waggle observe`, a camera process fed by a ROS 2 camera).
 //!
 //! Pure apart from the files it reads and writes and [`live`]'s Zenoh session; errors are
 //! [`Ros2Error`].
 
 pub mod bag;
+pub mod camera;
 pub mod cdr;
 pub mod convert;
 pub mod definitions;

@@ -12,10 +12,10 @@ use perception::{Perception, SensorInput};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX};
 use proto::{Modality, RgbFrame};
 
-use super::calibration::ImageRemap;
 use super::{DecodeOptions, DecodeOut, PACKET_NS, camera};
 use crate::harness::decode::convert::{frame_paths, stamp_ns};
 use crate::harness::link::observer_out;
+use event_camera::calibration::ImageRemap;
 
 /// One image as read: stamp, size and RGB bytes.
 pub(crate) struct Image {

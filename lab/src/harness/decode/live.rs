@@ -23,18 +23,16 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use commands::observe::LiveKind;
-use event_camera::Event;
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, Placement};
 use proto::{FrameEvent, ObserverId, Rectification, ReleasedFrame, SegmentToken, TokenEvent};
 use recording::Decoded;
-use ros2_bag::ingest::{PacketDecoder, image_from_cdr};
+use ros2_bag::camera::CameraPackets;
+use ros2_bag::ingest::image_from_cdr;
 use ros2_bag::live::{LiveInput, LiveOptions, LiveView};
 use serde::Serialize;
 
-use super::calibration::EventRemap;
 use super::images::{Feed, Image};
-use super::packets::Packetizer;
-use super::{EventReceiver, camera, check_tail, remap_with};
+use super::{EventReceiver, check_tail};
 use crate::harness::link::ObserverOut;
 
 /// The node name `waggle observe` joins the ROS graph as.
@@ -112,58 +110,31 @@ pub fn message_type(kind: LiveKind) -> &'static str {
     }
 }
 
-/// The event path: messages → events → the reference camera → packets → the receiver.
-struct EventPath {
-    decoder: PacketDecoder,
-    /// Decided at the first message (its size): the remap, if any.
-    remap: Option<Option<EventRemap>>,
-    packetizer: Packetizer,
-    receiver: EventReceiver,
-    calibration: Option<std::path::PathBuf>,
-    events: u64,
-    outside: u64,
-    last_ns: u64,
-    scratch: Vec<Event>,
-}
-
 /// What the receiver gave for one message.
 type Outputs = (Vec<SegmentToken>, Vec<ReleasedFrame>);
 
+/// The event path: messages → packets of the reference camera → the receiver.
+struct EventPath {
+    packets: CameraPackets,
+    receiver: EventReceiver,
+}
+
 impl EventPath {
     fn take(&mut self, cdr: &[u8]) -> Result<Outputs, String> {
-        self.scratch.clear();
-        self.decoder.push(cdr, &mut self.scratch)?;
-        if self.remap.is_none() {
-            let size = self.decoder.size();
-            let cam = camera(self.calibration.as_ref(), size).map_err(|e| format!("{e:#}"))?;
-            self.remap = Some(cam.as_ref().map(EventRemap::new));
-        }
-        self.events += self.scratch.len() as u64;
-        if let Some(remap) = self.remap.as_ref().and_then(Option::as_ref) {
-            self.outside += remap_with(remap, &mut self.scratch);
-        }
         let (mut tokens, mut frames) = (Vec::new(), Vec::new());
-        let (packetizer, receiver) = (&mut self.packetizer, &mut self.receiver);
-        let mut take = |p: proto::EventPacket| {
+        let receiver = &mut self.receiver;
+        self.packets.take(cdr, |p| {
             let (t, f) = receiver.take(&p);
             tokens.extend(t);
             frames.extend(f);
-        };
-        for e in &self.scratch {
-            self.last_ns = self.last_ns.max(e.t_ns);
-            packetizer.push(e, &mut take);
-        }
-        if let Some(now_ns) = self.decoder.stream_time_ns() {
-            packetizer.advance_to(now_ns, &mut take);
-        }
+        })?;
         Ok((tokens, frames))
     }
 
     fn finish(&mut self, tail_s: f64) -> (u64, Outputs) {
-        let end_ns = self.last_ns + (tail_s * 1e9).round() as u64;
         let (mut tokens, mut frames) = (Vec::new(), Vec::new());
         let receiver = &mut self.receiver;
-        self.packetizer.finish(end_ns, |p| {
+        let end_ns = self.packets.finish((tail_s * 1e9).round() as u64, |p| {
             let (t, f) = receiver.take(&p);
             tokens.extend(t);
             frames.extend(f);
@@ -213,15 +184,8 @@ impl Path {
     fn new(opts: &ObserveOptions) -> Result<Self> {
         Ok(match opts.kind {
             LiveKind::Events => Path::Events(Box::new(EventPath {
-                decoder: PacketDecoder::default(),
-                remap: None,
-                packetizer: Packetizer::new(),
+                packets: CameraPackets::new(opts.calibration.as_deref()),
                 receiver: EventReceiver::new(opts.placement, opts.rectification)?,
-                calibration: opts.calibration.clone(),
-                events: 0,
-                outside: 0,
-                last_ns: 0,
-                scratch: Vec::new(),
             })),
             kind => Path::Images(Box::new(ImagePath {
                 feed: Feed::new(opts.placement, opts.rectification, opts.calibration.clone())?,
@@ -244,15 +208,15 @@ impl Path {
         Ok(match self {
             Path::Events(p) => {
                 let (end_ns, outputs) = p.finish(tail_s);
-                let remapped = p.remap.as_ref().is_some_and(Option::is_some);
+                let c = &p.packets;
                 let report = Report {
-                    size: p.decoder.size(),
-                    remapped,
-                    events: Some(p.events),
-                    outside: remapped.then_some(p.outside),
-                    late: Some(p.packetizer.late()),
+                    size: c.size(),
+                    remapped: c.remapped(),
+                    events: Some(c.events()),
+                    outside: c.remapped().then_some(c.outside()),
+                    late: Some(c.late()),
                     images: None,
-                    packets: p.packetizer.packets(),
+                    packets: c.packets(),
                     end_ns,
                 };
                 (report, outputs)

@@ -18,10 +18,8 @@
 
 pub mod convert;
 
-pub mod calibration;
 pub mod images;
 pub mod live;
-pub mod packets;
 pub mod real_noise;
 pub mod source;
 
@@ -34,11 +32,11 @@ use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, Placement};
 use proto::{EventPacket, Modality, Rectification, ReleasedFrame, SegmentToken};
 use serde::Serialize;
 
-use self::calibration::{EventRemap, Intrinsics};
-use self::packets::Packetizer;
 use self::source::read_events;
 use crate::harness::link::{ObserverOut, observer_out};
 use commands::decode::EventFormat;
+use event_camera::calibration::{EventRemap, Intrinsics};
+use event_camera::packets::Packetizer;
 
 /// The receiver's packet period, ns (the paper's 25 Hz).
 const PACKET_NS: u64 = proto::TICK_NS;
@@ -105,24 +103,10 @@ pub(crate) fn camera(
     calibration: Option<&PathBuf>,
     size: Option<(u16, u16)>,
 ) -> Result<Option<Intrinsics>> {
-    let reference = (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX);
-    match calibration {
-        Some(path) => {
-            let cam = Intrinsics::from_file(path)?;
-            if let Some((w, h)) = size.filter(|&s| s != (cam.width_px, cam.height_px)) {
-                bail!(
-                    "the recording is {w}×{h} but the calibration {} is for {}×{}",
-                    path.display(),
-                    cam.width_px,
-                    cam.height_px
-                );
-            }
-            Ok(Some(cam))
-        }
-        None => Ok(size
-            .filter(|&s| s != reference)
-            .map(|(w, h)| Intrinsics::pinhole_like_reference(w, h))),
-    }
+    Ok(Intrinsics::of_recording(
+        calibration.map(PathBuf::as_path),
+        size,
+    )?)
 }
 
 pub(crate) fn check_tail(tail_s: f64) -> Result<()> {

@@ -4,11 +4,13 @@
 //! or the stream is finished. `waggle decode` (a whole file) and `waggle observe` (a live topic) both cut with
 //! this one type, so the same events give the same packets either way.
 
-use event_camera::{Event, Polarity};
 use proto::EventPacket;
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX};
 
-use super::PACKET_NS;
+use crate::{Event, Polarity};
+
+/// The receiver's packet period, ns (the paper's 25 Hz).
+pub const PACKET_NS: u64 = proto::TICK_NS;
 
 /// The cutter: the packet being filled and what it holds.
 #[derive(Debug, Default)]

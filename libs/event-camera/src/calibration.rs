@@ -19,7 +19,40 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result, bail};
+use thiserror::Error;
+
+/// Why a calibration could not be read or applied.
+#[derive(Debug, Error)]
+pub enum CalibrationError {
+    #[error("reading camera calibration {path}")]
+    Read {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("camera calibration {path}")]
+    File {
+        path: String,
+        #[source]
+        source: Box<CalibrationError>,
+    },
+    #[error("not a camera_info / OpenCV YAML document")]
+    Yaml {
+        #[source]
+        source: serde_yaml::Error,
+    },
+    #[error("{0}")]
+    Invalid(String),
+}
+
+type Result<T, E = CalibrationError> = std::result::Result<T, E>;
+
+/// Refuses with [`CalibrationError::Invalid`] and a formatted reason.
+macro_rules! bail {
+    ($($arg:tt)*) => {
+        return Err(CalibrationError::Invalid(format!($($arg)*)))
+    };
+}
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, focal_px};
 use serde::Deserialize;
 
@@ -61,11 +94,46 @@ impl Intrinsics {
         }
     }
 
+    /// The camera of a `width`×`height` recording or stream (`size`, when known): the
+    /// calibration file's, or one like the reference; `None` when nothing needs remapping.
+    ///
+    /// # Errors
+    ///
+    /// A calibration file that cannot be read, or whose size is not the recording's.
+    pub fn of_recording(
+        calibration: Option<&Path>,
+        size: Option<(u16, u16)>,
+    ) -> Result<Option<Self>> {
+        let reference = (IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX);
+        match calibration {
+            Some(path) => {
+                let cam = Intrinsics::from_file(path)?;
+                if let Some((w, h)) = size.filter(|&s| s != (cam.width_px, cam.height_px)) {
+                    bail!(
+                        "the recording is {w}×{h} but the calibration {} is for {}×{}",
+                        path.display(),
+                        cam.width_px,
+                        cam.height_px
+                    );
+                }
+                Ok(Some(cam))
+            }
+            None => Ok(size
+                .filter(|&s| s != reference)
+                .map(|(w, h)| Intrinsics::pinhole_like_reference(w, h))),
+        }
+    }
+
     /// Reads a ROS `camera_info` or OpenCV calibration YAML file.
     pub fn from_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("reading camera calibration {}", path.display()))?;
-        Self::from_yaml(&text).with_context(|| format!("camera calibration {}", path.display()))
+        let text = std::fs::read_to_string(path).map_err(|source| CalibrationError::Read {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_yaml(&text).map_err(|e| CalibrationError::File {
+            path: path.display().to_string(),
+            source: Box::new(e),
+        })
     }
 
     /// Parses a ROS `camera_info` or OpenCV calibration YAML document.
@@ -78,7 +146,7 @@ impl Intrinsics {
             .map(|l| l.replace("!!opencv-matrix", "") + "\n")
             .collect();
         let file: CalibrationFile =
-            serde_yaml::from_str(&cleaned).context("not a camera_info / OpenCV YAML document")?;
+            serde_yaml::from_str(&cleaned).map_err(|source| CalibrationError::Yaml { source })?;
         file.intrinsics()
     }
 
@@ -181,10 +249,9 @@ struct Matrix {
 impl CalibrationFile {
     fn intrinsics(&self) -> Result<Intrinsics> {
         let size = |v: u32, what: &str| {
-            u16::try_from(v)
-                .ok()
-                .filter(|&v| v > 0)
-                .with_context(|| format!("{what} {v} is outside 1..=65535 pixels"))
+            u16::try_from(v).ok().filter(|&v| v > 0).ok_or_else(|| {
+                CalibrationError::Invalid(format!("{what} {v} is outside 1..=65535 pixels"))
+            })
         };
         let k = &self.camera_matrix;
         if k.data.len() != 9 || k.rows.is_some_and(|r| r != 3) || k.cols.is_some_and(|c| c != 3) {
