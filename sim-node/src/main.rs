@@ -33,7 +33,7 @@ enum Command {
     Run(node_run::SimRunArgs),
     /// One observer's camera process: renders its view from `sim/state` and publishes RGB
     /// frames or event packets.
-    Camera(node_camera::CameraCli),
+    Camera(Box<node_camera::CameraCli>),
     /// Write each observer's current view as DIR/O<i>.png, then time 200 full renders per camera.
     Snapshot {
         /// Number of observers (1..=8).
@@ -68,7 +68,7 @@ fn main() -> Result<()> {
     node_args::init_logging();
     match Cli::parse().command {
         Command::Run(args) => node_run::run(args),
-        Command::Camera(args) => node_camera::run(args),
+        Command::Camera(args) => node_camera::run(*args),
         Command::Snapshot {
             observers,
             out,

@@ -152,6 +152,23 @@ struct Outbox {
 }
 
 impl Outbox {
+    /// The outbox of `args`' camera, nothing sent yet.
+    fn new(args: &CameraArgs, keys: &proto::Keys) -> Self {
+        let out_key = match args.modality {
+            Modality::Rgb => keys.sensor_rgb(&args.observer),
+            Modality::Events => keys.sensor_events(&args.observer),
+        };
+        Self {
+            observer: args.observer.clone(),
+            out_key,
+            dropped_key: keys.sensor_dropped(&args.observer),
+            published: 0,
+            dropped: 0,
+            digest: 0,
+            last_rgb_seq: None,
+        }
+    }
+
     /// Publishes one sensor output, or drops it under `throttle` (drop ‰, delay ms) and says so.
     fn send(
         &mut self,
@@ -329,28 +346,8 @@ pub fn run(cli: CameraCli) -> Result<()> {
     };
     let period_ns = sensor.render_period_ns();
 
-    let mut bus = Bus::open_node(&node).context("opening the Zenoh session")?;
-    let keys = bus.keys().clone();
-    bus.subscribe(&keys.sim_state())?;
-    bus.subscribe(&keys.fault(&args.observer))?;
-    node.join(
-        &mut bus,
-        &Process::new(Role::Camera, args.observer.as_str()),
-    )
-    .context("start-up handshake")?;
-    let out_key = match args.modality {
-        Modality::Rgb => keys.sensor_rgb(&args.observer),
-        Modality::Events => keys.sensor_events(&args.observer),
-    };
-    let mut outbox = Outbox {
-        observer: args.observer.clone(),
-        out_key,
-        dropped_key: keys.sensor_dropped(&args.observer),
-        published: 0,
-        dropped: 0,
-        digest: 0,
-        last_rgb_seq: None,
-    };
+    let (mut bus, keys) = join(&args, &node)?;
+    let mut outbox = Outbox::new(&args, &keys);
     // Only an event camera has an input other than its output.
     let mut input_outbox = (args.publish_input && kind == Modality::Events).then(|| InputOutbox {
         key: keys.camera_input(&args.observer),
@@ -414,19 +411,7 @@ pub fn run(cli: CameraCli) -> Result<()> {
             Inbound::Liveliness { .. } => {}
         }
     }
-    let report = camera_report(
-        &args.observer,
-        args.render,
-        (outbox.published, outbox.dropped, outbox.digest),
-        renderer.counts(),
-    );
-    bus.put(&keys.camera_report(&args.observer), &report)?;
-    bus.put(
-        &keys.rejects(Role::Camera, args.observer.as_str())?,
-        &rejects.report(),
-    )?;
-    bus.close()?;
-    Ok(())
+    close(bus, &keys, &args, &outbox, renderer.counts(), &rejects)
 }
 
 /// The camera process with a real camera on a ROS 2 topic as its source
@@ -441,24 +426,8 @@ fn run_ros2(args: &CameraArgs, node: &NodeArgs, topic: &str) -> Result<()> {
     }
     let mut faults = command_line_faults(args);
     let mut camera = Ros2Camera::start(&args.ros2_source, topic, &args.observer)?;
-    let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
-    let keys = bus.keys().clone();
-    bus.subscribe(&keys.sim_state())?;
-    bus.subscribe(&keys.fault(&args.observer))?;
-    node.join(
-        &mut bus,
-        &Process::new(Role::Camera, args.observer.as_str()),
-    )
-    .context("start-up handshake")?;
-    let mut outbox = Outbox {
-        observer: args.observer.clone(),
-        out_key: keys.sensor_events(&args.observer),
-        dropped_key: keys.sensor_dropped(&args.observer),
-        published: 0,
-        dropped: 0,
-        digest: 0,
-        last_rgb_seq: None,
-    };
+    let (mut bus, keys) = join(args, node)?;
+    let mut outbox = Outbox::new(args, &keys);
     let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
     let mut started = false;
     let mut last_state_ns: Option<u64> = None;
@@ -499,11 +468,38 @@ fn run_ros2(args: &CameraArgs, node: &NodeArgs, topic: &str) -> Result<()> {
             Inbound::Liveliness { .. } => {}
         }
     }
+    close(bus, &keys, args, &outbox, RenderCounts::default(), &rejects)
+}
+
+/// Opens the bus as `args.observer`'s camera, subscribed to what a camera reads, and joins the
+/// session.
+fn join(args: &CameraArgs, node: &NodeArgs) -> Result<(Bus, proto::Keys)> {
+    let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
+    let keys = bus.keys().clone();
+    bus.subscribe(&keys.sim_state())?;
+    bus.subscribe(&keys.fault(&args.observer))?;
+    node.join(
+        &mut bus,
+        &Process::new(Role::Camera, args.observer.as_str()),
+    )
+    .context("start-up handshake")?;
+    Ok((bus, keys))
+}
+
+/// Publishes the camera's report and its rejects, and leaves the bus.
+fn close(
+    mut bus: Bus,
+    keys: &proto::Keys,
+    args: &CameraArgs,
+    outbox: &Outbox,
+    counts: RenderCounts,
+    rejects: &Rejects,
+) -> Result<()> {
     let report = camera_report(
         &args.observer,
         args.render,
         (outbox.published, outbox.dropped, outbox.digest),
-        RenderCounts::default(),
+        counts,
     );
     bus.put(&keys.camera_report(&args.observer), &report)?;
     bus.put(

@@ -86,14 +86,15 @@ import numpy as np
 import zenoh
 from zenoh.ext import Int64, z_deserialize, z_serialize
 from rosbags.rosbag2 import Reader
-from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+
+# The typestore and the DDS name mapping are check_live.py's, beside this file.
+from check_live import ros_type, typestore
 
 try:
     import evt3
 except ImportError:  # the own counter below is used instead
     evt3 = None
 
-MSG_ROOT = Path(__file__).resolve().parents[2] / "libs" / "ros2" / "msg"
 EVENT_PACKET = "event_camera_msgs/msg/EventPacket"
 IMAGE = "sensor_msgs/msg/Image"
 COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
@@ -113,25 +114,6 @@ LAST_QUIET_S = 0.3
 def fail(message):
     print(" ".join(str(message).splitlines()), file=sys.stderr, flush=True)
     sys.exit(2)
-
-
-def typestore():
-    """ROS 2 Jazzy's types, plus the repository's definitions of the ones rosbags lacks."""
-    store = get_typestore(Stores.ROS2_JAZZY)
-    for msg in sorted(MSG_ROOT.rglob("*.msg")):
-        name = f"{msg.parent.parent.name}/msg/{msg.stem}"
-        if name in store.types:
-            continue
-        store.register(get_types_from_msg(msg.read_text(), name))
-    return store
-
-
-def ros_type(dds):
-    """`pkg::msg::dds_::Type_` -> `pkg/msg/Type` (None if not that shape)."""
-    parts = dds.split("::")
-    if len(parts) != 4 or parts[1] != "msg" or parts[2] != "dds_" or not parts[3].endswith("_"):
-        return None
-    return f"{parts[0]}/msg/{parts[3][:-1]}"
 
 
 def dds_type(msgtype):

@@ -126,17 +126,17 @@ pub struct RunArgs {
     /// camera's clock the session's) instead of a render; its observer process, the session
     /// controls and the live view run as for a simulated camera (repeatable; events only).
     #[arg(long, value_name = "OBSERVER=TOPIC", value_parser = parse_ros2_camera, requires = "ros2_domain")]
-    pub ros2_camera: Vec<Ros2Camera>,
+    pub ros2_camera: Vec<Ros2CameraSpec>,
 }
 
 /// `--ros2-camera OBSERVER=TOPIC`.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Ros2Camera {
+pub struct Ros2CameraSpec {
     pub observer: proto::ObserverId,
     pub topic: String,
 }
 
-fn parse_ros2_camera(s: &str) -> Result<Ros2Camera, String> {
+fn parse_ros2_camera(s: &str) -> Result<Ros2CameraSpec, String> {
     let Some((observer, topic)) = s.split_once('=') else {
         return Err(format!(
             "{s:?} is not OBSERVER=TOPIC (e.g. O2=/camera/events)"
@@ -148,7 +148,7 @@ fn parse_ros2_camera(s: &str) -> Result<Ros2Camera, String> {
             "topic {topic:?} is not an absolute ROS name (e.g. /camera/events)"
         ));
     }
-    Ok(Ros2Camera {
+    Ok(Ros2CameraSpec {
         observer,
         topic: topic.to_string(),
     })

@@ -127,7 +127,7 @@ impl NodeLine {
                             deny: o.deny,
                         });
                     }
-                    SimCommand::Camera(c) => c,
+                    SimCommand::Camera(c) => *c,
                 };
                 (NodeCommand::Camera(command.own), command.deny)
             }
@@ -174,7 +174,7 @@ struct SimCli {
 #[derive(Subcommand)]
 enum SimCommand {
     Run(Deny),
-    Camera(OwnCamera),
+    Camera(Box<OwnCamera>),
 }
 
 #[derive(clap::Args)]

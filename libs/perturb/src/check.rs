@@ -1,8 +1,9 @@
 //! What terms mean together: the checks that no single term's range can make, run once every
 //! term of a [`Perturbation`] is set.
 
+use crate::error::PerturbError;
 use crate::light::DIM_SHOT_HZ_AT_1LUX;
-use crate::spec::{PerturbError, Perturbation, parameter};
+use crate::spec::{Perturbation, parameter};
 
 impl Perturbation {
     /// Checks what terms mean together once every one is set (each alone is checked by

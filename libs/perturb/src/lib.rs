@@ -22,6 +22,7 @@
 
 pub mod attitude;
 mod check;
+pub mod error;
 pub mod flight;
 pub mod light;
 pub mod link;
@@ -33,4 +34,5 @@ pub mod seed;
 pub mod spec;
 pub mod stats;
 
-pub use spec::{PerturbError, Perturbation};
+pub use error::PerturbError;
+pub use spec::Perturbation;

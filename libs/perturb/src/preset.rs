@@ -10,7 +10,8 @@
 //! [`Preset::unmodelled`] and the term is left out rather than approximated silently.
 //! `libs/event-camera/tests/v2e.rs` checks the model with these values against v2e's output.
 
-use crate::spec::{PerturbError, Perturbation, find_named};
+use crate::error::PerturbError;
+use crate::spec::{Perturbation, find_named};
 
 /// One named preset.
 #[derive(Debug, Clone, Copy)]

@@ -12,7 +12,8 @@ use event_camera::EventNoise;
 use event_camera::real_noise::{RealNoise, RealNoiseTiler};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX};
 
-use crate::spec::{PerturbError, Perturbation, parameter};
+use crate::error::PerturbError;
+use crate::spec::{Perturbation, parameter};
 
 /// Salt of the replay's offsets, so they are independent of the sensor's own noise draws.
 const TILER_SALT: u64 = 0x7265_616C_6E6F_6973;

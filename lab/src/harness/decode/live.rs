@@ -32,7 +32,7 @@ use ros2_bag::live::{LiveInput, LiveOptions, LiveView};
 use serde::Serialize;
 
 use super::images::{Feed, Image};
-use super::{EventReceiver, check_tail};
+use super::{DecodingReceiver, check_tail};
 use crate::harness::link::ObserverOut;
 
 /// The node name `waggle observe` joins the ROS graph as.
@@ -116,7 +116,7 @@ type Outputs = (Vec<SegmentToken>, Vec<ReleasedFrame>);
 /// The event path: messages → packets of the reference camera → the receiver.
 struct EventPath {
     packets: CameraPackets,
-    receiver: EventReceiver,
+    receiver: DecodingReceiver,
 }
 
 impl EventPath {
@@ -185,7 +185,7 @@ impl Path {
         Ok(match opts.kind {
             LiveKind::Events => Path::Events(Box::new(EventPath {
                 packets: CameraPackets::new(opts.calibration.as_deref()),
-                receiver: EventReceiver::new(opts.placement, opts.rectification)?,
+                receiver: DecodingReceiver::new(opts.placement, opts.rectification)?,
             })),
             kind => Path::Images(Box::new(ImagePath {
                 feed: Feed::new(opts.placement, opts.rectification, opts.calibration.clone())?,

@@ -150,7 +150,7 @@ fn decode_events(
     events.sort_by_key(|e| e.t_ns);
     let last_ns = events.last().map_or(0, |e| e.t_ns);
     let end_ns = last_ns + (opts.tail_s * 1e9).round() as u64;
-    let mut receiver = EventReceiver::new(opts.placement, opts.rectification)?;
+    let mut receiver = DecodingReceiver::new(opts.placement, opts.rectification)?;
     let mut packetizer = Packetizer::new();
     for e in &events {
         packetizer.push(e, |p| {
@@ -178,15 +178,15 @@ fn decode_events(
 }
 
 /// One observer's event receiver fed packet by packet, keeping its tokens and frames; the
-/// first fault stops it and is returned by [`EventReceiver::finish`].
-pub(crate) struct EventReceiver {
+/// first fault stops it and is returned by [`DecodingReceiver::finish`].
+pub(crate) struct DecodingReceiver {
     perception: Perception,
     tokens: Vec<SegmentToken>,
     frames: Vec<ReleasedFrame>,
     fault: Option<anyhow::Error>,
 }
 
-impl EventReceiver {
+impl DecodingReceiver {
     /// The receiver of a camera at `placement`.
     pub(crate) fn new(placement: Placement, rectification: Rectification) -> Result<Self> {
         Ok(Self {
