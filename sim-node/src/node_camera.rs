@@ -300,6 +300,86 @@ fn take_fault(
     }
 }
 
+/// What a camera reads from the bus, and what it has learnt from it: the faults in force, the
+/// last state admitted, what it refused.
+struct Inbox {
+    observer: ObserverId,
+    state_key: String,
+    fault_key: String,
+    sim_alive: String,
+    rejects: Rejects,
+    faults: Vec<Fault>,
+    /// Whether a state has been accepted (the simulator has started).
+    started: bool,
+    last_state_ns: Option<u64>,
+}
+
+/// What [`Inbox::next`] found.
+enum Turn {
+    /// A `sim/state` due next, admitted but not yet accepted ([`Inbox::accept`]).
+    State(SimState),
+    /// Nothing for the camera to act on (a fault taken, a message refused, a wait run out).
+    Nothing,
+    /// The simulator has gone: the camera ends.
+    SimGone,
+}
+
+impl Inbox {
+    fn new(args: &CameraArgs, keys: &proto::Keys) -> Result<Self> {
+        Ok(Self {
+            observer: args.observer.clone(),
+            state_key: keys.sim_state(),
+            fault_key: keys.fault(&args.observer),
+            sim_alive: keys.alive(Role::Sim, Role::Sim.as_str())?,
+            rejects: Rejects::new(format!("camera-{}", args.observer), keys),
+            faults: command_line_faults(args),
+            started: false,
+            last_state_ns: None,
+        })
+    }
+
+    /// The next message, waiting up to `wait`: a state due next is handed out, a fault taken,
+    /// anything else counted and dropped.
+    fn next(&mut self, bus: &mut Bus, wait: Duration) -> Turn {
+        let Some(item) = bus.recv(wait) else {
+            return if self.started && !bus.is_alive(&self.sim_alive) {
+                Turn::SimGone
+            } else {
+                Turn::Nothing
+            };
+        };
+        match item {
+            Inbound::Data { key, payload } if key == self.state_key => {
+                admit_state(&mut self.rejects, &key, &payload, self.last_state_ns)
+                    .map_or(Turn::Nothing, Turn::State)
+            }
+            Inbound::Data { key, payload } if key == self.fault_key => {
+                take_fault(
+                    &mut self.rejects,
+                    &key,
+                    &payload,
+                    &self.observer,
+                    &mut self.faults,
+                );
+                Turn::Nothing
+            }
+            Inbound::Data { key, .. } => {
+                self.rejects
+                    .reject(&key, RejectReason::UnexpectedKey, &"not subscribed");
+                Turn::Nothing
+            }
+            Inbound::Liveliness { key, alive: false } if key == self.sim_alive => Turn::SimGone,
+            Inbound::Liveliness { .. } => Turn::Nothing,
+        }
+    }
+
+    /// Records `state` as the session's time: the next state is due one period after it.
+    fn accept(&mut self, state: &SimState) {
+        self.started = true;
+        self.last_state_ns = Some(state.stamp_ns);
+    }
+}
+
 /// The faults given on the command line (`--black`, `--dropout-ns`, `--throttle`): in force
 /// from the start, whatever order the fault messages arrive in.
 fn command_line_faults(args: &CameraArgs) -> Vec<Fault> {
@@ -331,7 +411,6 @@ pub fn run(cli: CameraCli) -> Result<()> {
     if let Some(topic) = args.ros2_source.topic.clone() {
         return run_ros2(&args, &node, &topic);
     }
-    let mut faults = command_line_faults(&args);
     let index = observer_index(&args.observer, node.observers)?;
     let mut world = World::new(node.observers).context("building the scene")?;
     let mut renderer =
@@ -354,36 +433,27 @@ pub fn run(cli: CameraCli) -> Result<()> {
         next_seq: 0,
         last_seq: None,
     });
-    let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
+    let mut inbox = Inbox::new(&args, &keys)?;
     let mut black = false;
     let mut throttle: Option<(u16, u32)> = None;
-    let mut started = false;
-    let mut last_state_ns: Option<u64> = None;
-    let mut rejects = Rejects::new(format!("camera-{}", args.observer), &keys);
     loop {
-        let Some(item) = bus.recv(Duration::from_millis(200)) else {
-            if started && !bus.is_alive(&sim_alive) {
-                break;
-            }
-            continue;
-        };
-        match item {
-            Inbound::Data { key, payload } if key == keys.sim_state() => {
-                let Some(state) = admit_state(&mut rejects, &key, &payload, last_state_ns) else {
-                    continue;
-                };
+        match inbox.next(&mut bus, Duration::from_millis(200)) {
+            Turn::SimGone => break,
+            Turn::Nothing => {}
+            Turn::State(state) => {
                 if let Err(e) = mirror(&mut world, &state) {
-                    rejects.reject(&key, RejectReason::OutOfContract, &e);
+                    inbox
+                        .rejects
+                        .reject(&inbox.state_key, RejectReason::OutOfContract, &e);
                     continue;
                 }
-                started = true;
-                last_state_ns = Some(state.stamp_ns);
+                inbox.accept(&state);
                 // No render at t = 0 (the first render instant is one period in).
                 if state.stamp_ns == 0 || !state.stamp_ns.is_multiple_of(period_ns) {
                     continue;
                 }
                 let t = state.stamp_ns;
-                let Some((want_black, want_throttle)) = in_force(&faults, t) else {
+                let Some((want_black, want_throttle)) = in_force(&inbox.faults, t) else {
                     continue;
                 };
                 if want_black != black {
@@ -401,17 +471,16 @@ pub fn run(cli: CameraCli) -> Result<()> {
                     outbox.send(&mut bus, &output, throttle, sensor.rgb_change())?;
                 }
             }
-            Inbound::Data { key, payload } if key == keys.fault(&args.observer) => {
-                take_fault(&mut rejects, &key, &payload, &args.observer, &mut faults);
-            }
-            Inbound::Data { key, .. } => {
-                rejects.reject(&key, RejectReason::UnexpectedKey, &"not subscribed");
-            }
-            Inbound::Liveliness { key, alive: false } if key == sim_alive => break,
-            Inbound::Liveliness { .. } => {}
         }
     }
-    close(bus, &keys, &args, &outbox, renderer.counts(), &rejects)
+    close(
+        bus,
+        &keys,
+        &args,
+        &outbox,
+        renderer.counts(),
+        &inbox.rejects,
+    )
 }
 
 /// The camera process with a real camera on a ROS 2 topic as its source
@@ -424,20 +493,16 @@ fn run_ros2(args: &CameraArgs, node: &NodeArgs, topic: &str) -> Result<()> {
     if args.black || args.publish_input {
         anyhow::bail!("--ros2-source {topic}: --black and --publish-input need a rendering camera");
     }
-    let mut faults = command_line_faults(args);
     let mut camera = Ros2Camera::start(&args.ros2_source, topic, &args.observer)?;
     let (mut bus, keys) = join(args, node)?;
     let mut outbox = Outbox::new(args, &keys);
-    let sim_alive = keys.alive(Role::Sim, Role::Sim.as_str())?;
-    let mut started = false;
-    let mut last_state_ns: Option<u64> = None;
-    let mut rejects = Rejects::new(format!("camera-{}", args.observer), &keys);
+    let mut inbox = Inbox::new(args, &keys)?;
     loop {
         camera.poll();
-        if let Some(now_ns) = last_state_ns {
+        if let Some(now_ns) = inbox.last_state_ns {
             while let Some(packet) = camera.due(now_ns) {
                 // A dropout ends the stream; a throttle drops or delays as for a rendered one.
-                let Some((_, throttle)) = in_force(&faults, packet.end_ns) else {
+                let Some((_, throttle)) = in_force(&inbox.faults, packet.end_ns) else {
                     continue;
                 };
                 let output = SensorOutput::Events(packet);
@@ -445,30 +510,20 @@ fn run_ros2(args: &CameraArgs, node: &NodeArgs, topic: &str) -> Result<()> {
             }
         }
         // Short waits: the ROS topic is polled between the bus's messages.
-        let Some(item) = bus.recv(Duration::from_millis(10)) else {
-            if started && !bus.is_alive(&sim_alive) {
-                break;
-            }
-            continue;
-        };
-        match item {
-            Inbound::Data { key, payload } if key == keys.sim_state() => {
-                if let Some(state) = admit_state(&mut rejects, &key, &payload, last_state_ns) {
-                    started = true;
-                    last_state_ns = Some(state.stamp_ns);
-                }
-            }
-            Inbound::Data { key, payload } if key == keys.fault(&args.observer) => {
-                take_fault(&mut rejects, &key, &payload, &args.observer, &mut faults);
-            }
-            Inbound::Data { key, .. } => {
-                rejects.reject(&key, RejectReason::UnexpectedKey, &"not subscribed");
-            }
-            Inbound::Liveliness { key, alive: false } if key == sim_alive => break,
-            Inbound::Liveliness { .. } => {}
+        match inbox.next(&mut bus, Duration::from_millis(10)) {
+            Turn::SimGone => break,
+            Turn::Nothing => {}
+            Turn::State(state) => inbox.accept(&state),
         }
     }
-    close(bus, &keys, args, &outbox, RenderCounts::default(), &rejects)
+    close(
+        bus,
+        &keys,
+        args,
+        &outbox,
+        RenderCounts::default(),
+        &inbox.rejects,
+    )
 }
 
 /// Opens the bus as `args.observer`'s camera, subscribed to what a camera reads, and joins the

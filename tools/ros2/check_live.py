@@ -56,6 +56,21 @@ def ros_type(dds):
     return f"{parts[0]}/msg/{parts[3][:-1]}"
 
 
+def record_attachment(s, attachment, keep_errors=None):
+    """Reads an rmw_zenoh attachment (int64 sequence number, int64 source timestamp, 16-byte GID)
+    into a key's record `s`: its sequence numbers, GIDs and whether stamps are sane; a failure
+    goes to `s["errors"]` (the first `keep_errors` of them, all when None)."""
+    try:
+        seq, stamp, gid = z_deserialize(tuple[Int64, Int64, bytes], attachment)
+        s["seqs"].append(int(seq))
+        s["gids"].add(bytes(gid).hex())
+        if len(gid) != 16 or stamp <= 0:
+            s["stamps_ok"] = False
+    except Exception as e:  # noqa: BLE001 - reported, not fatal
+        if keep_errors is None or len(s["errors"]) < keep_errors:
+            s["errors"].append(f"attachment: {e}")
+
+
 def listen(endpoint, domain, out_path):
     store = typestore()
     lock = threading.Lock()
@@ -70,15 +85,7 @@ def listen(endpoint, domain, out_path):
             s = samples[key]
             s["count"] += 1
             s["sha256"].append(hashlib.sha256(payload).hexdigest())
-            try:
-                att = sample.attachment
-                seq, stamp, gid = z_deserialize(tuple[Int64, Int64, bytes], att)
-                s["seqs"].append(int(seq))
-                s["gids"].add(bytes(gid).hex())
-                if len(gid) != 16 or stamp <= 0:
-                    s["stamps_ok"] = False
-            except Exception as e:  # noqa: BLE001 - reported, not fatal
-                s["errors"].append(f"attachment: {e}")
+            record_attachment(s, sample.attachment)
             parts = key.split("/")
             typename = ros_type(parts[-2]) if len(parts) >= 4 else None
             try:

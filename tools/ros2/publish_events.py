@@ -84,11 +84,11 @@ from pathlib import Path
 
 import numpy as np
 import zenoh
-from zenoh.ext import Int64, z_deserialize, z_serialize
+from zenoh.ext import Int64, z_serialize
 from rosbags.rosbag2 import Reader
 
 # The typestore and the DDS name mapping are check_live.py's, beside this file.
-from check_live import ros_type, typestore
+from check_live import record_attachment, ros_type, typestore
 
 try:
     import evt3
@@ -494,15 +494,7 @@ def publish(endpoint, domain, topic, source, out_path, chunk_bytes, listen_s, ju
             last_sample[0] = time.monotonic()
             s = samples[key]
             s["count"] += 1
-            try:
-                seq, stamp, gid = z_deserialize(tuple[Int64, Int64, bytes], att)
-                s["seqs"].append(int(seq))
-                s["gids"].add(bytes(gid).hex())
-                if len(gid) != 16 or stamp <= 0:
-                    s["stamps_ok"] = False
-            except Exception as e:  # noqa: BLE001 - reported, not fatal
-                if len(s["errors"]) < 5:
-                    s["errors"].append(f"attachment: {e}")
+            record_attachment(s, att, keep_errors=5)
             parts = key.split("/")
             typename = ros_type(parts[-2]) if len(parts) >= 4 else None
             s["types"] = typename
