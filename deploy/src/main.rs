@@ -37,6 +37,7 @@ fn main() -> anyhow::Result<()> {
             DataCommand::Allocate(args) => cli::allocate::run(args),
             DataCommand::Decode(_)
             | DataCommand::Observe(_)
+            | DataCommand::Inputs(_)
             | DataCommand::Events(_)
             | DataCommand::SensorFit(_) => unreachable_lab(),
         },

@@ -18,6 +18,7 @@ fn main() -> anyhow::Result<()> {
         Command::Deploy(DeployCommand::Mission(args)) => cli::mission::run(args),
         Command::Data(DataCommand::Decode(args)) => cli::decode::run(args),
         Command::Data(DataCommand::Observe(args)) => cli::observe::run(args),
+        Command::Data(DataCommand::Inputs(args)) => cli::inputs::run(args),
         Command::Data(DataCommand::Events(args)) => cli::events::run(args),
         Command::Data(DataCommand::SensorFit(args)) => cli::sensor_fit::run(args),
         Command::Studies(StudiesCommand::Sweep(args)) => cli::sweep::run(args),

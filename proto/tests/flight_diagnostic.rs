@@ -74,6 +74,7 @@ fn replay_recorded_tracks() {
                     TokenCause::Rejected(r) => format!("rejected {r:?}"),
                     TokenCause::Interrupted(i) => format!("interrupted {i:?}"),
                     TokenCause::Overlong { motion_ns } => format!("overlong {motion_ns}"),
+                    TokenCause::External => "external".to_owned(),
                     TokenCause::Rest => continue,
                 };
                 println!("DIAG\t{path}\t{name}\t{}\t{line}", t.stamp_ns);

@@ -7,6 +7,8 @@
 //! - `proto` depends on no workspace crate;
 //! - a library in `libs/` depends only on `proto` and other libraries;
 //! - a node crate never depends on another node crate, on `deploy`, the lab or the tests;
+//! - the Python package (`python/`) sits beside the lab, never on `deploy`; nothing depends
+//!   on it;
 //! - `deploy` never depends on the lab, nor the lab on `deploy` (the launcher): the command
 //!   line, the run summary and the audit both use are libraries (`commands`, `run-eval`);
 //! - nothing depends on the tests.
@@ -44,6 +46,8 @@ enum Layer {
     Node,
     Deploy,
     Lab,
+    /// The Python package (`python/`): beside the lab, above the libraries.
+    Python,
     Tests,
 }
 
@@ -82,6 +86,8 @@ fn layer_of(name: &str, dir: &Path, root: &Path) -> Layer {
         Layer::Deploy
     } else if rel == Path::new("lab") {
         Layer::Lab
+    } else if rel == Path::new("python") {
+        Layer::Python
     } else if rel == Path::new("tests") {
         Layer::Tests
     } else {
@@ -95,7 +101,7 @@ fn layer_of(name: &str, dir: &Path, root: &Path) -> Layer {
 
 /// Why the edge `from` → `to` breaks the layering, if it does.
 fn violation(from: Layer, to: Layer) -> Option<&'static str> {
-    use Layer::{Deploy, Lab, Lib, Node, Proto, Tests};
+    use Layer::{Deploy, Lab, Lib, Node, Proto, Python, Tests};
     match (from, to) {
         (Proto, _) => Some("proto depends on no workspace crate"),
         (Lib, Proto | Lib) => None,
@@ -108,6 +114,8 @@ fn violation(from: Layer, to: Layer) -> Option<&'static str> {
              summary, the audit) lives in a library below both",
         ),
         (_, Tests) => Some("nothing depends on the tests crate"),
+        (_, Python) => Some("nothing depends on the Python package"),
+        (Python, Deploy) => Some("the Python package never depends on the launcher"),
         _ => None,
     }
 }

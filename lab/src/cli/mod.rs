@@ -4,6 +4,7 @@
 
 pub mod decode;
 pub mod events;
+pub mod inputs;
 pub mod link;
 pub mod mission;
 pub mod observe;

@@ -18,7 +18,7 @@ use crate::harness::runs::records::{recorded, write_record};
 use crate::harness::study::merge::{MergeOptions, Merged, merge};
 use crate::harness::study::run::{FlightSource, header, run_point};
 use crate::harness::trials::pool::Tally;
-use crate::harness::trials::{TrialsOptions, criterion, definition};
+use crate::harness::trials::{PluginOptions, TrialsOptions, criterion, definition};
 use commands::trials::TrialsArgs;
 use run_format::case::Case;
 use run_format::run_dir::lock::RunLock;
@@ -77,6 +77,10 @@ pub fn run(args: TrialsArgs) -> Result<()> {
         render: args.render.path,
         rectification: args.rectify,
         acquisition: args.acquisition,
+        plugin: args.receiver.clone().map(|spec| PluginOptions {
+            spec,
+            trial_limit: Some(std::time::Duration::from_secs_f64(args.plugin_time_limit_s)),
+        }),
     };
     opts.check()?;
     let shard = args.shard.shard()?;

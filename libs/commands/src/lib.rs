@@ -25,6 +25,7 @@ pub mod decode;
 pub mod events;
 pub mod export;
 pub mod fault;
+pub mod inputs;
 pub mod link;
 pub mod mission;
 pub mod observe;
@@ -138,6 +139,10 @@ pub enum DataCommand {
     /// evt3, or images), with one observer's receiver; its tokens and frames published back
     /// as ROS 2 messages.
     Observe(observe::ObserveArgs),
+    /// One trial's sensor inputs, as its receivers get them, with the ground truth (broadcast
+    /// symbols and their intervals, the performer's image position per input, the ideal
+    /// receiver's tokens): a stream the Python package reads, for offline work and training.
+    Inputs(inputs::InputsArgs),
     /// Synthetic event camera tools (convert PNG frames into events).
     Events(events::EventsArgs),
     /// Measure a real camera from its recording: background activity by polarity, hot pixels,
@@ -181,6 +186,7 @@ impl Command {
             | Command::Data(
                 DataCommand::Decode(_)
                 | DataCommand::Observe(_)
+                | DataCommand::Inputs(_)
                 | DataCommand::Events(_)
                 | DataCommand::SensorFit(_),
             ) => Binary::Lab,

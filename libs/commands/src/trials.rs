@@ -58,6 +58,18 @@ pub struct TrialsArgs {
     /// Viewpoint rectification of the receivers' trajectories.
     #[arg(long, value_enum, default_value_t = Rectification::default())]
     pub rectify: Rectification,
+    /// A receiver of your own instead of Waggle's: `python:MODULE:CLASS`, a Python class
+    /// following one of the plug-in protocols (`waggle.plugin`: tracker, tokens or full),
+    /// run in worker processes (one per job) on `WAGGLE_PYTHON` (default `python3`), scored
+    /// by the same trials. Link trials only.
+    #[arg(long, value_name = "python:MODULE:CLASS", value_parser = parse_receiver,
+          conflicts_with = "case")]
+    pub receiver: Option<receiver_plugin::PluginSpec>,
+    /// Wall-clock limit of one trial of a plug-in receiver, seconds: a trial past it is
+    /// recorded as `timed-out` and the run marked not reproducible.
+    #[arg(long = "plugin-time-limit-s", value_name = "SECONDS", default_value_t = 600.0,
+          value_parser = parse_time_limit, requires = "receiver")]
+    pub plugin_time_limit_s: f64,
     #[command(flatten)]
     pub render: crate::common::RenderArg,
     #[command(flatten)]
@@ -69,6 +81,20 @@ pub struct TrialsArgs {
     /// not recorded run.
     #[arg(long)]
     pub out: PathBuf,
+}
+
+fn parse_receiver(s: &str) -> Result<receiver_plugin::PluginSpec, String> {
+    s.parse()
+        .map_err(|e: receiver_plugin::PluginError| e.to_string())
+}
+
+fn parse_time_limit(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 86_400.0 => Ok(v),
+        _ => Err(format!(
+            "{s:?} is not a time limit in seconds (0 < SECONDS ≤ 86400)"
+        )),
+    }
 }
 
 fn perturbation_help() -> String {

@@ -169,6 +169,8 @@ pub enum TokenCause {
     Interrupted(Interruption),
     /// Motion went on for longer than `max_motion_ns` (`Unknown`).
     Overlong { motion_ns: u64 },
+    /// Read by a receiver outside the segmenter (a token-level or full receiver plug-in).
+    External,
 }
 
 /// A token confirmed by the segmenter.

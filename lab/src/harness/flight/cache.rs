@@ -404,6 +404,7 @@ mod tests {
             render: RenderPath::Damage,
             rectification: Rectification::Pitched,
             acquisition: Some(false),
+            plugin: None,
         };
         let mut spec = opts.shared_flight_spec(40_000_000).unwrap();
         spec.end_ns = end_ns;

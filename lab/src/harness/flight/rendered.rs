@@ -185,7 +185,7 @@ pub struct Flown {
 pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
     let width = usize::from(proto::scene::IMAGE_WIDTH_PX);
     let mut tracks = vec![RenderTrack::default(); spec.formation.len()];
-    let flown = fly_streamed(&spec, |i, t, rgb, change, ego| {
+    let flown = fly_streamed(&spec, |i, t, rgb, change, ego, _| {
         tracks[i].push(t, rgb, change, width, ego);
         Ok(true)
     })?
@@ -202,13 +202,13 @@ pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
 
 /// Flies `spec` once, rendering every observer's camera at `render_period_ns` and handing each
 /// render to `visit(observer, stamp_ns, whole frame, change since that camera's previous
-/// render, how far its airframe has turned from home)` as it is made, observers in order at
+/// render, how far its airframe has turned from home, where the performer is)` as it is made, observers in order at
 /// each instant — what [`RenderTrack::replay`] gives for the same flight (a camera's first
 /// render is `All`). The turn is the attitude the render was drawn at (`None`: not turned, to
 /// the last bit). Nothing is kept. `None` when `visit` returns `false` (the flight stops there).
 pub fn fly_streamed(
     spec: &FlightSpec,
-    mut visit: impl FnMut(usize, u64, &[u8], FrameChange, Option<EgoRotation>) -> Result<bool>,
+    mut visit: impl FnMut(usize, u64, &[u8], FrameChange, Option<EgoRotation>, [f64; 3]) -> Result<bool>,
 ) -> Result<Option<Flown>> {
     let mut world = World::with_formation(&spec.formation).context("building the scene")?;
     // Observer i is drone i + 1; its home attitude is the one the scene was built with.
@@ -261,6 +261,7 @@ pub fn fly_streamed(
             world.set_disturbance_n(PERFORMER, force);
             *next_ns = t + g.period_ns;
         }
+        let performer_m = world.position_m(PERFORMER);
         for (i, seen) in seen.iter_mut().enumerate() {
             let ego = EgoRotation::between(home_attitudes[i], world.body_pose(i + 1).1);
             let frame = renderer.render_change(&mut world, i)?;
@@ -270,7 +271,7 @@ pub fn fly_streamed(
                 FrameChange::All
             };
             *seen = true;
-            if !visit(i, t, frame.rgb, change, ego)? {
+            if !visit(i, t, frame.rgb, change, ego, performer_m)? {
                 return Ok(None);
             }
         }

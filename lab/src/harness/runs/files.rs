@@ -187,11 +187,18 @@ impl RunCost {
     }
 }
 
-/// The process's CPU time so far (user + system, every thread), s.
+/// The process's CPU time so far (user + system, every thread), with that of its children
+/// already reaped (plug-in workers, a mission's processes), s.
 pub fn cpu_s() -> f64 {
     use nix::sys::resource::{UsageWho, getrusage};
-    getrusage(UsageWho::RUSAGE_SELF).map_or(0.0, |u| {
-        let t = |tv: nix::sys::time::TimeVal| tv.tv_sec() as f64 + tv.tv_usec() as f64 * 1e-6;
-        t(u.user_time()) + t(u.system_time())
-    })
+    [UsageWho::RUSAGE_SELF, UsageWho::RUSAGE_CHILDREN]
+        .into_iter()
+        .map(|who| {
+            getrusage(who).map_or(0.0, |u| {
+                let t =
+                    |tv: nix::sys::time::TimeVal| tv.tv_sec() as f64 + tv.tv_usec() as f64 * 1e-6;
+                t(u.user_time()) + t(u.system_time())
+            })
+        })
+        .sum()
 }

@@ -374,6 +374,7 @@ mod tests {
             success: index.is_multiple_of(2),
             observers: BTreeMap::new(),
             flight: None,
+            plugin_failure: None,
         }
     }
 

@@ -239,7 +239,7 @@ fn write_study(
 fn point_result(point: &Point, t: &TrialsOut) -> PointResult {
     PointResult {
         key: point.key.clone(),
-        modality: point.modality.to_string(),
+        modality: point.series.clone(),
         level: point.level,
         factors: point.factors.clone(),
         trials: t.tally.trials,

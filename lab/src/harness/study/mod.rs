@@ -14,6 +14,7 @@
 //! fixed = { "link.drop_rate" = 0.0 }      # optional: terms held at one value
 //! real_noise = "faery/evt3.raw"           # optional: a real camera's background (events)
 //! rectify = "frontal"                     # optional: off | pitched (default) | frontal
+//! receivers = ["waggle", "python:numpy_tracker:CentroidTracker"]   # optional: default waggle
 //! [[vary]]                                # one table per condition; several allowed
 //! key = "events.shot_noise_hz"            # a perturbation term, or viewpoint.azimuth_deg /
 //! levels = [0.0, 0.1, 0.2, 0.5, 1.0]      # viewpoint.elevation_deg / viewpoint.distance_m
@@ -48,7 +49,8 @@ use crate::harness::study::baselines::BaselineStudy;
 pub use crate::harness::study::vary::Vary;
 use commands::common::{parse_bits6, parse_viewpoint};
 
-use crate::harness::trials::TrialsOptions;
+use crate::harness::trials::{PluginOptions, TrialsOptions};
+use receiver_plugin::PluginSpec;
 
 pub use run_format::study::BUILT_IN;
 
@@ -145,15 +147,24 @@ pub struct StudyFile {
     /// varied alone).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub cross: bool,
+    /// The receivers each modality's points run with: `waggle` (Waggle's own, the default) and
+    /// plug-ins `python:MODULE:CLASS`, all on the same flights and seeds.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub receivers: Vec<String>,
+    /// Wall-clock limit of one trial of a plug-in receiver, seconds (default 600).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plugin_time_limit_s: Option<f64>,
     /// The conditions: each a term (or viewpoint axis) and its levels.
     pub vary: Vec<Vary>,
 }
 
-/// One point: a modality at one level of one condition.
+/// One point: a modality (and receiver) at one level of one condition.
 #[derive(Debug, Clone)]
 pub struct Point {
     pub key: String,
     pub modality: Modality,
+    /// The series the report lists it under: the modality, with the plug-in receiver if any.
+    pub series: String,
     pub level: f64,
     /// Crossed studies: every condition's level at this point (empty otherwise).
     pub factors: BTreeMap<String, f64>,
@@ -281,6 +292,34 @@ impl StudyFile {
         all
     }
 
+    /// The receivers of each modality's points: `None` is Waggle's own.
+    fn receivers(&self) -> Result<Vec<Option<PluginSpec>>> {
+        if self.receivers.is_empty() {
+            return Ok(vec![None]);
+        }
+        let mut out = Vec::new();
+        for r in &self.receivers {
+            let receiver = match r.as_str() {
+                "waggle" => None,
+                _ => Some(r.parse::<PluginSpec>().context("receivers")?),
+            };
+            if out.contains(&receiver) {
+                bail!("receivers: {r} is listed twice");
+            }
+            out.push(receiver);
+        }
+        Ok(out)
+    }
+
+    /// The series of the study's points, in report order: each modality, with each receiver.
+    pub fn series(&self) -> Vec<String> {
+        let receivers = self.receivers().unwrap_or_default();
+        self.modalities
+            .iter()
+            .flat_map(|&m| receivers.iter().map(move |r| series_label(m, r.as_ref())))
+            .collect()
+    }
+
     /// Every point of the study, checked, in the study's order (condition, level, modality).
     pub fn points(&self, render: RenderPath, jobs: usize) -> Result<Vec<Point>> {
         if self.criterion != EXACT_PAYLOADS {
@@ -332,9 +371,21 @@ impl StudyFile {
         {
             bail!("cross: every vary.key must be a different condition");
         }
+        let receivers = self.receivers()?;
+        let trial_limit = match self.plugin_time_limit_s {
+            None => std::time::Duration::from_secs(600),
+            Some(s) if s.is_finite() && s > 0.0 && s <= 86_400.0 => {
+                std::time::Duration::from_secs_f64(s)
+            }
+            Some(s) => bail!("plugin_time_limit_s = {s}: give 0 < seconds ≤ 86400"),
+        };
         let mut points = Vec::new();
         for setting in self.settings() {
-            for &modality in &self.modalities {
+            for (&modality, receiver) in self
+                .modalities
+                .iter()
+                .flat_map(|m| receivers.iter().map(move |r| (m, r)))
+            {
                 let mut perturbation = base.clone();
                 let mut axes = Vec::new();
                 for &(key, level) in &setting {
@@ -348,16 +399,21 @@ impl StudyFile {
                 perturbation.check_real_noise().context("vary")?;
                 let formation = self.formation(&axes)?;
                 let (key, level) = setting[0];
+                // A plug-in's points sit beside Waggle's, named by its class.
+                let modality_dir = match receiver {
+                    None => modality.to_string(),
+                    Some(spec) => format!("{modality}-{}", spec.class),
+                };
                 let dir = if self.cross {
                     let parts: Vec<String> = setting
                         .iter()
                         .map(|(k, l)| format!("{k}-{}", level_label(*l)))
                         .collect();
-                    format!("{modality}-{}", parts.join("-"))
+                    format!("{modality_dir}-{}", parts.join("-"))
                 } else if self.vary.len() == 1 {
-                    format!("{modality}-{}", level_label(level))
+                    format!("{modality_dir}-{}", level_label(level))
                 } else {
-                    format!("{modality}-{key}-{}", level_label(level))
+                    format!("{modality_dir}-{key}-{}", level_label(level))
                 };
                 points.push(Point {
                     key: if self.cross {
@@ -366,6 +422,7 @@ impl StudyFile {
                         key.to_owned()
                     },
                     modality,
+                    series: series_label(modality, receiver.as_ref()),
                     level,
                     factors: if self.cross {
                         setting.iter().map(|(k, l)| ((*k).to_owned(), *l)).collect()
@@ -385,11 +442,23 @@ impl StudyFile {
                         rectification,
                         // One flight for every modality of the study (matched trajectories).
                         acquisition: Some(self.modalities.contains(&Modality::Events)),
+                        plugin: receiver.clone().map(|spec| PluginOptions {
+                            spec,
+                            trial_limit: Some(trial_limit),
+                        }),
                     },
                 });
             }
         }
         Ok(points)
+    }
+}
+
+/// A series' label: the modality, and the plug-in receiver when it is not Waggle's.
+fn series_label(modality: Modality, receiver: Option<&PluginSpec>) -> String {
+    match receiver {
+        None => modality.to_string(),
+        Some(spec) => format!("{modality} · {spec}"),
     }
 }
 

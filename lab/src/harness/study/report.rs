@@ -63,8 +63,7 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
         let flown = results
             .iter()
             .any(|r| &r.key == key && r.tracking.is_some());
-        for m in &study.modalities {
-            let m = m.to_string();
+        for m in study.series() {
             s.push_str(&format!(
                 "\n### {m}\n\n| {key} | successes / trials | P(success) | 95 % CI (Wilson) |{}\n| ---: | ---: | ---: | :---: |{}\n",
                 if flown { " performer tracking, mean RMS / max (mm) | trials with contact |" } else { "" },
@@ -101,8 +100,7 @@ pub fn marginals(study: &StudyFile, results: &[PointResult]) -> Vec<PointResult>
     let mut pooled = Vec::new();
     for vary in &study.vary {
         for &level in &vary.levels {
-            for m in &study.modalities {
-                let m = m.to_string();
+            for m in study.series() {
                 let at: Vec<&PointResult> = results
                     .iter()
                     .filter(|r| r.modality == m && r.factors.get(&vary.key) == Some(&level))
@@ -235,7 +233,7 @@ fn cost_table(key: &str, results: &[PointResult], costs: &RunCost) -> String {
             per(r.trials),
             per(r.decoded_messages),
             rate(r.sensor_messages),
-            if r.modality == "events" {
+            if r.modality.starts_with("events") {
                 rate(r.events)
             } else {
                 "—".to_owned()
@@ -248,7 +246,7 @@ fn cost_table(key: &str, results: &[PointResult], costs: &RunCost) -> String {
 /// The success probability with its interval against the levels of `vary`, one series per
 /// modality.
 pub fn figure(study: &StudyFile, vary: &Vary, results: &[PointResult]) -> Result<String> {
-    let series: Vec<String> = study.modalities.iter().map(ToString::to_string).collect();
+    let series = study.series();
     let points: Vec<FigurePoint> = results
         .iter()
         .filter(|r| r.key == vary.key)

@@ -7,19 +7,21 @@
 //! payloads, in order. Everything a trial records is a function of the condition and its seed
 //! (no wall-clock value), so the same seed gives identical records whatever `--jobs`.
 //!
-//! Its parts: one trial's observers ([`observer`]), what `waggle trials` writes ([`out`]) and the
-//! thread pool trials run on ([`pool`]).
+//! Its parts: one trial's observers ([`observer`]), what `waggle trials` writes ([`out`]), the
+//! thread pool trials run on ([`pool`]) and a trial's inputs handed out of the lab ([`tap`]).
 
 pub mod observer;
 pub mod out;
 pub mod pool;
+pub mod tap;
 
 pub use crate::harness::trials::out::{
-    ObserverTrial, PlacementOut, RealNoiseOut, TokenTiming, TrialFlight, TrialRecord, TrialsCost,
-    TrialsHeader, TrialsOut, TrialsSummary,
+    ObserverTrial, PlacementOut, PluginFailure, RealNoiseOut, TokenTiming, TrialFlight,
+    TrialRecord, TrialsCost, TrialsHeader, TrialsOut, TrialsSummary,
 };
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
+use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use perturb::Perturbation;
@@ -27,6 +29,7 @@ use perturb::seed::{Stream, rng, stream_seed, trial_seed};
 use proto::scene::{Formation, MAX_OBSERVERS, Placement, observer_name};
 use proto::{Modality, Rectification, RenderPath, Schedule};
 use rand_distr::{Distribution, Normal};
+use receiver_plugin::{PluginError, PluginSpec, WorkerPool};
 use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
 use crate::harness::flight::cache::{Fetched, RenderCache, fly_through};
@@ -54,16 +57,39 @@ pub struct TrialsOptions {
     /// the paper and `waggle link` do). A study of both modalities flies it for both, so their
     /// trials see one flight.
     pub acquisition: Option<bool>,
+    /// The receiver: `None`, Waggle's own for the modality; else a Python plug-in.
+    pub plugin: Option<PluginOptions>,
+}
+
+/// A plug-in receiver and how long one trial of it may take.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PluginOptions {
+    pub spec: PluginSpec,
+    /// Wall-clock limit of one trial (`None`: none); a trial past it is `timed-out`.
+    pub trial_limit: Option<Duration>,
 }
 
 impl TrialsOptions {
-    /// How this condition's observers sense.
-    fn sensing(&self) -> Sensing<'_> {
+    /// How this condition's observers sense (`plugin`: the run's plug-in workers).
+    fn sensing<'a>(&'a self, plugin: Option<&'a WorkerPool>) -> Sensing<'a> {
         Sensing {
             modality: self.modality,
             rectification: self.rectification,
             perturbation: &self.perturbation,
+            plugin,
+            tap: None,
         }
+    }
+
+    /// The run's plug-in workers, when the receiver is a plug-in.
+    fn worker_pool(&self) -> Option<WorkerPool> {
+        self.plugin.as_ref().map(|p| {
+            WorkerPool::new(
+                p.spec.clone(),
+                receiver_plugin::worker::python(),
+                p.trial_limit,
+            )
+        })
     }
 
     /// Checks the condition before anything runs.
@@ -228,27 +254,63 @@ fn release_times(
     (latency, vs_ideal)
 }
 
-/// Runs trial `index` on `flight` (or its own flight when the perturbation re-flies).
+/// A trial its plug-in receiver failed: no observer's result counts, the reason is kept.
+fn failed_trial(index: u64, seed: u64, error: &PluginError) -> TrialRecord {
+    TrialRecord {
+        index,
+        seed,
+        success: false,
+        observers: BTreeMap::new(),
+        flight: None,
+        plugin_failure: Some(PluginFailure {
+            outcome: error.outcome().to_owned(),
+            reason: error.to_string(),
+        }),
+    }
+}
+
+/// The plug-in's own fault behind `e`, if that is what ended a trial (a fault of the run — an
+/// unusable interpreter, the simulator — is not the plug-in's and ends the run).
+fn plugin_fault(e: &anyhow::Error) -> Option<&PluginError> {
+    e.downcast_ref::<PluginError>()
+        .filter(|p| p.is_plugin_fault())
+}
+
+/// Runs trial `index` on `flight` (or its own flight when the perturbation re-flies), its
+/// receiver a plug-in on a worker of `plugin` when the run has one.
 fn run_trial(
     opts: &TrialsOptions,
     shared: Option<&RenderedFlight>,
+    plugin: Option<&WorkerPool>,
     index: u64,
     stop: &AtomicBool,
 ) -> Result<Option<TrialRecord>> {
     let seed = trial_seed(opts.seed, index);
+    let sensing = opts.sensing(plugin);
     let own;
     let mut flight = None;
     let (spec, ideal, observed) = match shared {
         Some(f) => {
-            let Some(observed) = observe_cached(f, &opts.sensing(), seed, stop)? else {
+            let observed = match observe_cached(f, &sensing, seed, stop) {
+                Err(ref e) if let Some(p) = plugin_fault(e) => {
+                    return Ok(Some(failed_trial(index, seed, p)));
+                }
+                other => other?,
+            };
+            let Some(observed) = observed else {
                 return Ok(None);
             };
             (&f.spec, &f.ideal, observed)
         }
         None => {
             let spec = opts.flight_spec(Some(seed))?;
-            let Some((flown, observed)) = observe_flying(&spec, &opts.sensing(), seed, stop)?
-            else {
+            let observed = match observe_flying(&spec, &sensing, seed, stop) {
+                Err(ref e) if let Some(p) = plugin_fault(e) => {
+                    return Ok(Some(failed_trial(index, seed, p)));
+                }
+                other => other?,
+            };
+            let Some((flown, observed)) = observed else {
                 return Ok(None);
             };
             flight = Some(TrialFlight {
@@ -267,8 +329,7 @@ fn run_trial(
             out,
             messages,
             lost: messages_lost,
-            denoise,
-            ego_motion,
+            counts,
         },
     ) in observed.into_iter().enumerate()
     {
@@ -289,9 +350,9 @@ fn run_trial(
                 vs_ideal_s,
                 messages,
                 messages_lost,
-                events_received: denoise.map(|d| d.seen),
-                events_removed: denoise.map(|d| d.removed),
-                events_removed_ego: ego_motion.map(|e| e.removed),
+                events_received: counts.events_received,
+                events_removed: counts.events_removed,
+                events_removed_ego: counts.events_removed_ego,
             },
         );
     }
@@ -302,6 +363,7 @@ fn run_trial(
             && flight.is_none_or(|f| f.contact_steps == 0),
         observers,
         flight,
+        plugin_failure: None,
     }))
 }
 
@@ -376,19 +438,28 @@ pub fn run_trials(
         }
     };
     let trials_started = std::time::Instant::now();
+    let pool = opts.worker_pool();
+    if let Some(p) = &pool {
+        p.check()?;
+    }
     let records = run_pool_on(
         indices,
         opts.jobs,
         stop,
         |index| {
-            let record = run_trial(opts, shared, index, stop)?;
+            let record = run_trial(opts, shared, pool.as_ref(), index, stop)?;
             if let Some(r) = &record {
                 on_record(r)?;
             }
             Ok(record)
         },
         progress,
-    )?;
+    );
+    // Workers end here, so their CPU time counts among this process's children.
+    if let Some(p) = &pool {
+        p.close();
+    }
+    let records = records?;
     let cost = TrialsCost {
         flights: if shared.is_some() {
             u64::from(flown.is_none())
@@ -448,7 +519,7 @@ pub fn run_trials(
 pub fn definition(opts: &TrialsOptions) -> String {
     format!(
         "link {:?}; placements {:?}; modality {}; trials {}; seed {}; perturb {:?}; \
-         rectification {:?}; acquisition {:?}{}",
+         rectification {:?}; acquisition {:?}{}{}",
         opts.want(),
         opts.formation.placements(),
         opts.modality,
@@ -463,7 +534,11 @@ pub fn definition(opts: &TrialsOptions) -> String {
             .map_or_else(String::new, |s| format!(
                 "; real noise {:?}",
                 RealNoiseOut::of(s)
-            ))
+            )),
+        // Only with a plug-in, so a run of Waggle's receiver keeps its fingerprint.
+        opts.plugin
+            .as_ref()
+            .map_or_else(String::new, |p| format!("; receiver {}", p.spec))
     )
 }
 
@@ -483,10 +558,7 @@ mod tests {
             .iter()
             .map(|o| {
                 let out = serde_json::to_string(&o.out).unwrap();
-                format!(
-                    "{out} {} {} {:?} {:?}",
-                    o.messages, o.lost, o.denoise, o.ego_motion
-                )
+                format!("{out} {} {} {:?}", o.messages, o.lost, o.counts)
             })
             .collect()
     }
@@ -513,19 +585,20 @@ mod tests {
                 render: RenderPath::Damage,
                 rectification: Rectification::Pitched,
                 acquisition: Some(false),
+                plugin: None,
             };
             assert!(opts.perturbation.reflies());
             let mut spec = opts.flight_spec(Some(11)).unwrap();
             spec.end_ns = 3_000_000_000;
             let stop = AtomicBool::new(false);
-            let (flown, streamed) = observe_flying(&spec, &opts.sensing(), 11, &stop)
+            let (flown, streamed) = observe_flying(&spec, &opts.sensing(None), 11, &stop)
                 .unwrap()
                 .unwrap();
             let cache = fly_rendered(spec).unwrap();
             // Under the cascade the observers lean: every camera hands over its airframe's
             // turn, which its receiver undoes (`proto::stabilise`).
             assert!(cache.tracks.iter().all(|t| t.turned()), "{modality}");
-            let cached = observe_cached(&cache, &opts.sensing(), 11, &stop)
+            let cached = observe_cached(&cache, &opts.sensing(None), 11, &stop)
                 .unwrap()
                 .unwrap();
             assert_eq!(digest(&streamed), digest(&cached), "{modality}");

@@ -2,9 +2,16 @@
 //! from the trial's seed) and its receiver behind the perturbed link, fed a camera's renders in
 //! order — from a shared render cache ([`observe_cached`]) or straight from the trial's own
 //! flight ([`observe_flying`]) — and what each made of them ([`Observed`]).
+//!
+//! The receiver is Waggle's own for the modality, or a Python plug-in (`--receiver
+//! python:MODULE:CLASS`) whose instances, one per observer, live in one worker process taken
+//! from the run's pool for the trial.
 
+use std::cell::RefCell;
 use std::collections::VecDeque;
+use std::rc::Rc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::SyncSender;
 
 use anyhow::{Context, Result};
 use event_camera::{CameraConfig, EventCamera};
@@ -15,20 +22,161 @@ use perturb::link::LinkNoise;
 use perturb::rgb::RgbSensor;
 use perturb::seed::{Stream, rng, stream_seed};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, Placement};
-use proto::{FrameChange, Modality, Rectification, ReleasedFrame, RgbFrame, SegmentToken};
+use proto::scene::{ObserverCamera, observer_name};
+use proto::{
+    DecodeStep, EgoRotation, EventPacket, FrameChange, Modality, Rectification, ReleasedFrame,
+    RgbFrame, SegmentToken, SegmenterConfig,
+};
 use rand_chacha::ChaCha8Rng;
+use receiver_plugin::{ObserverInfo, PluginCounts, PluginReceiver, Worker, WorkerPool};
 use sim::sensor::RGB_PERIOD_NS;
 
 use crate::harness::flight::rendered::{FlightSpec, Flown, RenderedFlight, fly_streamed};
 use crate::harness::link::{ObserverOut, observer_out};
 
-/// How a trial's observers sense: their modality, their receivers' rectification and the
-/// perturbation their sensors and link draw from.
-#[derive(Debug, Clone, Copy)]
+/// How a trial's observers sense: their modality, their receivers' rectification, the
+/// perturbation their sensors and link draw from, and the plug-in receiver's workers (`None`:
+/// Waggle's own receiver).
+#[derive(Clone, Copy)]
 pub struct Sensing<'a> {
     pub modality: Modality,
     pub rectification: Rectification,
     pub perturbation: &'a Perturbation,
+    pub plugin: Option<&'a WorkerPool>,
+    /// Instead of decoding, hand every input its receiver would get to this channel (the
+    /// Python package's sensor streams).
+    pub tap: Option<&'a SyncSender<Tapped>>,
+}
+
+/// One input as the observer's receiver gets it (after the link), handed out of the trial.
+#[derive(Debug, Clone)]
+pub struct Tapped {
+    pub observer: usize,
+    pub input: TappedInput,
+    /// How far the airframe has turned from home at this input (`None`: not turned).
+    pub ego: Option<EgoRotation>,
+    /// The performer's centre projected into the observer's camera at its latest render (the
+    /// ideal receiver's sample), `None` outside the image.
+    pub performer_px: Option<[f64; 2]>,
+}
+
+/// The sensor message itself.
+#[derive(Debug, Clone)]
+pub enum TappedInput {
+    Events(EventPacket),
+    Rgb(RgbFrame),
+}
+
+/// The consumer of a tapped trial went away: the flight stops there.
+#[derive(Debug)]
+pub struct TapClosed;
+
+impl std::fmt::Display for TapClosed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("the consumer of the sensor inputs went away")
+    }
+}
+
+impl std::error::Error for TapClosed {}
+
+/// A tapped observer: where its inputs go and what goes with them.
+struct Tap {
+    observer: usize,
+    sender: SyncSender<Tapped>,
+    camera: ObserverCamera,
+    ego: Option<EgoRotation>,
+    performer_px: Option<[f64; 2]>,
+}
+
+/// An observer's receiver in a trial: Waggle's own, or a plug-in on the trial's worker.
+enum TrialReceiver {
+    Native(Perception),
+    Plugin(PluginReceiver),
+    Tap(Box<Tap>),
+}
+
+impl TrialReceiver {
+    fn set_ego_rotation(&mut self, ego: Option<EgoRotation>) {
+        match self {
+            Self::Native(p) => p.set_ego_rotation(ego),
+            Self::Plugin(p) => p.set_ego_rotation(ego),
+            Self::Tap(t) => t.ego = ego,
+        }
+    }
+
+    /// Where the performer is at the render about to be made (only a tap hands it out).
+    fn set_performer(&mut self, stamp_ns: u64, performer_m: [f64; 3]) {
+        if let Self::Tap(t) = self {
+            t.performer_px =
+                evaluation::ideal_receiver::ideal_sample(&t.camera, stamp_ns, performer_m).point_px;
+        }
+    }
+
+    fn push(&mut self, input: SensorInput<'_>) -> Result<DecodeStep> {
+        Ok(match (self, input) {
+            (Self::Tap(t), input) => {
+                let tapped = Tapped {
+                    observer: t.observer,
+                    input: match input {
+                        SensorInput::Events(p) => TappedInput::Events(p.clone()),
+                        SensorInput::Rgb(f) => TappedInput::Rgb(f.clone()),
+                        SensorInput::Track(_) => anyhow::bail!("a tap is fed a sensor"),
+                    },
+                    ego: t.ego,
+                    performer_px: t.performer_px,
+                };
+                t.sender.send(tapped).map_err(|_| TapClosed)?;
+                DecodeStep::default()
+            }
+            (Self::Native(p), input) => p.push(input)?,
+            (Self::Plugin(p), SensorInput::Events(packet)) => p.push_events(packet)?,
+            (Self::Plugin(p), SensorInput::Rgb(frame)) => p.push_rgb(frame)?,
+            (Self::Plugin(_), SensorInput::Track(_)) => {
+                anyhow::bail!("a plug-in receiver is fed a sensor, not a track")
+            }
+        })
+    }
+
+    /// What the receiver's front ends saw and removed (a plug-in says it as it closes).
+    fn finish(self) -> Result<PluginCounts> {
+        Ok(match self {
+            Self::Native(p) => {
+                let denoise = p.denoise_counts();
+                PluginCounts {
+                    events_received: denoise.map(|d| d.seen),
+                    events_removed: denoise.map(|d| d.removed),
+                    events_removed_ego: p.ego_motion_counts().map(|e| e.removed),
+                }
+            }
+            Self::Plugin(p) => p.close()?,
+            Self::Tap(_) => PluginCounts::default(),
+        })
+    }
+}
+
+/// The trial's plug-in worker, shared by its observers, given back to the pool when every
+/// observer closed cleanly (a worker that failed is dropped, which kills it).
+struct TrialWorker<'a> {
+    pool: &'a WorkerPool,
+    worker: Rc<RefCell<Worker>>,
+}
+
+impl<'a> TrialWorker<'a> {
+    fn take(sensing: &Sensing<'a>) -> Result<Option<Self>> {
+        let Some(pool) = sensing.plugin else {
+            return Ok(None);
+        };
+        Ok(Some(Self {
+            pool,
+            worker: Rc::new(RefCell::new(pool.take()?)),
+        }))
+    }
+
+    fn give_back(self) {
+        if let Ok(worker) = Rc::try_unwrap(self.worker) {
+            self.pool.give(worker.into_inner());
+        }
+    }
 }
 
 /// What one observer's receiver made of a trial's sensor stream.
@@ -36,14 +184,15 @@ pub struct Observed {
     pub out: ObserverOut,
     pub messages: u64,
     pub lost: u64,
-    pub denoise: Option<perception::events::DenoiseCounts>,
-    pub ego_motion: Option<perception::events::ego_motion::EgoMotionCounts>,
+    /// What the receiver's front ends saw and removed (Waggle's event receiver, or what a
+    /// plug-in reports).
+    pub counts: PluginCounts,
 }
 
 /// One observer's perturbed sensor and its receiver, fed the camera's renders in order (from
 /// the render cache or straight from a flight of the trial's own).
 struct Observer {
-    perception: Perception,
+    perception: TrialReceiver,
     link: LinkNoise,
     link_rng: ChaCha8Rng,
     sensor: Sensor,
@@ -69,10 +218,44 @@ enum Sensor {
 }
 
 impl Observer {
-    /// Observer `i` of `placement` under trial `seed`'s perturbation.
-    fn new(placement: &Placement, i: usize, opts: &Sensing<'_>, seed: u64) -> Result<Self> {
-        let perception =
-            Perception::for_camera(opts.modality, placement.camera(), opts.rectification)?;
+    /// Observer `i` of `placement` under trial `seed`'s perturbation, its receiver a plug-in
+    /// instance on `worker` when the trial has one.
+    fn new(
+        placement: &Placement,
+        i: usize,
+        opts: &Sensing<'_>,
+        seed: u64,
+        worker: Option<&TrialWorker<'_>>,
+    ) -> Result<Self> {
+        let perception = match worker {
+            None if let Some(sender) = opts.tap => TrialReceiver::Tap(Box::new(Tap {
+                observer: i,
+                sender: sender.clone(),
+                camera: placement.camera(),
+                ego: None,
+                performer_px: None,
+            })),
+            None => TrialReceiver::Native(Perception::for_camera(
+                opts.modality,
+                placement.camera(),
+                opts.rectification,
+            )?),
+            Some(w) => {
+                let info = ObserverInfo::new(
+                    observer_name(i),
+                    opts.modality,
+                    placement,
+                    opts.rectification,
+                    seed,
+                );
+                let segmenter = match opts.modality {
+                    Modality::Events => SegmenterConfig::events(),
+                    Modality::Rgb => SegmenterConfig::rgb(),
+                }
+                .rectified(placement.camera(), opts.rectification);
+                TrialReceiver::Plugin(PluginReceiver::open(w.worker.clone(), &info, segmenter)?)
+            }
+        };
         let sensor = match opts.modality {
             Modality::Events => {
                 let sensor_seed = stream_seed(seed, Stream::EventSensor, i);
@@ -167,8 +350,9 @@ impl Observer {
         Ok(())
     }
 
-    /// What the receiver released, its instants shifted by the link's delay.
-    fn finish(self) -> Observed {
+    /// What the receiver released, its instants shifted by the link's delay (a plug-in's
+    /// instance is closed first).
+    fn finish(self) -> Result<Observed> {
         let mut out = observer_out(&self.tokens, &self.frames);
         let delay_s = self.link.delay_ns() as f64 * 1e-9;
         for f in &mut out.frames {
@@ -177,13 +361,12 @@ impl Observer {
         for t in &mut out.tokens {
             t.t_s += delay_s;
         }
-        Observed {
+        Ok(Observed {
             out,
             messages: self.messages,
             lost: self.lost,
-            denoise: self.perception.denoise_counts(),
-            ego_motion: self.perception.ego_motion_counts(),
-        }
+            counts: self.perception.finish()?,
+        })
     }
 }
 
@@ -195,9 +378,10 @@ pub fn observe_cached(
     seed: u64,
     stop: &AtomicBool,
 ) -> Result<Option<Vec<Observed>>> {
+    let worker = TrialWorker::take(opts)?;
     let mut observed = Vec::new();
     for (i, placement) in flight.spec.formation.placements().iter().enumerate() {
-        let mut observer = Observer::new(placement, i, opts, seed)?;
+        let mut observer = Observer::new(placement, i, opts, seed, worker.as_ref())?;
         let mut finished = true;
         flight.tracks[i].replay(|t, rgb, change, ego| {
             if stop.load(Ordering::Relaxed) {
@@ -212,7 +396,10 @@ pub fn observe_cached(
         if !finished {
             return Ok(None);
         }
-        observed.push(observer.finish());
+        observed.push(observer.finish()?);
+    }
+    if let Some(w) = worker {
+        w.give_back();
     }
     Ok(Some(observed))
 }
@@ -227,22 +414,34 @@ pub fn observe_flying(
     seed: u64,
     stop: &AtomicBool,
 ) -> Result<Option<(Flown, Vec<Observed>)>> {
+    let worker = TrialWorker::take(opts)?;
     let mut observers = spec
         .formation
         .placements()
         .iter()
         .enumerate()
-        .map(|(i, placement)| Observer::new(placement, i, opts, seed))
+        .map(|(i, placement)| Observer::new(placement, i, opts, seed, worker.as_ref()))
         .collect::<Result<Vec<_>>>()?;
-    let flown = fly_streamed(spec, |i, t, rgb, change, ego| {
+    let flown = fly_streamed(spec, |i, t, rgb, change, ego, performer_m| {
         if stop.load(Ordering::Relaxed) {
             return Ok(false);
         }
+        observers[i].perception.set_performer(t, performer_m);
         // The observer's attitude estimate: its receiver undoes the airframe's turn.
         let ego = estimated(observers[i].attitude.as_mut(), t, ego);
         observers[i].perception.set_ego_rotation(ego);
         observers[i].render(t, rgb, change)?;
         Ok(true)
     })?;
-    Ok(flown.map(|f| (f, observers.into_iter().map(Observer::finish).collect())))
+    let Some(flown) = flown else {
+        return Ok(None);
+    };
+    let observed = observers
+        .into_iter()
+        .map(Observer::finish)
+        .collect::<Result<Vec<_>>>()?;
+    if let Some(w) = worker {
+        w.give_back();
+    }
+    Ok(Some((flown, observed)))
 }

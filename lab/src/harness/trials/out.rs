@@ -62,6 +62,18 @@ pub struct TrialRecord {
     /// A trial that flew its own flight (wind, cascade, gusts, placement): how it flew.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flight: Option<TrialFlight>,
+    /// A plug-in receiver that failed this trial (raised, returned malformed output, died or
+    /// ran past the time limit): then no observer's result counts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plugin_failure: Option<PluginFailure>,
+}
+
+/// How a plug-in receiver failed a trial.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PluginFailure {
+    /// `failed`, or `timed-out` (a wall clock decided it: the run is not reproducible).
+    pub outcome: String,
+    pub reason: String,
 }
 
 /// How a trial's own flight went.
@@ -88,6 +100,20 @@ pub struct TrialsSummary {
     pub mean_token_error_ms: Option<f64>,
     pub mean_latency_s: Option<f64>,
     pub messages_lost: u64,
+    /// Trials a plug-in receiver failed (raised, malformed output, died), when any.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub plugin_failed: u64,
+    /// Trials a plug-in receiver ran past the time limit, when any.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub plugin_timed_out: u64,
+    /// `false` when a wall clock decided an outcome (a trial timed out): the same seed may
+    /// not give the same file. Absent when nothing but the seed decided.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reproducible: Option<bool>,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 /// What `trials.json` holds (no wall-clock value: same seed, same file): the header's fields,
@@ -162,12 +188,25 @@ impl TrialsOut {
         per_trial.sort_by_key(|r| r.index);
         let tally = Tally::of(&per_trial, requested);
         let all_observers = || per_trial.iter().flat_map(|r| r.observers.values());
+        let failures = |outcome: &str| {
+            per_trial
+                .iter()
+                .filter(|r| {
+                    r.plugin_failure
+                        .as_ref()
+                        .is_some_and(|f| f.outcome == outcome)
+                })
+                .count() as u64
+        };
         let summary = TrialsSummary {
             mean_token_error_ms: mean(
                 all_observers().filter_map(|o| o.token_timing.mean_abs_error_ms),
             ),
             mean_latency_s: mean(all_observers().flat_map(|o| o.latency_s.iter().copied())),
             messages_lost: all_observers().map(|o| o.messages_lost).sum(),
+            plugin_failed: failures("failed"),
+            plugin_timed_out: failures("timed-out"),
+            reproducible: (failures("timed-out") > 0).then_some(false),
         };
         Self {
             header,

@@ -439,7 +439,7 @@ impl RgbReceiver {
                     });
                 }
                 TokenCause::Rest => self.recent.clear(),
-                TokenCause::Interrupted(_) => {}
+                TokenCause::Interrupted(_) | TokenCause::External => {}
             }
         }
         self.tokens.extend(step.tokens.iter().copied());

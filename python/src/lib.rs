@@ -1,0 +1,24 @@
+//! `waggle._native`, the compiled half of the `waggle` Python package: Waggle's own receivers
+//! (`perception`) and its event packets (`proto`) as Python objects. This file only registers
+//! what each module defines; the Python half (`python/waggle/`) re-exports it.
+//!
+//! The crate builds as a plain library too (no `extension-module` feature), so the workspace's
+//! `cargo build`, `cargo test` and clippy link it like any other crate; maturin turns the
+//! feature on for the wheel.
+
+use pyo3::prelude::*;
+
+pub mod camera;
+pub mod errors;
+pub mod events;
+pub mod receivers;
+pub mod step;
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    errors::register(m)?;
+    events::register(m)?;
+    step::register(m)?;
+    receivers::register(m)?;
+    Ok(())
+}
