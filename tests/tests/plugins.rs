@@ -167,9 +167,16 @@ fn reasons(out: &Value) -> Vec<String> {
 #[test]
 fn misbehaving_plugins_fail_only_their_own_trials() {
     let cache = scratch("cache");
-    // Raises in the trials whose seed is odd: those fail, the others are scored.
+    // Raises in the trials whose seed has bit 7 set: those fail, the others are scored.
     let out = misbehaving("RaisesOnTrialOne", &[], &cache);
     let failed = out["summary"]["plugin_failed"].as_u64().unwrap_or(0);
+    let raising = out["per_trial"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| (r["seed"].as_u64().unwrap() >> 7) & 1 == 1)
+        .count() as u64;
+    assert_eq!(failed, raising, "{out}");
     assert!(failed > 0 && failed < 4, "{out}");
     assert_eq!(out["trials"], 4);
     assert!(
