@@ -38,7 +38,7 @@ pub fn run(args: StudyArgs) -> Result<()> {
     }
     if args.cluster.wanted() {
         let job: &dyn super::shard::JobStudy = match &study {
-            Study::Link(s) => s,
+            Study::Link(s) => s.as_ref(),
             Study::Baselines(s) => s,
         };
         return super::shard::write_jobs(

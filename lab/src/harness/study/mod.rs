@@ -57,7 +57,7 @@ pub use run_format::study::BUILT_IN;
 /// A study of either kind: seeded link trials over levels, or whole-mission baselines.
 #[derive(Debug, Clone)]
 pub enum Study {
-    Link(StudyFile),
+    Link(Box<StudyFile>),
     Baselines(BaselineStudy),
 }
 
@@ -95,7 +95,7 @@ impl Study {
                 .with_context(|| format!("{origin}: invalid study"))?;
             Ok(Self::Baselines(study))
         } else {
-            Ok(Self::Link(StudyFile::load(name_or_path)?))
+            Ok(Self::Link(Box::new(StudyFile::load(name_or_path)?)))
         }
     }
 }
@@ -311,6 +311,17 @@ impl StudyFile {
         Ok(out)
     }
 
+    /// How long one trial of a plug-in receiver may take.
+    fn trial_limit(&self) -> Result<std::time::Duration> {
+        match self.plugin_time_limit_s {
+            None => Ok(std::time::Duration::from_secs(600)),
+            Some(s) if s.is_finite() && s > 0.0 && s <= 86_400.0 => {
+                Ok(std::time::Duration::from_secs_f64(s))
+            }
+            Some(s) => bail!("plugin_time_limit_s = {s}: give 0 < seconds ≤ 86400"),
+        }
+    }
+
     /// The series of the study's points, in report order: each modality, with each receiver.
     pub fn series(&self) -> Vec<String> {
         let receivers = self.receivers().unwrap_or_default();
@@ -371,14 +382,7 @@ impl StudyFile {
         {
             bail!("cross: every vary.key must be a different condition");
         }
-        let receivers = self.receivers()?;
-        let trial_limit = match self.plugin_time_limit_s {
-            None => std::time::Duration::from_secs(600),
-            Some(s) if s.is_finite() && s > 0.0 && s <= 86_400.0 => {
-                std::time::Duration::from_secs_f64(s)
-            }
-            Some(s) => bail!("plugin_time_limit_s = {s}: give 0 < seconds ≤ 86400"),
-        };
+        let (receivers, trial_limit) = (self.receivers()?, self.trial_limit()?);
         let mut points = Vec::new();
         for setting in self.settings() {
             for (&modality, receiver) in self
@@ -400,10 +404,9 @@ impl StudyFile {
                 let formation = self.formation(&axes)?;
                 let (key, level) = setting[0];
                 // A plug-in's points sit beside Waggle's, named by its class.
-                let modality_dir = match receiver {
-                    None => modality.to_string(),
-                    Some(spec) => format!("{modality}-{}", spec.class),
-                };
+                let modality_dir = receiver
+                    .as_ref()
+                    .map_or(modality.to_string(), |r| format!("{modality}-{}", r.class));
                 let dir = if self.cross {
                     let parts: Vec<String> = setting
                         .iter()
