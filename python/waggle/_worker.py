@@ -20,7 +20,7 @@ import traceback
 
 import numpy as np
 
-from waggle.plugin import EVENT_DTYPE, TOKEN_NAMES, ObserverInfo, SensorInput
+from waggle.plugin import TOKEN_NAMES, ObserverInfo, SensorInput, input_fields
 
 LEVELS = ("tracker", "tokens", "full")
 
@@ -101,32 +101,6 @@ def _counts(value) -> dict:
     return {k: None if v is None else _stamp(v, f"count {k}") for k, v in value.items()}
 
 
-def _input(header: dict, bulk: memoryview) -> SensorInput:
-    ego = header.get("ego")
-    ego = None if ego is None else np.array(ego, dtype=np.float64)
-    if header["op"] == "events":
-        events = np.frombuffer(bulk, dtype=EVENT_DTYPE)
-        frame = None
-        start, end = header["start_ns"], header["end_ns"]
-    else:
-        events = None
-        frame = np.frombuffer(bulk, dtype=np.uint8).reshape(header["height"], header["width"], 3)
-        start = end = header["stamp_ns"]
-    return SensorInput(
-        kind=header["op"],
-        seq=header["seq"],
-        start_ns=start,
-        end_ns=end,
-        width_px=header["width"],
-        height_px=header["height"],
-        valid=header["valid"],
-        continuous=header["continuous"],
-        events=events,
-        frame=frame,
-        ego=ego,
-    )
-
-
 class Host:
     """The plug-in's class and its instances, one per observer."""
 
@@ -158,7 +132,7 @@ class Host:
             return {"level": level}
         instance, level = self.instances[observer]
         if op in ("events", "rgb"):
-            return _output(level, instance.push(_input(header, bulk)))
+            return _output(level, instance.push(SensorInput(**input_fields(header, bulk))))
         if op == "reset":
             if hasattr(instance, "reset"):
                 instance.reset()

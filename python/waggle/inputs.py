@@ -22,7 +22,7 @@ from typing import IO, Iterator, Optional, Sequence, Tuple
 
 import numpy as np
 
-from waggle.plugin import EVENT_DTYPE, ObserverInfo
+from waggle.plugin import EVENT_DTYPE, ObserverInfo, SensorInput, input_fields
 
 SYMBOLS = ("NULL", "START", "BIT0", "BIT1", "END", "UNKNOWN", "ACQUISITION")
 """Label codes: a label is an index into this tuple, −1 where no symbol is flown."""
@@ -48,22 +48,12 @@ class Span:
 
 
 @dataclass(frozen=True)
-class Tick:
-    """One input of one observer, as its receiver gets it, with the performer's position."""
+class Tick(SensorInput):
+    """One input of one observer (a :class:`waggle.plugin.SensorInput`, as its receiver gets
+    it), with the performer's position."""
 
-    observer: str
-    kind: str
-    seq: int
-    start_ns: int
-    end_ns: int
-    width_px: int
-    height_px: int
-    valid: bool
-    continuous: bool
-    events: Optional[np.ndarray]
-    frame: Optional[np.ndarray]
-    ego: Optional[np.ndarray]
-    performer_px: Optional[Tuple[float, float]]
+    observer: str = ""
+    performer_px: Optional[Tuple[float, float]] = None
     """The performer's centre projected into the camera at its latest render (the ideal
     receiver's sample); ``None`` when it is outside the image."""
 
@@ -132,33 +122,14 @@ class TrialInputs:
                 return
             if op not in ("events", "rgb"):
                 raise InputsError(f"unexpected frame {op!r}")
-            ego = header.get("ego")
-            events = frame = None
-            if op == "events":
-                if len(bulk) % EVENT_DTYPE.itemsize:
-                    raise InputsError("an event packet's bulk is not whole events")
-                events = np.frombuffer(bulk, dtype=EVENT_DTYPE)
-                start, end = header["start_ns"], header["end_ns"]
-            else:
-                h, w = header["height"], header["width"]
-                if len(bulk) != h * w * 3:
-                    raise InputsError(f"an RGB frame has {len(bulk)} bytes, not {h}×{w}×3")
-                frame = np.frombuffer(bulk, dtype=np.uint8).reshape(h, w, 3)
-                start = end = header["stamp_ns"]
+            try:
+                fields = input_fields(header, bulk)
+            except ValueError as e:
+                raise InputsError(str(e)) from None
             px = header.get("performer_px")
             yield Tick(
+                **fields,
                 observer=header["observer"],
-                kind=op,
-                seq=header["seq"],
-                start_ns=start,
-                end_ns=end,
-                width_px=header["width"],
-                height_px=header["height"],
-                valid=header["valid"],
-                continuous=header["continuous"],
-                events=events,
-                frame=frame,
-                ego=None if ego is None else np.array(ego, dtype=np.float64),
                 performer_px=None if px is None else (float(px[0]), float(px[1])),
             )
         raise InputsError(self._failure("the stream ended before its end frame"))

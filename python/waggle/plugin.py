@@ -94,6 +94,40 @@ class SensorInput:
     ``None`` when it has not turned."""
 
 
+def input_fields(header: dict, bulk: memoryview) -> dict:
+    """The fields of a :class:`SensorInput` from a frame of the plug-in pipe (or of a
+    ``waggle inputs`` stream): its header and its bulk, mapped by numpy without a copy. Raises
+    ``ValueError`` when the bulk does not hold what the header says."""
+    op = header["op"]
+    if op == "events":
+        if len(bulk) % EVENT_DTYPE.itemsize:
+            raise ValueError("an event packet's bulk is not whole events")
+        events, frame = np.frombuffer(bulk, dtype=EVENT_DTYPE), None
+        start, end = header["start_ns"], header["end_ns"]
+    elif op == "rgb":
+        h, w = header["height"], header["width"]
+        if len(bulk) != h * w * 3:
+            raise ValueError(f"an RGB frame has {len(bulk)} bytes, not {h}×{w}×3")
+        events, frame = None, np.frombuffer(bulk, dtype=np.uint8).reshape(h, w, 3)
+        start = end = header["stamp_ns"]
+    else:
+        raise ValueError(f"{op!r} is not a sensor input")
+    ego = header.get("ego")
+    return dict(
+        kind=op,
+        seq=header["seq"],
+        start_ns=start,
+        end_ns=end,
+        width_px=header["width"],
+        height_px=header["height"],
+        valid=header["valid"],
+        continuous=header["continuous"],
+        events=events,
+        frame=frame,
+        ego=None if ego is None else np.array(ego, dtype=np.float64),
+    )
+
+
 class FullStep(NamedTuple):
     """What a full receiver confirms on one input."""
 

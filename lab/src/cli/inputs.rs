@@ -30,13 +30,11 @@ use commands::inputs::InputsArgs;
 const QUEUE: usize = 8;
 
 fn options(args: &InputsArgs) -> Result<TrialsOptions> {
-    let mut perturbation = args.perturb.perturbation()?;
-    if let Some(spec) = &args.real_noise {
-        let source = crate::harness::decode::real_noise::load(spec, args.real_noise_static)
-            .context("--real-noise")?;
-        perturbation = perturbation.with_real_noise(source);
-    }
-    perturbation.check_real_noise()?;
+    let perturbation = super::trials::perturbation_with(
+        &args.perturb,
+        args.real_noise.as_deref(),
+        args.real_noise_static,
+    )?;
     let formation = if args.viewpoints.is_empty() {
         Formation::standard(args.observers).map_err(|_| {
             anyhow::anyhow!(

@@ -29,10 +29,24 @@ fn default_jobs() -> usize {
 
 /// The preset and terms, with the real-noise source when one is named.
 fn perturbation(args: &TrialsArgs) -> Result<Perturbation> {
-    let mut perturbation = args.perturb.perturbation()?;
-    if let Some(spec) = &args.real_noise {
-        let source = crate::harness::decode::real_noise::load(spec, args.real_noise_static)
-            .context("--real-noise")?;
+    perturbation_with(
+        &args.perturb,
+        args.real_noise.as_deref(),
+        args.real_noise_static,
+    )
+}
+
+/// The preset and terms of `perturb`, with the real-noise source `real_noise` (its static
+/// stretch `window`) when one is named: what `waggle trials` and `waggle inputs` run under.
+pub(super) fn perturbation_with(
+    perturb: &commands::common::PerturbArgs,
+    real_noise: Option<&str>,
+    window: Option<(f64, f64)>,
+) -> Result<Perturbation> {
+    let mut perturbation = perturb.perturbation()?;
+    if let Some(spec) = real_noise {
+        let source =
+            crate::harness::decode::real_noise::load(spec, window).context("--real-noise")?;
         perturbation = perturbation.with_real_noise(source);
     }
     perturbation.check_real_noise()?;
