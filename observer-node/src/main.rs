@@ -24,10 +24,12 @@ use node_args::ObserverArgs;
 use perception::observer::{ObserverCore, Processed};
 use perception::runtime::ObserverRuntime;
 use perception::tick::{MissingReason, SensorPacket};
+use proto::scene::Placement;
 use proto::{
-    ClockTick, EventPacket, Keys, Modality, ObserverId, PacketDropped, RejectReason,
-    RgbReassembler, RgbUpdate, Role, Roster, SessionTick,
+    ClockTick, EventPacket, Keys, Modality, ObserverId, PacketDropped, Rectification, RejectReason,
+    RgbReassembler, RgbUpdate, Role, Roster, SegmenterConfig, SessionTick,
 };
+use receiver_plugin::{ObserverInfo, PluginChain};
 
 #[derive(Parser)]
 #[command(name = "observer-node", version, about = "One Waggle observer process")]
@@ -42,12 +44,7 @@ fn main() -> Result<()> {
     node_args::init_logging();
     let args = Args::parse();
     let node = &args.node;
-    let runtime = ObserverRuntime::new(
-        args.own.id.clone(),
-        Roster::default_scene(node.observers),
-        args.own.modality,
-    )
-    .context("building the receiver")?;
+    let runtime = runtime(&args.own, Roster::default_scene(node.observers))?;
     let mut bus = Bus::open_node(node).context("opening the Zenoh session")?;
     let keys = bus.keys().clone();
     // The only three data subscriptions of an observer (see the isolation test).
@@ -78,6 +75,45 @@ fn main() -> Result<()> {
     Ok(())
 }
 
+/// The observer's runtime: Waggle's receiver for its modality, or the plug-in `--receiver`
+/// names, in a worker process this one starts and feeds only its own sensor's input.
+fn runtime(own: &ObserverArgs, roster: Roster) -> Result<ObserverRuntime> {
+    let Some(spec) = &own.receiver else {
+        return ObserverRuntime::new(own.id.clone(), roster, own.modality)
+            .context("building the receiver");
+    };
+    let home_m = roster
+        .entries()
+        .iter()
+        .find(|e| e.observer == own.id)
+        .map(|e| e.home_m)
+        .with_context(|| format!("{} is not on the roster", own.id))?;
+    let placement = Placement::aimed_from(home_m);
+    let mode = Rectification::default();
+    let info = ObserverInfo::new(
+        own.id.to_string(),
+        own.modality,
+        &placement,
+        mode,
+        own.plugin_seed.unwrap_or(0),
+    );
+    let segmenter = SegmenterConfig::for_modality(own.modality).rectified(placement.camera(), mode);
+    let chain = PluginChain::open(
+        spec,
+        &receiver_plugin::worker::python(),
+        &info,
+        segmenter,
+        own.plugin_time_limit_ms.map(Duration::from_millis),
+    )
+    .with_context(|| format!("starting the receiver {spec}"))?;
+    tracing::info!(observer = %own.id, receiver = %spec, "receiving with a plug-in");
+    Ok(ObserverRuntime::with_receiver(
+        own.id.clone(),
+        roster,
+        Box::new(chain),
+    ))
+}
+
 /// The process's state: the pure observer core, plus what only a process has (keys, the
 /// wall-clock arrival time of each pending `clock{k}`).
 struct Observer {
@@ -101,6 +137,8 @@ struct Observer {
     missing: u64,
     /// Messages dropped.
     rejects: Rejects,
+    /// The plug-in receiver's failure was logged (it is said once).
+    failure_said: bool,
 }
 
 impl Observer {
@@ -126,6 +164,7 @@ impl Observer {
             rejects: Rejects::new(format!("observer-{}", args.own.id), &keys),
             keys,
             missing: 0,
+            failure_said: false,
         })
     }
 
@@ -196,6 +235,12 @@ impl Observer {
         }
         bus.put(&keys.observer_status(&self.id), &report.status)?;
         self.clocks.remove(&tick);
+        if !self.failure_said
+            && let Some(why) = self.core.receiver_failure()
+        {
+            self.failure_said = true;
+            tracing::error!(observer = %self.id, tick, %why, "the receiver failed: deaf from now on");
+        }
         Ok(())
     }
 

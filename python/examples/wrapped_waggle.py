@@ -32,7 +32,7 @@ class WaggleEvents:
             input.width_px,
             input.height_px,
         )
-        return FullStep(step.tokens, step.frames)
+        return FullStep(step.tokens, step.frames, step.point_px)
 
     def missing(self, stamp_ns):
         step = self.receiver.missing(stamp_ns)
@@ -56,7 +56,7 @@ class WaggleRgb:
         step = self.receiver.push(
             input.frame, input.end_ns, input.seq, input.valid, input.continuous
         )
-        return FullStep(step.tokens, step.frames)
+        return FullStep(step.tokens, step.frames, step.point_px)
 
     def missing(self, stamp_ns):
         step = self.receiver.missing(stamp_ns)

@@ -69,18 +69,24 @@ def _frames(value) -> list:
     return out
 
 
+def _point(value, what: str):
+    """(x, y) as two finite floats, or None, sent as ``repr`` strings: Rust reads them back to the
+    very same doubles (a JSON number's parse need not be exact to the last bit)."""
+    if value is None:
+        return None
+    try:
+        x, y = value
+        point = [float(x), float(y)]
+    except (TypeError, ValueError):
+        raise Malformed(f"{what}, not {value!r}") from None
+    if not all(math.isfinite(c) for c in point):
+        raise Malformed(f"a point is not finite: {point}")
+    return [repr(c) for c in point]
+
+
 def _output(level: str, value):
     if level == "tracker":
-        if value is None:
-            return {"point_px": None}
-        try:
-            x, y = value
-            point = [float(x), float(y)]
-        except (TypeError, ValueError):
-            raise Malformed(f"a tracker returns (x_px, y_px) or None, not {value!r}") from None
-        if not all(math.isfinite(c) for c in point):
-            raise Malformed(f"a tracker's point is not finite: {point}")
-        return {"point_px": point}
+        return {"point_px": _point(value, "a tracker returns (x_px, y_px) or None")}
     if level == "tokens":
         return {"tokens": _tokens([] if value is None else value)}
     if value is None:
@@ -89,7 +95,11 @@ def _output(level: str, value):
     frames = value.get("frames", ()) if isinstance(value, dict) else getattr(value, "frames", None)
     if tokens is None or frames is None:
         raise Malformed(f"a full receiver returns a FullStep(tokens, frames), not {value!r}")
-    return {"tokens": _tokens(tokens), "frames": _frames(frames)}
+    out = {"tokens": _tokens(tokens), "frames": _frames(frames)}
+    point = value.get("point_px") if isinstance(value, dict) else getattr(value, "point_px", None)
+    if point is not None:
+        out["point_px"] = _point(point, "a full receiver's point_px is (x_px, y_px) or None")
+    return out
 
 
 COUNTS = ("events_received", "events_removed", "events_removed_ego")

@@ -16,7 +16,7 @@ and so which part of Waggle's receiving chain the plug-in replaces:
 ``"full"`` (:class:`FullReceiver`)
     a :class:`FullStep`: tokens as above and the frames released by this input, each
     ``(payload, token_stamps_ns)`` with the payload 0…63 (b1 most significant) and its 17
-    token stamps.
+    token stamps; optionally the target's image position (``point_px``).
 
 Optional methods: ``reset()`` (a new round or reception window: forget the target and any
 partial frame), ``missing(stamp_ns)`` (the sensor stream is known to be missing; a token
@@ -28,7 +28,8 @@ receiver records its noise and ego-motion front ends').
 Stamps are integer nanoseconds of simulated time; a token or frame may not be stamped after the
 input that produced it, and stamps may not go back. A plug-in that raises, returns something
 else, or runs past the trial's time limit fails that trial (recorded with the reason); the
-study goes on. Plug-ins run in a worker process of their own (``python -m waggle._worker``),
+study goes on. In a whole mission (``waggle run``/``mission --receiver O2=python:MODULE:CLASS``)
+such a plug-in leaves its observer deaf for the rest of the mission, reported by name. Plug-ins run in a worker process of their own (``python -m waggle._worker``),
 so printing is fine (it goes to standard error).
 """
 
@@ -129,10 +130,13 @@ def input_fields(header: dict, bulk: memoryview) -> dict:
 
 
 class FullStep(NamedTuple):
-    """What a full receiver confirms on one input."""
+    """What a full receiver confirms on one input, and (optionally) where it placed the target:
+    ``point_px`` is recorded as the observer's track in a whole mission, as Waggle's receivers'
+    estimates are (``None``: no target, or not said)."""
 
     tokens: Sequence[Tuple[str, int]] = ()
     frames: Sequence[Tuple[int, Sequence[int]]] = ()
+    point_px: Optional[Tuple[float, float]] = None
 
 
 class Tracker(Protocol):

@@ -10,11 +10,18 @@
 //! - Plug-ins that raise, return malformed output, exit or hang fail their own trials with the
 //!   reason recorded (a hang as `timed-out`, the run marked not reproducible); the run ends with
 //!   its `trials.json`. One that cannot be loaded fails the run before any trial, naming it.
+//! - In whole missions (`--receiver O2=python:…`): the wrapped event receiver gives the golden
+//!   `observers.json` of `only-a`, as processes under the observers' access lists and in one
+//!   process; a plug-in that hangs leaves its observer deaf, the mission ends with its summary
+//!   and the failure named; an unknown observer, one named twice and a plug-in that cannot be
+//!   loaded are refused before anything flies.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use serde_json::Value;
+
+mod golden_runs;
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("waggle-plugins-{}-{name}", std::process::id()));
@@ -24,15 +31,17 @@ fn scratch(name: &str) -> PathBuf {
 
 /// `waggle trials` with the plug-ins' folders on `PYTHONPATH` and the venv's interpreter.
 fn trials(args: &[&str], out: &Path) -> Command {
+    let mut cmd = with_plugins(waggle_tests::waggle());
+    cmd.arg("trials").args(args).arg("--out").arg(out);
+    cmd
+}
+
+/// `cmd` with the plug-ins' folders on `PYTHONPATH` and the venv's interpreter.
+fn with_plugins(mut cmd: Command) -> Command {
     let root = waggle_tests::workspace_root();
     let path = std::env::join_paths([root.join("python/examples"), root.join("tests/plugins")])
         .expect("plug-in folders");
-    let mut cmd = waggle_tests::waggle();
-    cmd.arg("trials")
-        .args(args)
-        .arg("--out")
-        .arg(out)
-        .env("WAGGLE_PYTHON", waggle_tests::venv_python_with("waggle"))
+    cmd.env("WAGGLE_PYTHON", waggle_tests::venv_python_with("waggle"))
         .env("PYTHONPATH", path);
     cmd
 }
@@ -364,6 +373,96 @@ fn a_trials_inputs_streamed_to_python_decode_as_the_trial_did() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("InputsError"));
     let _ = std::fs::remove_dir_all(dir);
+}
+
+/// The wrapped event receiver as O2's receiver in a whole `only-a` mission gives the golden
+/// `observers.json`: as processes (its own observer process, behind its access list, starts
+/// and feeds the worker) and in one process (`waggle mission`).
+#[test]
+fn a_whole_mission_with_the_wrapped_receiver_is_golden() {
+    let golden = golden_runs::golden_entry("only-a", "events");
+    let want = golden["observers_sha256"].as_str().expect("observers_sha256");
+    let receiver = "O2=python:wrapped_waggle:WaggleEvents";
+    let dir = scratch("mission-run");
+    let mut run = with_plugins(waggle_tests::waggle_with_nodes());
+    run.args(["run", "only-a", "--modality", "events", "--observer-acl", "--quiet"])
+        .args(["--receiver", receiver, "--no-record", "--out"])
+        .arg(&dir);
+    waggle_tests::succeed(&mut run, "waggle run only-a with a plug-in receiver");
+    let bytes = std::fs::read(dir.join("observers.json")).expect("observers.json");
+    assert_eq!(golden_runs::sha256_hex(&bytes), want, "waggle run");
+    let log = |o: &str| std::fs::read_to_string(dir.join(format!("logs/observer-{o}.log")));
+    let plugged = "python:wrapped_waggle:WaggleEvents";
+    assert!(log("O2").expect("O2's log").contains(plugged), "O2 ran the plug-in");
+    assert!(!log("O1").expect("O1's log").contains(plugged));
+    let _ = std::fs::remove_dir_all(&dir);
+
+    let dir = scratch("mission-in-process");
+    let mut mission = with_plugins(waggle_tests::waggle());
+    mission
+        .args(["mission", "only-a", "--receiver", receiver, "--out"])
+        .arg(&dir);
+    waggle_tests::succeed(&mut mission, "waggle mission only-a with a plug-in receiver");
+    let bytes = std::fs::read(dir.join("observers.json")).expect("observers.json");
+    assert_eq!(golden_runs::sha256_hex(&bytes), want, "waggle mission");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// A plug-in that hangs leaves its observer deaf: the mission still ends with its summary, the
+/// other observers decode, and the failure is named; bad `--receiver` values are refused
+/// before anything flies.
+#[test]
+fn a_failing_plugin_in_a_mission_is_named_and_bad_receivers_are_refused() {
+    let out = with_plugins(waggle_tests::waggle())
+        .args(["mission", "only-a", "--json", "--plugin-time-limit-s", "2"])
+        .args(["--receiver", "O2=python:faulty_plugins:Hangs"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "O2 heard nothing: {stderr}");
+    assert!(
+        stderr.contains("O2's receiver failed")
+            && stderr.contains("timed-out")
+            && stderr.contains("time limit of 2 s"),
+        "{stderr}"
+    );
+    let summary: Value = serde_json::from_slice(&out.stdout).expect("the summary, as JSON");
+    let messages: Vec<u64> = summary["observers"]
+        .as_object()
+        .expect("observers")
+        .values()
+        .map(|o| o["complete_messages"].as_u64().expect("complete_messages"))
+        .collect();
+    assert_eq!(messages, [1, 0, 1], "{summary}");
+
+    for (args, why) in [
+        (&["O9=python:faulty_plugins:Malformed"][..], "O9"),
+        (
+            &["O2=python:faulty_plugins:Malformed", "O2=python:faulty_plugins:Exits"],
+            "more than once",
+        ),
+        (&["O2=python:no_such_module_here:R"], "no_such_module_here"),
+        (&["O2=faulty_plugins:R"], "python:MODULE:CLASS"),
+    ] {
+        for command in ["mission", "run"] {
+            let mut cmd = with_plugins(waggle_tests::waggle_with_nodes());
+            cmd.args([command, "only-a", "--modality", "events"]);
+            if command == "run" {
+                cmd.args(["--quiet", "--no-record"]);
+            }
+            for a in args {
+                cmd.args(["--receiver", a]);
+            }
+            let out = cmd.output().unwrap();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert!(!out.status.success(), "{command} {args:?}");
+            assert!(stderr.contains(why), "{command} {args:?}: {stderr}");
+            assert!(
+                !stderr.contains("FAIL") && out.stdout.is_empty(),
+                "{command} {args:?} was refused before flying: {stderr}"
+            );
+        }
+    }
 }
 
 /// The package's own tests (`python/tests`): its receivers, arrays and errors from Python.

@@ -1,6 +1,6 @@
 //! `waggle run CASE`: a whole case as separate processes over Zenoh ([`crate::launch`]).
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use bus::Endpoints;
 use proto::Modality;
 
@@ -23,6 +23,16 @@ pub fn session_options(session: SessionArgs) -> Result<(Case, Modality, RunOptio
         seed: session.seed,
     };
     sensor.check(modality)?;
+    let receivers = session
+        .receivers
+        .checked()?
+        .into_iter()
+        .map(|r| (r.observer, r.plugin))
+        .collect();
+    let plugin_time_limit_ms = session
+        .receivers
+        .time_limit()
+        .map(|l| u64::try_from(l.as_millis()).unwrap_or(u64::MAX));
     let opts = RunOptions {
         case_arg: session.case,
         out: None,
@@ -47,8 +57,31 @@ pub fn session_options(session: SessionArgs) -> Result<(Case, Modality, RunOptio
         ros2: None,
         ros2_cameras: Default::default(),
         sensor,
+        receivers,
+        plugin_time_limit_ms,
     };
     Ok((case, modality, opts))
+}
+
+/// Loads every observer's plug-in once, here, before any process starts: a plug-in that cannot
+/// be imported or built is refused by name instead of leaving its observer deaf. (Once running,
+/// a plug-in that fails leaves its observer deaf; its log, DIR/logs, says why.)
+fn check_plugins(case: &Case, opts: &RunOptions) -> Result<()> {
+    let limit = opts
+        .plugin_time_limit_ms
+        .map(std::time::Duration::from_millis);
+    for (observer, spec) in &opts.receivers {
+        if !case.has_observer(observer.as_str()) {
+            bail!(
+                "--receiver {}=…: the case has {} observers",
+                observer.as_str(),
+                case.observers
+            );
+        }
+        receiver_plugin::worker::check_loads(spec, limit)
+            .with_context(|| format!("{}'s receiver {spec}", observer.as_str()))?;
+    }
+    Ok(())
 }
 
 /// The live ROS 2 view `launch` asks for, if any.
@@ -75,6 +108,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         .into_iter()
         .map(|c| (c.observer, c.topic))
         .collect();
+    check_plugins(&case, &opts)?;
     let done = run_case(&case, modality, &opts)?;
     if opts.out.is_none() && !launch.json {
         println!("summary and logs in {}", done.out_dir.display());

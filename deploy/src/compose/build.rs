@@ -53,11 +53,26 @@ pub struct ComposeOptions {
     pub placements: Vec<HostPlacement>,
     /// Observers whose camera is a real one on a ROS 2 topic (`--ros2-camera`).
     pub ros2_cameras: std::collections::BTreeMap<ObserverId, node_args::Ros2Source>,
+    /// Observers whose receiver is a plug-in (`--receiver O2=python:MODULE:CLASS`).
+    pub receivers: std::collections::BTreeMap<ObserverId, receiver_plugin::PluginSpec>,
+    /// The plug-ins' wall-clock limit over the session, ms.
+    pub plugin_time_limit_ms: Option<u64>,
 }
 
 /// The compose file of `case` with `opts`.
 pub fn compose(case: &Case, opts: &ComposeOptions) -> Result<Compose> {
     opts.sensor.check(opts.modality)?;
+    if let Some(o) = opts
+        .receivers
+        .keys()
+        .find(|o| !case.has_observer(o.as_str()))
+    {
+        anyhow::bail!(
+            "--receiver {}=…: the case has {} observers",
+            o.as_str(),
+            case.observers
+        );
+    }
     let injected = injected_faults(case, &opts.extra_faults)?;
     let observers: Vec<ObserverId> = (0..case.observers).map(ObserverId::from_index).collect();
     let keys = proto::Keys::new(&opts.session)?;
@@ -155,10 +170,14 @@ impl NodeArgs<'_> {
                 Process::new(Role::Camera, o.as_str()),
                 NodeCommand::Camera(camera),
             ));
+            let receiver = self.opts.receivers.get(o).cloned();
             let observer = ObserverArgs {
                 id: o.clone(),
                 modality,
                 grace_ms: self.opts.grace_ms,
+                plugin_time_limit_ms: receiver.as_ref().and(self.opts.plugin_time_limit_ms),
+                plugin_seed: receiver.as_ref().map(|_| self.opts.sensor.seed),
+                receiver,
             };
             let deny = if self.opts.observer_acl {
                 observer_denied_keys(self.keys, o, self.observers)

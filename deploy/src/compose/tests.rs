@@ -32,6 +32,8 @@ fn options(case: &str, placements: &[&str], router: &[&str]) -> (Case, ComposeOp
         router_connect: Vec::new(),
         placements: placements.iter().map(|p| p.parse().unwrap()).collect(),
         ros2_cameras: Default::default(),
+        receivers: Default::default(),
+        plugin_time_limit_ms: None,
     };
     (case_value, opts)
 }
@@ -501,4 +503,50 @@ fn the_recording_keeps_the_event_sensors_input_only_when_asked_or_noisy() {
     assert!(!keeps(true, Input, Modality::Rgb, false));
     // Nobody records: nothing to publish it for.
     assert!(!keeps(false, Input, Modality::Events, true));
+}
+
+#[test]
+fn a_plugin_receiver_rides_only_on_its_observers_line_and_an_unknown_observer_is_refused() {
+    let (case, mut opts) = options("only-a", &[], &[]);
+    let o2 = proto::ObserverId::new("O2").unwrap();
+    opts.receivers
+        .insert(o2.clone(), "python:lab.rx:Tracker".parse().unwrap());
+    opts.plugin_time_limit_ms = Some(90_000);
+    let c = compose(&case, &opts).unwrap();
+    let args_of = |role: &str| {
+        c.nodes
+            .iter()
+            .find(|n| n.role.name() == role)
+            .unwrap()
+            .args
+            .clone()
+    };
+    let o2_args = args_of("observer-O2");
+    for pair in [
+        ["--receiver", "python:lab.rx:Tracker"],
+        ["--plugin-time-limit-ms", "90000"],
+        ["--plugin-seed", "0"],
+    ] {
+        assert!(
+            o2_args.windows(2).any(|w| w == pair),
+            "{pair:?} in {o2_args:?}"
+        );
+    }
+    for other in ["observer-O1", "observer-O3", "camera-O2"] {
+        assert!(
+            !args_of(other)
+                .iter()
+                .any(|a| a.contains("plugin") || a == "--receiver"),
+            "{other}"
+        );
+    }
+    let text = c.to_toml().unwrap();
+    assert_eq!(toml::from_str::<Compose>(&text).unwrap(), c);
+    opts.receivers.clear();
+    opts.receivers.insert(
+        proto::ObserverId::new("O9").unwrap(),
+        "python:lab.rx:Tracker".parse().unwrap(),
+    );
+    let err = compose(&case, &opts).unwrap_err().to_string();
+    assert!(err.contains("O9") && err.contains("3 observers"), "{err}");
 }

@@ -171,6 +171,8 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                     ros2: None,
                     ros2_cameras: Default::default(),
                     sensor: node_args::SensorArgs::default(),
+                    receivers: Default::default(),
+                    plugin_time_limit_ms: None,
                 },
             )?;
             if done.summary.interrupted {

@@ -86,6 +86,10 @@ pub struct RunOptions {
     pub ros2_cameras: std::collections::BTreeMap<proto::ObserverId, String>,
     /// The event cameras' sensor model (default: the paper's ideal sensors).
     pub sensor: SensorArgs,
+    /// Observers whose receiver is a plug-in, each in its observer's own process.
+    pub receivers: std::collections::BTreeMap<proto::ObserverId, receiver_plugin::PluginSpec>,
+    /// The plug-ins' wall-clock limit over the session, ms.
+    pub plugin_time_limit_ms: Option<u64>,
 }
 
 /// Where one run lives.
@@ -164,6 +168,8 @@ impl RunOptions {
             router_connect: self.endpoints.connect.clone(),
             placements: Vec::new(),
             ros2_cameras: self.ros2_sources(case)?,
+            receivers: self.receivers.clone(),
+            plugin_time_limit_ms: self.plugin_time_limit_ms,
         })
     }
 
@@ -179,7 +185,7 @@ impl RunOptions {
             let Some(view) = &self.ros2 else {
                 bail!("--ros2-camera {observer}={topic} needs --ros2-domain");
             };
-            if !(0..case.observers).any(|i| proto::ObserverId::from_index(i) == *observer) {
+            if !case.has_observer(observer.as_str()) {
                 bail!(
                     "--ros2-camera {observer}={topic}: the case has {} observers",
                     case.observers

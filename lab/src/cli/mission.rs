@@ -26,11 +26,18 @@ pub fn run(args: MissionArgs) -> Result<()> {
         perturbation: args.perturb.perturbation()?,
         seed: args.seed,
         stop: None,
+        receivers: args.receivers.checked()?,
+        plugin_time_limit: args.receivers.time_limit(),
     };
+    for r in &opts.receivers {
+        receiver_plugin::worker::check_loads(&r.plugin, opts.plugin_time_limit)
+            .with_context(|| format!("{}'s receiver {}", r.observer.as_str(), r.plugin))?;
+    }
     let MissionRun {
         summary,
         metrics,
         observers,
+        receiver_failures,
     } = fly_case_with(&case, args.modality, &opts)?.context("the mission was interrupted")?;
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -44,6 +51,9 @@ pub fn run(args: MissionArgs) -> Result<()> {
         let path = dir.join("metrics.json");
         std::fs::write(&path, serde_json::to_string_pretty(&metrics)? + "\n")
             .with_context(|| format!("writing {}", path.display()))?;
+    }
+    for (observer, why) in &receiver_failures {
+        eprintln!("warning: {observer}'s receiver failed and heard nothing after it: {why}");
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);

@@ -1,4 +1,4 @@
-//! Argument groups and value parsers shared by several commands: `--flights`, `--sensor-preset`/`--perturb`, `--render`, `--jobs`, `--payload`, `--viewpoint`, where a recorded or live camera was (`--viewpoint`/`--observer`) and `--policy`.
+//! Argument groups and value parsers shared by several commands: `--flights`, `--sensor-preset`/`--perturb`, `--render`, `--jobs`, `--payload`, `--viewpoint`, where a recorded or live camera was (`--viewpoint`/`--observer`), `--policy` and an observer's plug-in receiver (`--receiver O2=python:M:C`).
 
 use anyhow::Result;
 use proto::scene::Placement;
@@ -51,6 +51,59 @@ pub struct RenderArg {
     /// last frame, `full` MuJoCo's renderer redrawing every pixel (byte-identical to `damage`).
     #[arg(long = "render", value_enum, default_value_t)]
     pub path: proto::RenderPath,
+}
+
+/// `--receiver OBSERVER=python:MODULE:CLASS…` and its time limit, shared by the commands that
+/// run a whole mission (`mission`, `run`, `compose`, `up`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct MissionReceiversArg {
+    /// Give one observer a receiver of your own: `O2=python:MODULE:CLASS`, a Python class
+    /// following one of the plug-in protocols (`waggle.plugin`: tracker, tokens or full), run
+    /// in a worker process of its own on `WAGGLE_PYTHON` (default `python3`) and fed only that
+    /// observer's sensor. Repeat for other observers. A plug-in that raises, returns malformed
+    /// output or runs past its time limit leaves its observer deaf for the rest of the mission,
+    /// and the failure is reported by name.
+    #[arg(long = "receiver", value_name = "OBSERVER=python:MODULE:CLASS",
+          value_parser = parse_observer_plugin)]
+    pub receivers: Vec<receiver_plugin::ObserverPlugin>,
+    /// Wall-clock limit of a plug-in receiver over the whole mission, seconds.
+    #[arg(long = "plugin-time-limit-s", value_name = "SECONDS", default_value_t = 600.0,
+          value_parser = parse_time_limit, requires = "receivers")]
+    pub plugin_time_limit_s: f64,
+}
+
+impl MissionReceiversArg {
+    /// The receivers, refusing an observer named twice.
+    pub fn checked(&self) -> anyhow::Result<Vec<receiver_plugin::ObserverPlugin>> {
+        let mut seen = std::collections::BTreeSet::new();
+        for r in &self.receivers {
+            if !seen.insert(&r.observer) {
+                anyhow::bail!("--receiver names {} more than once", r.observer.as_str());
+            }
+        }
+        Ok(self.receivers.clone())
+    }
+
+    /// The plug-ins' time limit (`None` when no observer has one).
+    pub fn time_limit(&self) -> Option<std::time::Duration> {
+        (!self.receivers.is_empty())
+            .then(|| std::time::Duration::from_secs_f64(self.plugin_time_limit_s))
+    }
+}
+
+/// A plug-in's wall-clock time limit, seconds.
+pub(crate) fn parse_time_limit(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 86_400.0 => Ok(v),
+        _ => Err(format!(
+            "{s:?} is not a time limit in seconds (0 < SECONDS ≤ 86400)"
+        )),
+    }
+}
+
+fn parse_observer_plugin(s: &str) -> Result<receiver_plugin::ObserverPlugin, String> {
+    s.parse()
+        .map_err(|e: receiver_plugin::PluginError| e.to_string())
 }
 
 impl FlightsArg {

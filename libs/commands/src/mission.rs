@@ -22,6 +22,8 @@ pub struct MissionArgs {
     pub policy: Policy,
     #[command(flatten)]
     pub perturb: crate::common::PerturbArgs,
+    #[command(flatten)]
+    pub receivers: crate::common::MissionReceiversArg,
     /// Seed of the perturbation's draws.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,

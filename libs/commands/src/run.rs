@@ -24,6 +24,8 @@ pub struct SessionArgs {
     /// modelled by `waggle trials` and `waggle mission` only).
     #[command(flatten)]
     pub perturb: crate::common::PerturbArgs,
+    #[command(flatten)]
+    pub receivers: crate::common::MissionReceiversArg,
     /// Seed of the event sensors' noise draws (with --sensor-preset/--perturb): observer i draws
     /// from stream i of it, as in `waggle mission --seed`, so both build the same sensors.
     #[arg(long, default_value_t = 0)]

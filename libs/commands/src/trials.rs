@@ -68,7 +68,7 @@ pub struct TrialsArgs {
     /// Wall-clock limit of one trial of a plug-in receiver, seconds: a trial past it is
     /// recorded as `timed-out` and the run marked not reproducible.
     #[arg(long = "plugin-time-limit-s", value_name = "SECONDS", default_value_t = 600.0,
-          value_parser = parse_time_limit, requires = "receiver")]
+          value_parser = crate::common::parse_time_limit, requires = "receiver")]
     pub plugin_time_limit_s: f64,
     #[command(flatten)]
     pub render: crate::common::RenderArg,
@@ -86,15 +86,6 @@ pub struct TrialsArgs {
 fn parse_receiver(s: &str) -> Result<receiver_plugin::PluginSpec, String> {
     s.parse()
         .map_err(|e: receiver_plugin::PluginError| e.to_string())
-}
-
-fn parse_time_limit(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 && v <= 86_400.0 => Ok(v),
-        _ => Err(format!(
-            "{s:?} is not a time limit in seconds (0 < SECONDS ≤ 86400)"
-        )),
-    }
 }
 
 fn perturbation_help() -> String {

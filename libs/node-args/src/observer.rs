@@ -1,6 +1,7 @@
 //! `observer-node`'s own arguments.
 
 use proto::{Modality, ObserverId};
+use receiver_plugin::PluginSpec;
 
 use crate::ArgList;
 
@@ -26,6 +27,16 @@ pub struct ObserverArgs {
     /// camera did not say it dropped) is missing, ms: the last resort for a silent camera.
     #[arg(long, default_value_t = DEFAULT_GRACE_MS)]
     pub grace_ms: u64,
+    /// A plug-in receiver instead of Waggle's (`python:MODULE:CLASS`), run in a worker process
+    /// this observer starts and feeds only its own sensor's input.
+    #[arg(long, value_name = "python:MODULE:CLASS")]
+    pub receiver: Option<PluginSpec>,
+    /// The plug-in's wall-clock limit over the whole session, ms (none when not given).
+    #[arg(long, value_name = "MS", requires = "receiver")]
+    pub plugin_time_limit_ms: Option<u64>,
+    /// The seed the plug-in is told (the session's sensor seed).
+    #[arg(long, value_name = "SEED", requires = "receiver")]
+    pub plugin_seed: Option<u64>,
 }
 
 impl ObserverArgs {
@@ -35,6 +46,9 @@ impl ObserverArgs {
             .value("--id", &self.id)
             .value("--modality", self.modality.as_str())
             .value("--grace-ms", self.grace_ms)
+            .opt("--receiver", self.receiver.as_ref())
+            .opt("--plugin-time-limit-ms", self.plugin_time_limit_ms)
+            .opt("--plugin-seed", self.plugin_seed)
             .done()
     }
 }

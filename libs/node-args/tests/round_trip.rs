@@ -125,13 +125,30 @@ fn command() -> impl Strategy<Value = NodeCommand> {
                     })
                 },
             ),
-        (observer_id(), modality(), any::<u64>()).prop_map(|(id, modality, grace_ms)| {
-            NodeCommand::Observer(ObserverArgs {
-                id,
-                modality,
-                grace_ms,
-            })
-        }),
+        (
+            observer_id(),
+            modality(),
+            any::<u64>(),
+            proptest::option::of((
+                "python:[a-z_][a-z0-9_]{0,8}(\\.[a-z_][a-z0-9_]{0,8})?:[A-Z][A-Za-z0-9_]{0,8}",
+                proptest::option::of(any::<u64>()),
+                proptest::option::of(any::<u64>()),
+            )),
+        )
+            .prop_map(|(id, modality, grace_ms, plugin)| {
+                let (receiver, plugin_time_limit_ms, plugin_seed) = match plugin {
+                    Some((spec, limit, seed)) => (Some(spec.parse().unwrap()), limit, seed),
+                    None => (None, None, None),
+                };
+                NodeCommand::Observer(ObserverArgs {
+                    id,
+                    modality,
+                    grace_ms,
+                    receiver,
+                    plugin_time_limit_ms,
+                    plugin_seed,
+                })
+            }),
         (
             proptest::option::of("[a-z][a-z0-9-]{0,12}"),
             proptest::option::of(modality()),

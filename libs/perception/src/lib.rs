@@ -4,7 +4,8 @@
 //!
 //! - [`events`]: the event-only receiver (event packets in, tokens and frames out);
 //! - [`rgb`]: the RGB receiver (KLT trajectory extraction; RGB frames in, tokens and frames out);
-//! - [`sensing`]: one receiver of either modality behind one interface ([`Perception`]);
+//! - [`sensing`]: one receiver of either modality behind one interface ([`Perception`]), and the
+//!   [`Receiving`] trait a receiver from elsewhere (a plug-in) implements to take its place;
 //! - [`agent`]: offer cache, allocation and the observer's decisions;
 //! - [`runtime`]: perception + frame parser + agent, one step per tick;
 //! - [`tick`]: the sans-IO tick assembler that decides which tick the runtime processes next
@@ -23,4 +24,4 @@ pub mod runtime;
 pub mod sensing;
 pub mod tick;
 
-pub use sensing::{Perception, PerceptionError, SensorInput};
+pub use sensing::{Perception, PerceptionError, Receiving, SensorInput};

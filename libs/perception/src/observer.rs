@@ -55,6 +55,11 @@ impl ObserverCore {
         self.runtime.ended()
     }
 
+    /// Why the receiving chain stopped working, once it has (a plug-in's failure).
+    pub fn receiver_failure(&self) -> Option<String> {
+        self.runtime.receiver_failure()
+    }
+
     /// The next tick to process.
     pub fn next_tick(&self) -> u64 {
         self.assembler.next_tick()

@@ -16,7 +16,7 @@ use proto::{
 };
 
 use crate::agent::ObserverAgent;
-use crate::sensing::{Perception, PerceptionError, SensorInput};
+use crate::sensing::{Perception, PerceptionError, Receiving, SensorInput};
 use proto::Modality;
 use proto::decoder::DecodeStep;
 
@@ -47,7 +47,7 @@ pub struct TickReport {
 pub struct ObserverRuntime {
     id: ObserverId,
     agent: ObserverAgent,
-    perception: Perception,
+    perception: Box<dyn Receiving>,
     /// Mirrors the decoder's frame parser (same tokens, same interruptions) for the status.
     parser: FrameParser,
     next_token_seq: u64,
@@ -83,6 +83,11 @@ impl ObserverRuntime {
     /// An observer whose receiving chain is `perception` (e.g. the ideal baseline's
     /// [`Perception::tracked`]).
     pub fn with_perception(id: ObserverId, roster: Roster, perception: Perception) -> Self {
+        Self::with_receiver(id, roster, Box::new(perception))
+    }
+
+    /// An observer whose receiving chain lives elsewhere (a plug-in, `receiver-plugin`).
+    pub fn with_receiver(id: ObserverId, roster: Roster, perception: Box<dyn Receiving>) -> Self {
         Self {
             agent: ObserverAgent::new(id.clone(), roster),
             id,
@@ -98,6 +103,11 @@ impl ObserverRuntime {
 
     pub fn id(&self) -> &ObserverId {
         &self.id
+    }
+
+    /// Why the receiving chain stopped working, once it has (see [`Receiving::failure`]).
+    pub fn receiver_failure(&self) -> Option<String> {
+        self.perception.failure()
     }
 
     /// True once the session said the mission is over.

@@ -63,6 +63,55 @@ pub enum PerceptionError {
     Segmenter(#[from] SegmenterError),
 }
 
+/// What an observer's runtime needs of a receiving chain: Waggle's own [`Perception`], or a
+/// receiver that lives elsewhere (a Python plug-in in a worker process, `receiver-plugin`).
+/// The runtime feeds it exactly as it feeds Waggle's receivers, so a plug-in meets the same
+/// windows, interruptions and resets.
+pub trait Receiving: std::fmt::Debug {
+    /// Feeds the next input of this observer's sensor; the step and the image-plane estimate of
+    /// the target for this input (`None` when the receiver has none).
+    fn push_tracked(
+        &mut self,
+        input: SensorInput<'_>,
+    ) -> Result<(DecodeStep, Option<[f64; 2]>), PerceptionError>;
+
+    /// The sensor stream is known to be missing at `stamp_ns`.
+    fn missing(&mut self, stamp_ns: u64) -> Result<DecodeStep, PerceptionError>;
+
+    /// A new round or reception window: forget target, partial frame and stream continuity.
+    fn reset(&mut self);
+
+    /// The observer's turn from its home attitude, undone from the next input on.
+    fn set_ego_rotation(&mut self, ego: Option<proto::EgoRotation>);
+
+    /// Why the receiver stopped working, once it has (a plug-in that raised, returned
+    /// malformed output or ran past its time limit); Waggle's own receivers never do.
+    fn failure(&self) -> Option<String> {
+        None
+    }
+}
+
+impl Receiving for Perception {
+    fn push_tracked(
+        &mut self,
+        input: SensorInput<'_>,
+    ) -> Result<(DecodeStep, Option<[f64; 2]>), PerceptionError> {
+        Perception::push_tracked(self, input)
+    }
+
+    fn missing(&mut self, stamp_ns: u64) -> Result<DecodeStep, PerceptionError> {
+        Perception::missing(self, stamp_ns)
+    }
+
+    fn reset(&mut self) {
+        Perception::reset(self);
+    }
+
+    fn set_ego_rotation(&mut self, ego: Option<proto::EgoRotation>) {
+        Perception::set_ego_rotation(self, ego);
+    }
+}
+
 /// The receiving chain of one observer.
 #[derive(Debug, Clone)]
 pub enum Perception {

@@ -27,7 +27,7 @@ pub enum PluginError {
         call: String,
         why: String,
     },
-    #[error("{spec} ran past the trial's time limit of {limit_s} s (in {call}, {observer})")]
+    #[error("{spec} ran past its time limit of {limit_s} s (in {call}, {observer})")]
     TimedOut {
         spec: String,
         observer: String,

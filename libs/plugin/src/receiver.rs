@@ -95,6 +95,10 @@ enum Below {
     Nothing,
 }
 
+/// What a plug-in made of one input: the step below its level, and where it placed the target
+/// (`None`: nowhere, or it does not say).
+pub type Pushed = (DecodeStep, Option<[f64; 2]>);
+
 /// One observer's plug-in receiver.
 pub struct PluginReceiver {
     worker: Rc<RefCell<Worker>>,
@@ -160,16 +164,17 @@ impl PluginReceiver {
         }
     }
 
-    /// One event packet.
-    pub fn push_events(&mut self, packet: &EventPacket) -> Result<DecodeStep, PluginError> {
+    /// One event packet: the step, and where the plug-in placed the target for it (a
+    /// tracker's point, or the optional `point_px` of a token or full receiver).
+    pub fn push_events(&mut self, packet: &EventPacket) -> Result<Pushed, PluginError> {
         let ego = self.ego.map(|e| e.world_from_home);
         let header = wire::events_header(&self.observer, packet, ego);
         let value = self.call("push", &header, &wire::events_bulk(packet))?;
         self.take(value, packet.end_ns)
     }
 
-    /// One RGB frame.
-    pub fn push_rgb(&mut self, frame: &RgbFrame) -> Result<DecodeStep, PluginError> {
+    /// One RGB frame (as [`Self::push_events`]).
+    pub fn push_rgb(&mut self, frame: &RgbFrame) -> Result<Pushed, PluginError> {
         let ego = self.ego.map(|e| e.world_from_home);
         let header = wire::rgb_header(&self.observer, frame, ego);
         let value = self.call("push", &header, &frame.rgb)?;
@@ -203,7 +208,7 @@ impl PluginReceiver {
             Below::Nothing => DecodeStep::default(),
         };
         if self.level != Level::Tracker {
-            let more = self.take(value, stamp_ns)?;
+            let (more, _) = self.take(value, stamp_ns)?;
             step.tokens.extend(more.tokens);
             step.frames.extend(more.frames);
         }
@@ -242,57 +247,53 @@ impl PluginReceiver {
     }
 
     /// The plug-in's output for an input that ended at `stamp_ns`, through the chain below.
-    fn take(&mut self, value: Value, stamp_ns: u64) -> Result<DecodeStep, PluginError> {
-        let bad = |why: String| self.malformed("push", why);
-        match self.level {
-            Level::Tracker => {
-                let point = wire::parse_point(value.get("point_px").unwrap_or(&Value::Null))
-                    .map_err(bad)?;
-                let sample = match point {
-                    Some(p) => Sample::tracked(stamp_ns, p),
-                    None => Sample::lost(stamp_ns),
-                };
-                let Below::Decoder(d) = &mut self.below else {
-                    unreachable!("a tracker decodes below")
-                };
-                d.push(sample)
-                    .map_err(|e| self.malformed("push", e.to_string()))
-            }
-            Level::Tokens | Level::Full => {
-                let empty = Value::Array(Vec::new());
-                let tokens = wire::parse_tokens(
-                    value.get("tokens").unwrap_or(&empty),
-                    self.last_ns,
+    fn take(&mut self, value: Value, stamp_ns: u64) -> Result<Pushed, PluginError> {
+        let point = wire::parse_point(value.get("point_px").unwrap_or(&Value::Null))
+            .map_err(|why| self.malformed("push", why))?;
+        if self.level == Level::Tracker {
+            let sample = match point {
+                Some(p) => Sample::tracked(stamp_ns, p),
+                None => Sample::lost(stamp_ns),
+            };
+            let Below::Decoder(d) = &mut self.below else {
+                unreachable!("a tracker decodes below")
+            };
+            let step = d
+                .push(sample)
+                .map_err(|e| self.malformed("push", e.to_string()))?;
+            return Ok((step, point));
+        }
+        let empty = Value::Array(Vec::new());
+        let tokens = wire::parse_tokens(
+            value.get("tokens").unwrap_or(&empty),
+            self.last_ns,
+            stamp_ns,
+        )
+        .map_err(|why| self.malformed("push", why))?;
+        let mut step = DecodeStep {
+            tokens: tokens
+                .iter()
+                .map(|&(token, stamp_ns)| SegmentToken {
+                    token,
                     stamp_ns,
-                )
-                .map_err(bad)?;
-                let mut step = DecodeStep {
-                    tokens: tokens
-                        .iter()
-                        .map(|&(token, stamp_ns)| SegmentToken {
-                            token,
-                            stamp_ns,
-                            cause: TokenCause::External,
-                            late: false,
-                        })
-                        .collect(),
-                    frames: Vec::new(),
-                };
-                if let Some(&(_, t)) = tokens.last() {
-                    self.last_ns = t;
-                }
-                match &mut self.below {
-                    Below::Parser(p) => {
-                        step.frames = tokens.iter().filter_map(|&(t, s)| p.push(t, s)).collect();
-                    }
-                    _ => {
-                        step.frames =
-                            wire::parse_frames(value.get("frames").unwrap_or(&empty), stamp_ns)
-                                .map_err(|why| self.malformed("push", why))?;
-                    }
-                }
-                Ok(step)
+                    cause: TokenCause::External,
+                    late: false,
+                })
+                .collect(),
+            frames: Vec::new(),
+        };
+        if let Some(&(_, t)) = tokens.last() {
+            self.last_ns = t;
+        }
+        match &mut self.below {
+            Below::Parser(p) => {
+                step.frames = tokens.iter().filter_map(|&(t, s)| p.push(t, s)).collect();
+            }
+            _ => {
+                step.frames = wire::parse_frames(value.get("frames").unwrap_or(&empty), stamp_ns)
+                    .map_err(|why| self.malformed("push", why))?;
             }
         }
+        Ok((step, point))
     }
 }

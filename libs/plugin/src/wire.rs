@@ -147,7 +147,10 @@ fn stamp(v: &Value, what: &str) -> Result<u64, String> {
         .ok_or_else(|| format!("{what} is not a non-negative integer of nanoseconds: {v}"))
 }
 
-/// A tracker's point: `[x, y]` finite pixels, or `null` (no target).
+/// A point: `[x, y]` finite pixels, or `null` (no target). A coordinate is a JSON number or a
+/// decimal string (the worker sends Python's `repr`, which Rust's parser reads back to the very
+/// same `f64`: a JSON number's parse may be off by one unit in the last place, and a wrapped
+/// receiver's track must equal the native one to the bit).
 pub fn parse_point(v: &Value) -> Result<Option<[f64; 2]>, String> {
     if v.is_null() {
         return Ok(None);
@@ -158,6 +161,7 @@ pub fn parse_point(v: &Value) -> Result<Option<[f64; 2]>, String> {
         .ok_or_else(|| format!("a point is [x, y] or None, not {v}"))?;
     let coordinate = |c: &Value| {
         c.as_f64()
+            .or_else(|| c.as_str().and_then(|s| s.parse::<f64>().ok()))
             .filter(|x| x.is_finite())
             .ok_or_else(|| format!("a point's coordinate is not a finite number: {c}"))
     };
@@ -300,9 +304,19 @@ mod tests {
 
     #[test]
     fn malformed_outputs_are_refused_saying_where() {
-        for (v, why) in [(json!([1.0]), "[x, y]"), (json!(["a", 1.0]), "finite")] {
+        for (v, why) in [
+            (json!([1.0]), "[x, y]"),
+            (json!(["a", 1.0]), "finite"),
+            (json!(["inf", 1.0]), "finite"),
+        ] {
             assert!(parse_point(&v).unwrap_err().contains(why), "{v}");
         }
+        // Python's repr of a float reads back to the same bits.
+        let x = 0.1f64 + 0.2;
+        assert_eq!(
+            parse_point(&json!([format!("{x:?}"), "-3.5e-7"])).unwrap(),
+            Some([x, -3.5e-7])
+        );
         assert!(
             parse_tokens(&json!([["NULL", 5], ["BIT2", 6]]), 0, 10)
                 .unwrap_err()

@@ -21,6 +21,10 @@ use crate::wire::{self, FrameError, MAX_REPLY_BYTES};
 #[cfg(target_os = "linux")]
 const PIPE_BYTES: i32 = 1 << 20;
 
+/// How long a worker whose pipe closed is given to end (polls × interval) before it is killed.
+const GONE_POLLS: u32 = 400;
+const GONE_POLL: Duration = Duration::from_millis(5);
+
 /// The interpreter a worker runs on when `WAGGLE_PYTHON` does not name one.
 pub const DEFAULT_PYTHON: &str = "python3";
 
@@ -30,6 +34,12 @@ pub fn python() -> String {
         .ok()
         .filter(|p| !p.is_empty())
         .unwrap_or_else(|| DEFAULT_PYTHON.to_owned())
+}
+
+/// Starts a worker for `spec` on [`python`] and checks the plug-in's class loads in it (then ends
+/// it): a plug-in that cannot be imported or built is refused by name before anything runs.
+pub fn check_loads(spec: &PluginSpec, limit: Option<Duration>) -> Result<(), PluginError> {
+    WorkerPool::new(spec.clone(), python(), limit).check()
 }
 
 /// One worker process hosting a plug-in's instances (one per observer).
@@ -193,13 +203,20 @@ impl Worker {
     /// The worker ended (or its pipe broke): how it ended.
     fn gone(&mut self, observer: &str, call: &str) -> PluginError {
         self.broken = true;
-        let status = match self.child.try_wait() {
-            Ok(Some(s)) => s.to_string(),
-            _ => {
-                self.kill();
-                "its pipe closed".to_owned()
+        // Its pipe closes a moment before the process is gone: wait for it (bounded), so the
+        // recorded reason is its exit status, not whichever of the two this process saw first.
+        let mut status = None;
+        for _ in 0..GONE_POLLS {
+            if let Ok(Some(s)) = self.child.try_wait() {
+                status = Some(s.to_string());
+                break;
             }
-        };
+            std::thread::sleep(GONE_POLL);
+        }
+        let status = status.unwrap_or_else(|| {
+            self.kill();
+            "its pipe closed".to_owned()
+        });
         PluginError::WorkerGone {
             spec: self.spec.to_string(),
             observer: observer.to_owned(),

@@ -422,6 +422,11 @@ impl Case {
             .map(|f| (f.at_s * 1e9).round() as u64)
     }
 
+    /// True if `observer` (O1, O2, …) is one of the case's observers.
+    pub fn has_observer(&self, observer: &str) -> bool {
+        (0..self.observers).any(|i| proto::scene::observer_name(i) == observer)
+    }
+
     /// True if `observer`'s input is black from start-up.
     pub fn black(&self, observer: &str) -> bool {
         self.faults

@@ -110,6 +110,14 @@ impl SegmenterConfig {
         }
     }
 
+    /// The segmenter of `modality`'s receiver.
+    pub fn for_modality(modality: crate::Modality) -> Self {
+        match modality {
+            crate::Modality::Events => Self::events(),
+            crate::Modality::Rgb => Self::rgb(),
+        }
+    }
+
     /// These settings seen through `camera`'s rectification under `mode`.
     pub fn rectified(
         self,

@@ -223,10 +223,7 @@ pub fn fly_streamed(
     let mut ideal = Modality::ALL
         .iter()
         .map(|&m| {
-            let config = match m {
-                Modality::Events => SegmenterConfig::events(),
-                Modality::Rgb => SegmenterConfig::rgb(),
-            };
+            let config = SegmenterConfig::for_modality(m);
             IdealReceiver::with_formation(&spec.formation, config, spec.rectification)
                 .map(|r| (m, r))
         })

@@ -54,6 +54,8 @@ pub struct MissionRun {
     pub summary: MissionSummary,
     pub metrics: MissionMetrics,
     pub observers: BTreeMap<String, ObserverRecord>,
+    /// Observers whose plug-in receiver failed, and why (the mission went on with them deaf).
+    pub receiver_failures: BTreeMap<String, String>,
 }
 
 /// Flies `case` with every observer on `modality`'s receiver, in one process.
@@ -75,6 +77,17 @@ pub fn fly_case_with(
     opts: &MissionOptions,
 ) -> Result<Option<MissionRun>> {
     opts.check()?;
+    if let Some(r) = opts
+        .receivers
+        .iter()
+        .find(|r| !case.has_observer(r.observer.as_str()))
+    {
+        anyhow::bail!(
+            "a receiver is given to {}, which is not one of the case's {} observers",
+            r.observer.as_str(),
+            case.observers
+        );
+    }
     let started = Instant::now();
     let mut mission = Mission::new(case, modality, opts)?;
     let Some(end_reason) = mission.fly(opts.stop.as_deref())? else {
@@ -85,6 +98,11 @@ pub fn fly_case_with(
         metrics.performer_tracking = Some(Tracking::of(&mission.world, 0));
     }
     let summary = mission.summarise(case, modality, end_reason, started);
+    let receiver_failures = mission
+        .observers
+        .iter()
+        .filter_map(|o| Some((o.name.clone(), o.receiver_failure()?)))
+        .collect();
     let observers = mission
         .observers
         .into_iter()
@@ -94,6 +112,7 @@ pub fn fly_case_with(
         summary,
         metrics,
         observers,
+        receiver_failures,
     }))
 }
 

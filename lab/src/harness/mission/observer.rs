@@ -5,17 +5,21 @@
 
 use anyhow::{Context, Result};
 use evaluation::ideal_receiver::ideal_sample;
-use perception::Perception;
 use perception::observer::{ObserverCore, Processed};
 use perception::runtime::ObserverRuntime;
 use perception::tick::{MissingReason, SensorPacket};
+use perception::{Perception, Receiving};
 use perturb::attitude::{AttitudeError, estimated};
 use perturb::link::LinkNoise;
 use perturb::rgb::RgbSensor;
 use perturb::seed::{Stream, rng, stream_seed};
-use proto::scene::{ObserverCamera, observer_name};
-use proto::{Fault, FaultKind, ObserverId, Rectification, Roster, SimState, TICK_NS};
+use proto::scene::{ObserverCamera, Placement, observer_name};
+use proto::{
+    Fault, FaultKind, Modality, ObserverId, Rectification, Roster, SegmenterConfig, SimState,
+    TICK_NS,
+};
 use rand_chacha::ChaCha8Rng;
+use receiver_plugin::{ObserverInfo, PluginChain, PluginSpec};
 use sim::render::CameraRenderer;
 use sim::sensor::{ObserverSensor, SensorOutput};
 use sim::world::World;
@@ -73,13 +77,26 @@ impl MissionObserver {
         let camera = ObserverRuntime::home_camera(&id, &roster)
             .with_context(|| format!("{name} is not on the roster"))?;
         let black = case.black(&name);
-        let (perception, source) = match modality.sensor() {
+        let plugin = opts.receivers.iter().find(|r| r.observer == id);
+        let (perception, source): (Box<dyn Receiving>, _) = match modality.sensor() {
+            None if plugin.is_some() => anyhow::bail!(
+                "{name}'s plug-in receiver needs a sensor (events or rgb), not the ideal receiver"
+            ),
             None => (
-                Perception::tracked(camera, Rectification::default())?,
+                Box::new(Perception::tracked(camera, Rectification::default())?),
                 Source::Ideal(camera),
             ),
             Some(kind) => (
-                Perception::for_camera(kind, camera, Rectification::default())?,
+                match plugin {
+                    Some(p) => {
+                        Box::new(plugin_chain(&p.plugin, &name, kind, camera, &roster, opts)?)
+                    }
+                    None => Box::new(Perception::for_camera(
+                        kind,
+                        camera,
+                        Rectification::default(),
+                    )?),
+                },
                 Source::Sensor(Box::new(ObserverSensor::with_event_sensor(
                     kind,
                     i,
@@ -91,7 +108,7 @@ impl MissionObserver {
         };
         let rgb = opts.perturbation.rgb();
         Ok(Self {
-            core: ObserverCore::new(ObserverRuntime::with_perception(
+            core: ObserverCore::new(ObserverRuntime::with_receiver(
                 id.clone(),
                 roster,
                 perception,
@@ -114,6 +131,11 @@ impl MissionObserver {
             attitude: opts.perturbation.attitude_error_of(opts.seed, i),
             record: ObserverRecord::default(),
         })
+    }
+
+    /// Why its plug-in receiver stopped working, once it has.
+    pub fn receiver_failure(&self) -> Option<String> {
+        self.core.receiver_failure()
     }
 
     /// The render period of its sensor (`None`: the ideal baseline, sampled every tick).
@@ -221,4 +243,39 @@ impl MissionObserver {
     pub fn session(&mut self, tick: u64, controls: Vec<proto::SessionControl>) {
         self.core.session(tick, controls);
     }
+}
+
+/// Observer `name`'s plug-in receiver on a worker of its own: told where the observer sits and
+/// looks, the mission's seed, and the mission's time limit.
+fn plugin_chain(
+    spec: &PluginSpec,
+    name: &str,
+    kind: Modality,
+    camera: ObserverCamera,
+    roster: &Roster,
+    opts: &MissionOptions,
+) -> Result<PluginChain> {
+    let home_m = roster
+        .entries()
+        .iter()
+        .find(|e| e.observer.as_str() == name)
+        .map(|e| e.home_m)
+        .with_context(|| format!("{name} is not on the roster"))?;
+    let mode = Rectification::default();
+    let info = ObserverInfo::new(
+        name.to_owned(),
+        kind,
+        &Placement::aimed_from(home_m),
+        mode,
+        opts.seed,
+    );
+    let segmenter = SegmenterConfig::for_modality(kind).rectified(camera, mode);
+    PluginChain::open(
+        spec,
+        &receiver_plugin::worker::python(),
+        &info,
+        segmenter,
+        opts.plugin_time_limit,
+    )
+    .with_context(|| format!("{name}'s receiver {spec}"))
 }

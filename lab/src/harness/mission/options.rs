@@ -1,15 +1,17 @@
 //! How a whole mission is flown beyond its case (`waggle mission`, `--case` trials): the
-//! allocation policy, the perturbation and its seed, and which perturbations a whole mission
-//! refuses.
+//! allocation policy, the perturbation and its seed, plug-in receivers, and which
+//! perturbations a whole mission refuses.
 
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
+use std::time::Duration;
 
 use anyhow::{Result, bail};
 use perturb::Perturbation;
 use proto::RenderPath;
 
 use commands::Policy;
+use receiver_plugin::ObserverPlugin;
 
 /// How a mission is flown beyond its case: allocation policy, perturbation and its seed.
 #[derive(Debug, Clone, Default)]
@@ -20,6 +22,10 @@ pub struct MissionOptions {
     pub seed: u64,
     /// Raised to abandon the mission (Ctrl-C during trials): checked every tick.
     pub stop: Option<Arc<AtomicBool>>,
+    /// Observers whose receiver is a plug-in (`--receiver O2=python:MODULE:CLASS`).
+    pub receivers: Vec<ObserverPlugin>,
+    /// The wall-clock time a plug-in may take over the whole mission (`None`: no limit).
+    pub plugin_time_limit: Option<Duration>,
 }
 
 impl MissionOptions {

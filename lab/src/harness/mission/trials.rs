@@ -118,6 +118,7 @@ pub fn run_mission_trials_on(
                 perturbation: opts.perturbation.clone(),
                 seed,
                 stop: Some(Arc::clone(stop)),
+                ..MissionOptions::default()
             };
             let Some(MissionRun {
                 summary, metrics, ..

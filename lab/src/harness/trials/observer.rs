@@ -129,8 +129,8 @@ impl TrialReceiver {
                 DecodeStep::default()
             }
             (Self::Native(p), input) => p.push(input)?,
-            (Self::Plugin(p), SensorInput::Events(packet)) => p.push_events(packet)?,
-            (Self::Plugin(p), SensorInput::Rgb(frame)) => p.push_rgb(frame)?,
+            (Self::Plugin(p), SensorInput::Events(packet)) => p.push_events(packet)?.0,
+            (Self::Plugin(p), SensorInput::Rgb(frame)) => p.push_rgb(frame)?.0,
             (Self::Plugin(_), SensorInput::Track(_)) => {
                 anyhow::bail!("a plug-in receiver is fed a sensor, not a track")
             }
@@ -248,11 +248,8 @@ impl Observer {
                     opts.rectification,
                     seed,
                 );
-                let segmenter = match opts.modality {
-                    Modality::Events => SegmenterConfig::events(),
-                    Modality::Rgb => SegmenterConfig::rgb(),
-                }
-                .rectified(placement.camera(), opts.rectification);
+                let segmenter = SegmenterConfig::for_modality(opts.modality)
+                    .rectified(placement.camera(), opts.rectification);
                 TrialReceiver::Plugin(PluginReceiver::open(w.worker.clone(), &info, segmenter)?)
             }
         };
