@@ -247,8 +247,9 @@ fi
 # --- the waggle Python package (python/) --------------------------------------------------------
 # Waggle's own receivers as Python objects (PyO3), built by maturin and installed into the same
 # venv. Rebuilt only when what the wheel is built from changed: a hash of the Rust and Python
-# sources of python/ (src/, waggle/), proto/ and libs/perception/ (and the build script it
-# borrows), the manifests and the lock file, kept in the venv after a good install. Unchanged,
+# sources of python/ (src/, waggle/), proto/ and every library under libs/ (its dependencies
+# reach several; hashing them all is cheaper than a stale wheel), the build script it borrows,
+# the manifests and the lock file, kept in the venv after a good install. Unchanged,
 # this step costs the hash and an import (≈ 0.3 s); changed, a release build (≈ 15 s
 # incremental, ≈ 1 min from scratch) and a wheel install (≈ 1 s).
 MATURIN_VERSION="1.16.0"
@@ -264,7 +265,7 @@ fi
 waggle_py_sources_hash() {
   (
     cd "$root" || exit 1
-    find python/src python/waggle python/Cargo.toml python/pyproject.toml proto libs/perception \
+    find python/src python/waggle python/Cargo.toml python/pyproject.toml proto libs \
       -type f \
       \( -name '*.rs' -o -name '*.toml' -o -name '*.py' -o -name '*.pyi' -o -name py.typed \) \
       -not -path '*/tests/*' -not -path '*/benches/*' -not -path '*/examples/*' \

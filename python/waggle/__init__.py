@@ -39,6 +39,7 @@ from waggle._native import (
     RgbReceiver,
     Step,
     WaggleError,
+    read_events,
 )
 from waggle import inputs, plugin
 
@@ -51,4 +52,5 @@ __all__ = [
     "WaggleError",
     "inputs",
     "plugin",
+    "read_events",
 ]

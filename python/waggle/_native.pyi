@@ -1,5 +1,6 @@
 """Type stubs of ``waggle._native``, the compiled half of the ``waggle`` package (PyO3)."""
 
+import os
 from typing import Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -177,3 +178,22 @@ class RgbReceiver:
     @property
     def rectification(self) -> str:
         """``off``, ``pitched`` or ``frontal``."""
+
+def read_events(
+    path: Union[str, os.PathLike[str]], observer: Optional[str] = None, *, partial: bool = False
+) -> npt.NDArray[np.void]:
+    """The event packets of ``observer`` (``"O2"``; ``None``: every observer's) in the Waggle
+    recording ``path`` (a ``session.mcap``), as one new array of :data:`EVENT_DTYPE`.
+
+    Events come packet after packet in the order the recording holds them, each packet's in its
+    own order: one observer's packets in the order its camera published them, and Waggle's
+    cameras publish events in time order, so ``t_ns`` does not decrease; with ``observer=None``
+    the observers' packets interleave as the recorder received them (sort by ``t_ns`` for one
+    timeline). Empty packets add nothing.
+
+    Raises ``OSError`` (``FileNotFoundError``, …) naming a file that cannot be read, and
+    :class:`WaggleError` for a file that is not a recording, an observer it holds no packets of
+    (naming those it does), a recording that keeps the cameras' input instead of their packets,
+    or a packet that does not decode. A damaged or cut recording raises :class:`WaggleError`
+    unless ``partial``: then the events of every intact chunk are returned (a gap where a chunk
+    was lost) and a ``RuntimeWarning`` names the damage."""
