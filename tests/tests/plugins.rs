@@ -381,19 +381,31 @@ fn a_trials_inputs_streamed_to_python_decode_as_the_trial_did() {
 #[test]
 fn a_whole_mission_with_the_wrapped_receiver_is_golden() {
     let golden = golden_runs::golden_entry("only-a", "events");
-    let want = golden["observers_sha256"].as_str().expect("observers_sha256");
+    let want = golden["observers_sha256"]
+        .as_str()
+        .expect("observers_sha256");
     let receiver = "O2=python:wrapped_waggle:WaggleEvents";
     let dir = scratch("mission-run");
     let mut run = with_plugins(waggle_tests::waggle_with_nodes());
-    run.args(["run", "only-a", "--modality", "events", "--observer-acl", "--quiet"])
-        .args(["--receiver", receiver, "--no-record", "--out"])
-        .arg(&dir);
+    run.args([
+        "run",
+        "only-a",
+        "--modality",
+        "events",
+        "--observer-acl",
+        "--quiet",
+    ])
+    .args(["--receiver", receiver, "--no-record", "--out"])
+    .arg(&dir);
     waggle_tests::succeed(&mut run, "waggle run only-a with a plug-in receiver");
     let bytes = std::fs::read(dir.join("observers.json")).expect("observers.json");
     assert_eq!(golden_runs::sha256_hex(&bytes), want, "waggle run");
     let log = |o: &str| std::fs::read_to_string(dir.join(format!("logs/observer-{o}.log")));
     let plugged = "python:wrapped_waggle:WaggleEvents";
-    assert!(log("O2").expect("O2's log").contains(plugged), "O2 ran the plug-in");
+    assert!(
+        log("O2").expect("O2's log").contains(plugged),
+        "O2 ran the plug-in"
+    );
     assert!(!log("O1").expect("O1's log").contains(plugged));
     let _ = std::fs::remove_dir_all(&dir);
 
@@ -402,7 +414,10 @@ fn a_whole_mission_with_the_wrapped_receiver_is_golden() {
     mission
         .args(["mission", "only-a", "--receiver", receiver, "--out"])
         .arg(&dir);
-    waggle_tests::succeed(&mut mission, "waggle mission only-a with a plug-in receiver");
+    waggle_tests::succeed(
+        &mut mission,
+        "waggle mission only-a with a plug-in receiver",
+    );
     let bytes = std::fs::read(dir.join("observers.json")).expect("observers.json");
     assert_eq!(golden_runs::sha256_hex(&bytes), want, "waggle mission");
     let _ = std::fs::remove_dir_all(dir);
@@ -438,7 +453,10 @@ fn a_failing_plugin_in_a_mission_is_named_and_bad_receivers_are_refused() {
     for (args, why) in [
         (&["O9=python:faulty_plugins:Malformed"][..], "O9"),
         (
-            &["O2=python:faulty_plugins:Malformed", "O2=python:faulty_plugins:Exits"],
+            &[
+                "O2=python:faulty_plugins:Malformed",
+                "O2=python:faulty_plugins:Exits",
+            ],
             "more than once",
         ),
         (&["O2=python:no_such_module_here:R"], "no_such_module_here"),

@@ -8,9 +8,9 @@ use std::time::Instant;
 use bus::Rejects;
 use proto::scene::distance_m;
 use proto::{
-    CameraReport, ClockTick, Decision, Fault, FrameEvent, Key, Keys, MissionReport, ObserverId,
-    ObserverStatus, ObserverTrack, PerformerTruth, RejectReason, RejectReport, Role, SessionEvent,
-    SessionTick, SimContacts, SimState, TokenEvent,
+    Broadcast, BroadcastTick, CameraReport, ClockTick, Decision, Fault, FrameEvent, Key, Keys,
+    MissionReport, ObserverId, ObserverStatus, ObserverTrack, PerformerTruth, RejectReason,
+    RejectReport, Role, SessionEvent, SessionTick, SimContacts, SimState, TokenEvent,
 };
 
 use crate::run_dir::ObserverRecord;
@@ -25,6 +25,7 @@ pub fn subscriptions(observers: &[ObserverId]) -> Vec<Key> {
         Key::SimContacts,
         Key::SchedSession,
         Key::SchedReport,
+        Key::SchedBroadcast,
         Key::TruthPerformer,
     ];
     for o in observers {
@@ -51,6 +52,8 @@ pub struct Gathered {
     pub missing: BTreeMap<ObserverId, u64>,
     pub phase: String,
     pub report: Option<MissionReport>,
+    /// What the scheduler told the performer to fly, round by round (false releases).
+    pub broadcasts: Vec<Broadcast>,
     pub contacts: Option<SimContacts>,
     pub state: Option<SimState>,
     /// Observers' homes, and the farthest each got from it (every `sim/state` sample).
@@ -163,6 +166,11 @@ impl Gathered {
                 }
                 self.session.report(&r);
                 self.report = Some(r);
+            }
+            Key::SchedBroadcast => {
+                if let Some(b) = rejects.decode::<BroadcastTick>(key, payload) {
+                    self.broadcasts.extend(b.broadcast);
+                }
             }
             Key::TruthPerformer => {
                 if let Some(t) = rejects.decode::<PerformerTruth>(key, payload) {

@@ -49,6 +49,10 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
     let case = info.case;
     let report = g.report.clone();
     let (records, observers, violations) = observer_records(case.observers, &mut g, &report);
+    let false_releases = run_eval::summary::false_releases(
+        records.values().flat_map(|r| &r.frames),
+        &run_eval::summary::flown_payloads(&g.broadcasts),
+    );
     let mut mission = MissionSummary {
         case: case.name.clone(),
         modality: Some(info.modality.into()),
@@ -65,6 +69,7 @@ pub fn summarise(info: &RunInfo<'_>, run: Supervised, procs: &[Proc]) -> RunOutp
         viewpoints: BTreeMap::new(),
         deaf_observers: Vec::new(),
         flights: proto::FlightMode::default(),
+        false_releases,
     };
     run_eval::summary::annotate_case(&mut mission, case);
     mission.reasons = check_expected(case, &mission);

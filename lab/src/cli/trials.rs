@@ -339,6 +339,12 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
             outcome_line(&out.tally, "missions met the expected outcome"),
             path.display()
         );
+        if out.false_releases.releases > 0 {
+            println!(
+                "  {} false release(s) — payloads the performer did not fly — in {} mission(s)",
+                out.false_releases.releases, out.false_releases.missions
+            );
+        }
         return finished(&stop, &out.tally, &path);
     }
     Ok(())

@@ -239,7 +239,12 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
         viewpoints: BTreeMap::new(),
         deaf_observers: Vec::new(),
         flights: proto::FlightMode::default(),
+        false_releases: Vec::new(),
     };
+    mission.false_releases = crate::summary::false_releases(
+        g.frames.values().flatten(),
+        &crate::summary::flown_payloads(&g.broadcasts),
+    );
     crate::summary::annotate(&mut mission, n);
     if let Some(c) = &case {
         mission.flights = c.flights;

@@ -8,7 +8,7 @@ use proto::{Decision, ObserverId};
 use serde::Serialize;
 
 use run_format::case::Case;
-use run_format::run_dir::{MissionSummary, ObserverSummary, ObserverViewpoint};
+use run_format::run_dir::{FalseRelease, MissionSummary, ObserverSummary, ObserverViewpoint};
 // `ns_s` and `decision_label` format `ObserverSummary::from_record`'s fields, so they live
 // with it in `run-format`; re-exported here for the readers that print them.
 pub use run_format::run_dir::{decision_label, ns_s};
@@ -126,6 +126,19 @@ pub fn check_expected(case: &Case, s: &MissionSummary) -> Vec<String> {
     if s.contact_steps != 0 {
         reasons.push(format!("{} contact steps", s.contact_steps));
     }
+    reasons.extend(s.false_releases.iter().map(|f| {
+        format!(
+            "false release: {} released {} in round {}, the performer flew {}",
+            f.observer,
+            f.released,
+            f.round,
+            if f.flown.is_empty() {
+                "nothing".to_owned()
+            } else {
+                f.flown.join(",")
+            }
+        )
+    }));
     reasons.extend(
         s.provenance_violations
             .iter()
@@ -178,6 +191,44 @@ pub fn print_summary(s: &MissionSummary) {
     }
 }
 
+/// What the performer flew in each round (payloads in order), from the scheduler's broadcasts.
+pub fn flown_payloads<'a>(
+    broadcasts: impl IntoIterator<Item = &'a proto::Broadcast>,
+) -> BTreeMap<u32, Vec<u8>> {
+    let mut flown: BTreeMap<u32, Vec<u8>> = BTreeMap::new();
+    for b in broadcasts {
+        flown
+            .entry(b.round)
+            .or_default()
+            .extend(b.offers.iter().map(proto::Offer::to_payload));
+    }
+    flown
+}
+
+/// The released frames whose payload was not flown in their round, observer by observer in
+/// release order (`frames`: each observer's frames, in order). A round whose broadcast is not
+/// known (a cut recording) is not judged.
+pub fn false_releases<'a>(
+    frames: impl IntoIterator<Item = &'a proto::FrameEvent>,
+    flown: &BTreeMap<u32, Vec<u8>>,
+) -> Vec<FalseRelease> {
+    let bits = |p: &u8| format!("{p:06b}");
+    let mut out: Vec<FalseRelease> = frames
+        .into_iter()
+        .filter_map(|f| {
+            let payloads = flown.get(&f.round)?;
+            (!payloads.contains(&f.frame.payload)).then(|| FalseRelease {
+                observer: f.observer.to_string(),
+                round: f.round,
+                released: bits(&f.frame.payload),
+                flown: payloads.iter().map(bits).collect(),
+            })
+        })
+        .collect();
+    out.sort_by(|a, b| a.observer.cmp(&b.observer));
+    out
+}
+
 /// The provenance audit of every accepted assignment against its departure time.
 pub fn provenance_violations(
     decisions: &[Decision],
@@ -224,4 +275,81 @@ pub fn rejects_line(rejects: &BTreeMap<String, Vec<proto::RejectCount>>) -> Stri
         })
         .collect();
     format!("messages dropped: {total} — {}", parts.join(" · "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proto::{Broadcast, FrameEvent, Offer, ReleasedFrame, Site};
+
+    fn frame(observer: &str, seq: u64, round: u32, payload: u8) -> FrameEvent {
+        FrameEvent {
+            observer: ObserverId::new(observer).unwrap(),
+            seq,
+            round,
+            frame: ReleasedFrame {
+                payload,
+                token_stamps_ns: vec![0; 17],
+            },
+        }
+    }
+
+    #[test]
+    fn a_release_not_flown_in_its_round_is_named_and_fails_the_mission() {
+        let a = Offer::new(Site::A, 2, 1).unwrap();
+        let withdrawn = Offer::withdrawal(Site::A);
+        let broadcast = |round, offers: Vec<Offer>| Broadcast {
+            tick: u64::from(round),
+            round,
+            start_ns: 0,
+            offers,
+            acquisition: false,
+        };
+        let flown = flown_payloads(&[
+            broadcast(1, vec![a]),
+            broadcast(2, vec![withdrawn]),
+            broadcast(3, vec![]),
+        ]);
+        let (pa, pw) = (a.to_payload(), withdrawn.to_payload());
+        let frames = [
+            frame("O2", 0, 1, pa),
+            frame("O2", 1, 2, pa), // round 1's offer read again in round 2: false
+            frame("O1", 0, 2, pw),
+            frame("O1", 1, 3, pw), // nothing was flown in round 3
+            frame("O1", 2, 4, pa), // round 4's broadcast is unknown: not judged
+        ];
+        let found = false_releases(&frames, &flown);
+        let named: Vec<(&str, u32, &str)> = found
+            .iter()
+            .map(|f| (f.observer.as_str(), f.round, f.released.as_str()))
+            .collect();
+        let (bits_a, bits_w) = (format!("{pa:06b}"), format!("{pw:06b}"));
+        assert_eq!(
+            named,
+            [("O1", 3, bits_w.as_str()), ("O2", 2, bits_a.as_str())]
+        );
+        assert_eq!(found[1].flown, std::slice::from_ref(&bits_w));
+        assert!(found[0].flown.is_empty());
+
+        let mut summary: MissionSummary = serde_json::from_str(
+            r#"{"case":"only-a","modality":"events","observers":{},"work_units":0,
+                "mission_time_s":1.0,"end_reason":null,"contact_steps":0,
+                "min_separation_m":1.0,"provenance_violations":[],"pass":true,
+                "reasons":[],"wall_seconds":1.0}"#,
+        )
+        .unwrap();
+        let clean = serde_json::to_string(&summary).unwrap();
+        assert!(!clean.contains("false_releases"), "omitted when none");
+        summary.false_releases = found;
+        let case = run_format::case::Case::load("only-a").unwrap();
+        let reasons = check_expected(&case, &summary);
+        assert!(
+            reasons.iter().any(|r| r
+                == &format!(
+                    "false release: O2 released {bits_a} in round 2, the performer flew {bits_w}"
+                )),
+            "{reasons:?}"
+        );
+        assert!(reasons.iter().any(|r| r.contains("flew nothing")));
+    }
 }

@@ -144,6 +144,8 @@ struct Mission {
     gesture: GestureConfig,
     /// The performer's current broadcast.
     performer: Option<Schedule>,
+    /// What it flew, round by round (false releases).
+    flown: BTreeMap<u32, Vec<u8>>,
     tick: u64,
     policy: Policy,
     /// Fixed policy: the round whose decisions fall due, and when.
@@ -207,6 +209,7 @@ impl Mission {
             alive,
             gesture: GestureConfig::default(),
             performer: None,
+            flown: BTreeMap::new(),
             tick: 0,
         })
     }
@@ -263,6 +266,7 @@ impl Mission {
                 self.fixed_due = Some((plan.round, plan.start_ns + TICK_NS));
             }
             let payloads: Vec<u8> = plan.offers.iter().map(|o| o.to_payload()).collect();
+            self.flown.entry(plan.round).or_default().extend(&payloads);
             self.performer = Some(broadcast(
                 plan.start_ns,
                 &payloads,
@@ -391,6 +395,10 @@ impl Mission {
             viewpoints: BTreeMap::new(),
             deaf_observers: Vec::new(),
             flights: proto::FlightMode::default(),
+            false_releases: run_eval::summary::false_releases(
+                self.observers.iter().flat_map(|o| &o.record.frames),
+                &self.flown,
+            ),
         };
         run_eval::summary::annotate_case(&mut summary, case);
         summary.reasons = check_expected(case, &summary);

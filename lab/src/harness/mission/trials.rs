@@ -20,7 +20,7 @@ use crate::harness::trials::pool::{Outcome, Tally, run_pool_on};
 use commands::Policy;
 use proto::Receiver;
 use run_format::case::Case;
-use run_format::run_dir::ObserverSummary;
+use run_format::run_dir::{FalseRelease, ObserverSummary};
 
 /// One case and how many times to fly it.
 #[derive(Debug, Clone)]
@@ -48,6 +48,9 @@ pub struct MissionTrial {
     pub observers: BTreeMap<String, ObserverSummary>,
     pub min_separation_m: f64,
     pub contact_steps: u64,
+    /// Released payloads the performer did not fly in their round (omitted when none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub false_releases: Vec<FalseRelease>,
 }
 
 impl Recordable for MissionTrial {
@@ -76,14 +79,43 @@ pub struct MissionTrialsOut {
     pub seed: u64,
     #[serde(flatten)]
     pub tally: Tally,
+    /// False releases over every mission, and the missions with one (omitted when none).
+    #[serde(skip_serializing_if = "FalseReleaseTally::is_none")]
+    pub false_releases: FalseReleaseTally,
     pub per_trial: Vec<MissionTrial>,
+}
+
+/// How often missions released a payload that was not flown.
+#[derive(Debug, Clone, Copy, Default, Serialize, PartialEq, Eq)]
+pub struct FalseReleaseTally {
+    pub releases: u64,
+    pub missions: u64,
+}
+
+impl FalseReleaseTally {
+    fn of(per_trial: &[MissionTrial]) -> Self {
+        Self {
+            releases: per_trial
+                .iter()
+                .map(|t| t.false_releases.len() as u64)
+                .sum(),
+            missions: per_trial
+                .iter()
+                .filter(|t| !t.false_releases.is_empty())
+                .count() as u64,
+        }
+    }
+
+    fn is_none(&self) -> bool {
+        self.releases == 0
+    }
 }
 
 /// The criterion printed before the first trial and recorded in `trials.json`.
 pub fn mission_criterion(opts: &MissionTrialsOptions) -> String {
     format!(
         "success = case {}'s expected outcome (messages, work units, services per observer, \
-         no contact, provenance)",
+         no contact, provenance, no false release)",
         opts.case.name
     )
 }
@@ -136,6 +168,7 @@ pub fn run_mission_trials_on(
                 observers: summary.observers,
                 min_separation_m: summary.min_separation_m,
                 contact_steps: summary.contact_steps,
+                false_releases: summary.false_releases,
             };
             on_record(&trial)?;
             Ok(Some(trial))
@@ -152,6 +185,7 @@ pub fn mission_trials_out(
     per_trial.sort_by_key(|t| t.index);
     let tally = Tally::of(&per_trial, opts.trials);
     MissionTrialsOut {
+        false_releases: FalseReleaseTally::of(&per_trial),
         criterion: mission_criterion(opts),
         case: opts.case.name.clone(),
         modality: opts.modality,

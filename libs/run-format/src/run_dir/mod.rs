@@ -132,6 +132,18 @@ pub struct ObserverViewpoint {
     pub elevation_deg: f64,
 }
 
+/// A frame an observer released whose payload the performer did not fly in that round: noise
+/// or a misread turned into a confident message (judged apart from lost messages).
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct FalseRelease {
+    pub observer: String,
+    pub round: u32,
+    /// The released payload, b1 first (`011001`).
+    pub released: String,
+    /// What the performer flew in that round, in order.
+    pub flown: Vec<String>,
+}
+
 /// The mission summary shared by `waggle mission` (in-process) and `waggle run` (distributed).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MissionSummary {
@@ -161,6 +173,10 @@ pub struct MissionSummary {
     /// The safety router the mission flew with.
     #[serde(default)]
     pub flights: proto::FlightMode,
+    /// Released frames whose payload was not flown in their round (observer order, then
+    /// release order); omitted when there are none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub false_releases: Vec<FalseRelease>,
 }
 
 /// Per-process figures in the summary.
