@@ -204,6 +204,9 @@ AEDAT_VERSION="2.3.0"
 # Eclipse Zenoh's own Python client, the ROS 2 side of the live ROS 2 view's test
 # (tools/ros2/check_live.py): the same Zenoh release as the Rust crate.
 ZENOH_PY_VERSION="1.10.2"
+# pytest runs the waggle package's own tests (python/tests), with its dependencies pinned too.
+PYTEST_VERSION="9.2.0"
+PYTEST_DEPS=("pluggy==1.7.0" "iniconfig==2.3.1" "packaging==26.4" "pygments==2.21.0")
 
 command -v node >/dev/null || die "node (Node.js >= 20) is needed for the tests in tests/js: apt-get install nodejs npm"
 command -v npm >/dev/null || die "npm is needed to install tests/js: apt-get install npm"
@@ -216,7 +219,7 @@ fi
 venv="$js/.venv"
 venv_ok() {
   "$venv/bin/python" - "$MCAP_PY_VERSION" "$ZSTANDARD_VERSION" "$LZ4_VERSION" "$EVT3_VERSION" "$NUMPY_VERSION" \
-    "$ROSBAGS_VERSION" "$MCAP_ROS2_VERSION" "$DV_PROCESSING_VERSION" "$AEDAT_VERSION" "$ZENOH_PY_VERSION" <<'PY' 2>/dev/null
+    "$ROSBAGS_VERSION" "$MCAP_ROS2_VERSION" "$DV_PROCESSING_VERSION" "$AEDAT_VERSION" "$ZENOH_PY_VERSION" "$PYTEST_VERSION" <<'PY' 2>/dev/null
 import sys
 from importlib.metadata import version
 import mcap.reader, zstandard, lz4.frame  # what read_mcap.py needs for our zstd (and lz4) chunks
@@ -224,7 +227,8 @@ import evt3, numpy
 import rosbags.rosbag2, mcap_ros2.decoder  # tools/ros2/check_bag.py
 import dv_processing, aedat  # tools/aedat4/aedat4_check.py
 import zenoh, zenoh.ext  # tools/ros2/check_live.py
-names = ("mcap", "zstandard", "lz4", "evt3", "numpy", "rosbags", "mcap-ros2-support", "dv-processing", "aedat", "eclipse-zenoh")
+import pytest  # python/tests
+names = ("mcap", "zstandard", "lz4", "evt3", "numpy", "rosbags", "mcap-ros2-support", "dv-processing", "aedat", "eclipse-zenoh", "pytest")
 sys.exit([version(p) for p in names] != sys.argv[1:])
 PY
 }
@@ -239,9 +243,9 @@ if ! venv_ok; then
     "evt3==$EVT3_VERSION" "numpy==$NUMPY_VERSION" \
     "rosbags==$ROSBAGS_VERSION" "mcap-ros2-support==$MCAP_ROS2_VERSION" "${ROSBAGS_DEPS[@]}" \
     "dv-processing==$DV_PROCESSING_VERSION" "aedat==$AEDAT_VERSION" \
-    "eclipse-zenoh==$ZENOH_PY_VERSION" \
+    "eclipse-zenoh==$ZENOH_PY_VERSION" "pytest==$PYTEST_VERSION" "${PYTEST_DEPS[@]}" \
     || die "could not install mcap/zstandard/lz4/evt3/numpy/rosbags/mcap-ros2-support/dv-processing/aedat/eclipse-zenoh into $venv from PyPI"
-  venv_ok || die "$venv still lacks mcap $MCAP_PY_VERSION / zstandard $ZSTANDARD_VERSION / lz4 $LZ4_VERSION / evt3 $EVT3_VERSION / numpy $NUMPY_VERSION / rosbags $ROSBAGS_VERSION / mcap-ros2-support $MCAP_ROS2_VERSION / dv-processing $DV_PROCESSING_VERSION / aedat $AEDAT_VERSION / eclipse-zenoh $ZENOH_PY_VERSION"
+  venv_ok || die "$venv still lacks mcap $MCAP_PY_VERSION / zstandard $ZSTANDARD_VERSION / lz4 $LZ4_VERSION / evt3 $EVT3_VERSION / numpy $NUMPY_VERSION / rosbags $ROSBAGS_VERSION / mcap-ros2-support $MCAP_ROS2_VERSION / dv-processing $DV_PROCESSING_VERSION / aedat $AEDAT_VERSION / eclipse-zenoh $ZENOH_PY_VERSION / pytest $PYTEST_VERSION"
 fi
 
 # --- the waggle Python package (python/) --------------------------------------------------------

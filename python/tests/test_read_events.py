@@ -7,7 +7,7 @@ Needs the ``waggle`` binaries (``cargo build --release --workspace --bins``; fou
 tests find them: ``$CARGO_TARGET_DIR/release`` or ``target/release``) and the package installed
 (``bash deploy/setup.sh``). Run from the repository root::
 
-    tests/js/.venv/bin/python -m unittest discover -s python/tests
+    tests/js/.venv/bin/python -m pytest python/tests
 """
 
 import os

@@ -6,7 +6,7 @@ Run with the package installed (``bash deploy/setup.sh`` builds it into tests/js
 repository root so that the source folder ``python/waggle`` (without the compiled part) does not
 shadow it::
 
-    tests/js/.venv/bin/python -m unittest discover -s python/tests
+    tests/js/.venv/bin/python -m pytest python/tests
 """
 
 import math

@@ -483,15 +483,21 @@ fn a_failing_plugin_in_a_mission_is_named_and_bad_receivers_are_refused() {
     }
 }
 
-/// The package's own tests (`python/tests`): its receivers, arrays and errors from Python.
+/// The package's own tests (`python/tests`, run by pytest on the venv's CPython): its
+/// receivers, arrays, recordings read into numpy and errors, from Python.
 #[test]
 fn the_python_packages_own_tests_pass() {
     let root = waggle_tests::workspace_root();
-    waggle_tests::succeed(
+    let out = waggle_tests::succeed(
         Command::new(waggle_tests::venv_python_with("waggle"))
-            .args(["-m", "unittest", "discover", "-s"])
+            .args(["-m", "pytest", "-q", "-p", "no:cacheprovider"])
             .arg(root.join("python/tests"))
             .current_dir(&root),
-        "python -m unittest discover -s python/tests",
+        "python -m pytest python/tests",
+    );
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        said.contains(" passed") && !said.contains("skipped"),
+        "every test ran: {said}"
     );
 }
