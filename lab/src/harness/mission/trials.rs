@@ -106,7 +106,7 @@ impl FalseReleaseTally {
         }
     }
 
-    fn is_none(&self) -> bool {
+    pub fn is_none(&self) -> bool {
         self.releases == 0
     }
 }

@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::harness::flight::air::PointTracking;
 use crate::harness::mission::MissionOptions;
-use crate::harness::mission::trials::MissionTrialsOut;
+use crate::harness::mission::trials::{FalseReleaseTally, MissionTrialsOut};
 use crate::harness::runs::records::{write_atomic, write_json};
 use crate::harness::study::figure::{FigurePoint, success_figure};
 use crate::harness::study::vary::Vary;
@@ -124,6 +124,10 @@ pub struct ArmResult {
     /// The performer's tracking (trials that flew the cascade or wind; none otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tracking: Option<PointTracking>,
+    /// Payloads released that the performer did not fly, and the missions with one (omitted
+    /// when none).
+    #[serde(skip_serializing_if = "FalseReleaseTally::is_none")]
+    pub false_releases: FalseReleaseTally,
 }
 
 impl BaselineStudy {
@@ -231,6 +235,7 @@ pub(crate) fn arm_result(
                 )
             })
         })),
+        false_releases: out.false_releases,
     }
 }
 
@@ -349,6 +354,21 @@ pub fn report(study: &BaselineStudy, results: &[ArmResult]) -> String {
                 PointTracking::cells(r.tracking.as_ref()),
             ));
         }
+        // Named apart from the table: a confident wrong offer, not a lost message.
+        for r in results
+            .iter()
+            .filter(|r| &r.case == case && !r.false_releases.is_none())
+        {
+            s.push_str(&format!(
+                "\nFalse releases{}, arm {}: {} payload(s) the performer did not fly, in {} of {} \
+                 missions.\n",
+                r.level.map_or(String::new(), |l| format!(" at {l}")),
+                r.arm,
+                r.false_releases.releases,
+                r.false_releases.missions,
+                r.trials
+            ));
+        }
     }
     s
 }
@@ -407,10 +427,25 @@ mod tests {
                 max_m: 0.004,
                 contact_trials: 0,
             }),
+            false_releases: FalseReleaseTally::default(),
         };
         let md = report(&s, &[row(0.0, 0.9), row(2.0, 0.3)]);
         assert!(md.contains("| wind.mean_mps | arm |"), "{md}");
         assert!(md.contains("| 2 | ideal-message | 1/2"), "{md}");
         assert!(md.contains("| 0.300 | 1 | 1.2 / 4.0 | 0 |"), "{md}");
+        assert!(!md.contains("False releases"), "none, none said: {md}");
+        let mut wrong = row(2.0, 0.9);
+        wrong.false_releases = FalseReleaseTally {
+            releases: 3,
+            missions: 1,
+        };
+        let md = report(&s, &[row(0.0, 0.9), wrong]);
+        assert!(
+            md.contains(
+                "False releases at 2, arm ideal-message: 3 payload(s) the performer did not fly, \
+                 in 1 of 2 missions."
+            ),
+            "{md}"
+        );
     }
 }
