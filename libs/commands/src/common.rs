@@ -66,8 +66,9 @@ pub struct MissionReceiversArg {
     #[arg(long = "receiver", value_name = "OBSERVER=python:MODULE:CLASS",
           value_parser = parse_observer_plugin)]
     pub receivers: Vec<receiver_plugin::ObserverPlugin>,
-    /// Wall-clock limit of a plug-in receiver over the whole mission, seconds.
-    #[arg(long = "plugin-time-limit-s", value_name = "SECONDS", default_value_t = 600.0,
+    /// Wall-clock limit of a plug-in receiver over the whole mission, seconds (an hour by
+    /// default: a long mission on a busy machine is not a hung plug-in).
+    #[arg(long = "plugin-time-limit-s", value_name = "SECONDS", default_value_t = 3600.0,
           value_parser = parse_time_limit, requires = "receivers")]
     pub plugin_time_limit_s: f64,
 }
