@@ -38,6 +38,7 @@ pub fn run(args: MissionArgs) -> Result<()> {
         metrics,
         observers,
         receiver_failures,
+        ..
     } = fly_case_with(&case, args.modality, &opts)?.context("the mission was interrupted")?;
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

@@ -339,6 +339,12 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
             outcome_line(&out.tally, "missions met the expected outcome"),
             path.display()
         );
+        for (o, r) in &out.receptions {
+            println!(
+                "  {o}: {} offers flown, {} received, {} lost, {} false release(s)",
+                r.flown, r.received, r.lost, r.false_releases
+            );
+        }
         if out.false_releases.releases > 0 {
             println!(
                 "  {} false release(s) — payloads the performer did not fly — in {} mission(s)",

@@ -8,7 +8,9 @@ use proto::{Decision, ObserverId};
 use serde::Serialize;
 
 use run_format::case::Case;
-use run_format::run_dir::{FalseRelease, MissionSummary, ObserverSummary, ObserverViewpoint};
+use run_format::run_dir::{
+    FalseRelease, MissionSummary, ObserverSummary, ObserverViewpoint, OfferReception,
+};
 // `ns_s` and `decision_label` format `ObserverSummary::from_record`'s fields, so they live
 // with it in `run-format`; re-exported here for the readers that print them.
 pub use run_format::run_dir::{decision_label, ns_s};
@@ -229,6 +231,43 @@ pub fn false_releases<'a>(
     out
 }
 
+/// What became of each flown offer at each of `observers` (by name): received in its round, or
+/// lost; with the observer's false releases (`false_releases`' output) counted apart. Only
+/// rounds whose broadcast is known count.
+pub fn offer_receptions<'a>(
+    observers: &[String],
+    frames: impl IntoIterator<Item = &'a proto::FrameEvent>,
+    flown: &BTreeMap<u32, Vec<u8>>,
+    false_releases: &[FalseRelease],
+) -> BTreeMap<String, OfferReception> {
+    let mut released: BTreeMap<(String, u32), Vec<u8>> = BTreeMap::new();
+    for f in frames {
+        released
+            .entry((f.observer.to_string(), f.round))
+            .or_default()
+            .push(f.frame.payload);
+    }
+    observers
+        .iter()
+        .map(|o| {
+            let mut r = OfferReception::default();
+            for (round, payloads) in flown {
+                let got = released.get(&(o.clone(), *round));
+                for p in payloads {
+                    r.flown += 1;
+                    if got.is_some_and(|g| g.contains(p)) {
+                        r.received += 1;
+                    } else {
+                        r.lost += 1;
+                    }
+                }
+            }
+            r.false_releases = false_releases.iter().filter(|f| &f.observer == o).count() as u64;
+            (o.clone(), r)
+        })
+        .collect()
+}
+
 /// The provenance audit of every accepted assignment against its departure time.
 pub fn provenance_violations(
     decisions: &[Decision],
@@ -351,5 +390,15 @@ mod tests {
             "{reasons:?}"
         );
         assert!(reasons.iter().any(|r| r.contains("flew nothing")));
+
+        let observers = ["O1".to_owned(), "O2".to_owned(), "O3".to_owned()];
+        let got = offer_receptions(&observers, &frames, &flown, &summary.false_releases);
+        let counts = |o: &str| {
+            let r = got[o];
+            (r.flown, r.received, r.lost, r.false_releases)
+        };
+        assert_eq!(counts("O1"), (2, 1, 1, 1), "round 2's withdrawal received");
+        assert_eq!(counts("O2"), (2, 1, 1, 1), "round 1's offer received");
+        assert_eq!(counts("O3"), (2, 0, 2, 0), "deaf: everything lost");
     }
 }

@@ -45,7 +45,7 @@ use commands::Policy;
 use proto::Receiver;
 use run_eval::summary::{check_expected, ns_s, provenance_violations};
 use run_format::case::Case;
-use run_format::run_dir::{MissionSummary, ObserverRecord, ObserverSummary};
+use run_format::run_dir::{MissionSummary, ObserverRecord, ObserverSummary, OfferReception};
 
 /// What a flown mission gives: its summary, its outcome measures and every observer's record
 /// (`observers.json`).
@@ -56,6 +56,8 @@ pub struct MissionRun {
     pub observers: BTreeMap<String, ObserverRecord>,
     /// Observers whose plug-in receiver failed, and why (the mission went on with them deaf).
     pub receiver_failures: BTreeMap<String, String>,
+    /// What became of the offers flown to each observer.
+    pub receptions: BTreeMap<String, OfferReception>,
 }
 
 /// Flies `case` with every observer on `modality`'s receiver, in one process.
@@ -98,6 +100,13 @@ pub fn fly_case_with(
         metrics.performer_tracking = Some(Tracking::of(&mission.world, 0));
     }
     let summary = mission.summarise(case, modality, end_reason, started);
+    let names: Vec<String> = mission.observers.iter().map(|o| o.name.clone()).collect();
+    let receptions = run_eval::summary::offer_receptions(
+        &names,
+        mission.observers.iter().flat_map(|o| &o.record.frames),
+        &mission.flown,
+        &summary.false_releases,
+    );
     let receiver_failures = mission
         .observers
         .iter()
@@ -113,6 +122,7 @@ pub fn fly_case_with(
         metrics,
         observers,
         receiver_failures,
+        receptions,
     }))
 }
 

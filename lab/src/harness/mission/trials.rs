@@ -20,7 +20,7 @@ use crate::harness::trials::pool::{Outcome, Tally, run_pool_on};
 use commands::Policy;
 use proto::Receiver;
 use run_format::case::Case;
-use run_format::run_dir::{FalseRelease, ObserverSummary};
+use run_format::run_dir::{FalseRelease, ObserverSummary, OfferReception};
 
 /// One case and how many times to fly it.
 #[derive(Debug, Clone)]
@@ -51,6 +51,9 @@ pub struct MissionTrial {
     /// Released payloads the performer did not fly in their round (omitted when none).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub false_releases: Vec<FalseRelease>,
+    /// What became of the offers flown to each observer (received, lost, false releases).
+    #[serde(default)]
+    pub receptions: BTreeMap<String, OfferReception>,
 }
 
 impl Recordable for MissionTrial {
@@ -82,6 +85,8 @@ pub struct MissionTrialsOut {
     /// False releases over every mission, and the missions with one (omitted when none).
     #[serde(skip_serializing_if = "FalseReleaseTally::is_none")]
     pub false_releases: FalseReleaseTally,
+    /// Each observer's offers over every mission: flown, received, lost, falsely released.
+    pub receptions: BTreeMap<String, OfferReception>,
     pub per_trial: Vec<MissionTrial>,
 }
 
@@ -153,7 +158,10 @@ pub fn run_mission_trials_on(
                 ..MissionOptions::default()
             };
             let Some(MissionRun {
-                summary, metrics, ..
+                summary,
+                metrics,
+                receptions,
+                ..
             }) = fly_case_with(&opts.case, opts.modality, &mission)?
             else {
                 return Ok(None);
@@ -169,6 +177,7 @@ pub fn run_mission_trials_on(
                 min_separation_m: summary.min_separation_m,
                 contact_steps: summary.contact_steps,
                 false_releases: summary.false_releases,
+                receptions,
             };
             on_record(&trial)?;
             Ok(Some(trial))
@@ -184,8 +193,13 @@ pub fn mission_trials_out(
 ) -> MissionTrialsOut {
     per_trial.sort_by_key(|t| t.index);
     let tally = Tally::of(&per_trial, opts.trials);
+    let mut receptions: BTreeMap<String, OfferReception> = BTreeMap::new();
+    for (o, r) in per_trial.iter().flat_map(|t| &t.receptions) {
+        *receptions.entry(o.clone()).or_default() += *r;
+    }
     MissionTrialsOut {
         false_releases: FalseReleaseTally::of(&per_trial),
+        receptions,
         criterion: mission_criterion(opts),
         case: opts.case.name.clone(),
         modality: opts.modality,

@@ -144,6 +144,25 @@ pub struct FalseRelease {
     pub flown: Vec<String>,
 }
 
+/// What became of the offers flown to one observer: each flown payload of a round is received
+/// (released by the observer in that round) or lost; false releases are counted apart.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct OfferReception {
+    pub flown: u64,
+    pub received: u64,
+    pub lost: u64,
+    pub false_releases: u64,
+}
+
+impl std::ops::AddAssign for OfferReception {
+    fn add_assign(&mut self, o: Self) {
+        self.flown += o.flown;
+        self.received += o.received;
+        self.lost += o.lost;
+        self.false_releases += o.false_releases;
+    }
+}
+
 /// The mission summary shared by `waggle mission` (in-process) and `waggle run` (distributed).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MissionSummary {
