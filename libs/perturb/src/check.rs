@@ -2,7 +2,6 @@
 //! term of a [`Perturbation`] is set.
 
 use crate::error::PerturbError;
-use crate::light::DIM_SHOT_HZ_AT_1LUX;
 use crate::spec::{Perturbation, parameter};
 
 impl Perturbation {
@@ -10,7 +9,7 @@ impl Perturbation {
     /// [`Perturbation::set`]): under a modelled light level the event sensor's shot noise is
     /// its own plus darkness's ([`crate::light::event_shot_noise_hz`]), and that sum must stay
     /// within `events.shot_noise_hz`'s own range — a light level of 0.001 lx alone would ask
-    /// for 10 000 Hz per pixel, hours of events per trial.
+    /// for ≈ 850 Hz per pixel, an hour of events per trial.
     pub fn check(&self) -> Result<(), PerturbError> {
         let lux = self.lux();
         if lux <= 0.0 {
@@ -22,7 +21,7 @@ impl Perturbation {
         if shot_hz <= max_hz {
             return Ok(());
         }
-        let dim_hz_lx = DIM_SHOT_HZ_AT_1LUX;
+        let dim_hz_lx = self.get("light.dim_shot_hz_lx");
         let least = if own_hz < max_hz {
             format!(
                 ": at least {:.3} lx with this events.shot_noise_hz",

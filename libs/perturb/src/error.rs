@@ -35,7 +35,7 @@ pub enum PerturbError {
     #[error(
         "perturbation light.lux = {lux}: the event sensor's background activity would be \
          {shot_hz} Hz per pixel (events.shot_noise_hz = {own_hz} plus darkness's \
-         {dim_hz_lx} Hz·lx / light.lux), above the {max_hz} Hz per pixel the sensor model takes{least}"
+         light.dim_shot_hz_lx = {dim_hz_lx} Hz·lx / light.lux), above the {max_hz} Hz per pixel the sensor model takes{least}"
     )]
     TooDark {
         lux: f64,

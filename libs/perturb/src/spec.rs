@@ -215,8 +215,28 @@ pub const PARAMETERS: &[Parameter] = &[
         100_000.0,
         false,
         "scene illuminance for both cameras: RGB exposure, photon and read noise, blur; event \
-         bandwidth and background (0 = light not modelled; darkness adds 10 Hz·lx / E of shot \
-         noise, and events.shot_noise_hz with it must stay within 100 Hz per pixel: ≥ 0.1 lx)",
+         bandwidth and background (0 = light not modelled; darkness adds light.dim_shot_hz_lx / \
+         E of shot noise, and events.shot_noise_hz with it must stay within 100 Hz per pixel)",
+    ),
+    p(
+        "light.dim_shot_hz_lx",
+        "Hz·lx",
+        crate::light::MEASURED_DIM_SHOT_HZ_LX,
+        0.0,
+        1000.0,
+        false,
+        "under light.lux: the shot noise darkness adds, Hz per pixel times lx (default measured \
+         on a real sensor by IEBCS at 0.1 lx; 10 is the earlier assumption of 10 Hz at 1 lx)",
+    ),
+    p(
+        "light.cutoff_scale",
+        "×",
+        1.0,
+        0.01,
+        100.0,
+        false,
+        "under light.lux: scales the assumed photoreceptor bandwidth (the event cutoff at a light \
+         level; 1 places v2e's 300 Hz at 500 lx)",
     ),
     p(
         "geometry.position_sigma_m",
@@ -522,7 +542,9 @@ impl Perturbation {
     fn event_cutoff_hz(&self) -> f64 {
         let own = self.get("events.cutoff_hz");
         match self.lux() {
-            lux if lux > 0.0 => crate::light::event_cutoff_hz(lux, own),
+            lux if lux > 0.0 => {
+                crate::light::event_cutoff_hz(lux, own, self.get("light.cutoff_scale"))
+            }
             _ => own,
         }
     }
@@ -531,7 +553,9 @@ impl Perturbation {
     pub(crate) fn event_shot_noise_hz(&self) -> f64 {
         let own = self.get("events.shot_noise_hz");
         match self.lux() {
-            lux if lux > 0.0 => crate::light::event_shot_noise_hz(lux, own),
+            lux if lux > 0.0 => {
+                crate::light::event_shot_noise_hz(lux, own, self.get("light.dim_shot_hz_lx"))
+            }
             _ => own,
         }
     }
@@ -627,9 +651,11 @@ mod tests {
 
     #[test]
     fn a_light_level_too_dark_for_the_event_model_is_refused_naming_it() {
-        // Darkness adds 10 Hz·lx / E: 0.1 lx is the 100 Hz per pixel the term allows.
-        assert!(Perturbation::parse(&["light.lux=0.1"]).is_ok());
-        let e = Perturbation::parse(&["light.lux=0.05"]).unwrap_err();
+        // The earlier assumption adds 10 Hz·lx / E: 0.1 lx is the 100 Hz per pixel the term
+        // allows.
+        let assumed = "light.dim_shot_hz_lx=10";
+        assert!(Perturbation::parse(&[assumed, "light.lux=0.1"]).is_ok());
+        let e = Perturbation::parse(&[assumed, "light.lux=0.05"]).unwrap_err();
         assert!(matches!(e, PerturbError::TooDark { .. }), "{e}");
         let text = e.to_string();
         assert!(
@@ -637,23 +663,51 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("at least 0.100 lx"), "{text}");
-        // The sensor's own shot noise counts, in either order of the terms.
+        // The measured constant, 0.8486 Hz·lx, allows down to ≈ 0.0085 lx.
+        assert!(Perturbation::parse(&["light.lux=0.01"]).is_ok());
+        let e = Perturbation::parse(&["light.lux=0.005"])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("at least 0.008 lx"), "{e}");
+        // The sensor's own shot noise counts, in any order of the terms.
         for terms in [
-            ["light.lux=0.2", "events.shot_noise_hz=60"],
-            ["events.shot_noise_hz=60", "light.lux=0.2"],
+            [assumed, "light.lux=0.2", "events.shot_noise_hz=60"],
+            ["events.shot_noise_hz=60", "light.lux=0.2", assumed],
         ] {
             let e = Perturbation::parse(&terms).unwrap_err().to_string();
             assert!(e.contains("at least 0.250 lx"), "{e}");
         }
-        assert!(Perturbation::parse(&["events.shot_noise_hz=60", "light.lux=0.25"]).is_ok());
+        assert!(
+            Perturbation::parse(&[assumed, "events.shot_noise_hz=60", "light.lux=0.25"]).is_ok()
+        );
         // Only the whole set is judged: a later term may bring it back in range.
-        let mut p = Perturbation::parse(&["events.shot_noise_hz=60"]).unwrap();
+        let mut p = Perturbation::parse(&[assumed, "events.shot_noise_hz=60"]).unwrap();
         p.set("light.lux", 0.2).unwrap();
         assert!(p.check().is_err());
         p.set("events.shot_noise_hz", 0.0).unwrap();
         assert_eq!(p.check(), Ok(()));
         let e = Perturbation::parse(&["events.shot_noise_hz=100", "light.lux=1000"]).unwrap_err();
         assert!(!e.to_string().contains("at least"), "{e}");
+    }
+
+    #[test]
+    fn the_light_terms_move_the_event_sensor_only_under_a_light_level() {
+        let noise = |terms: &[&str]| Perturbation::parse(terms).unwrap().event_noise(1);
+        let unlit = noise(&["light.cutoff_scale=3", "light.dim_shot_hz_lx=10"]);
+        assert_eq!(unlit, noise(&[]));
+        let office = noise(&["light.lux=500"]);
+        assert_eq!(office.cutoff_hz, 300.0);
+        assert!(
+            (office.shot_noise_hz - crate::light::MEASURED_DIM_SHOT_HZ_LX / 500.0).abs() < 1e-12
+        );
+        let wide = noise(&["light.lux=500", "light.cutoff_scale=3"]);
+        assert!((wide.cutoff_hz - 900.0).abs() < 1e-9);
+        let assumed = noise(&["light.lux=5", "light.dim_shot_hz_lx=10"]);
+        assert!((assumed.shot_noise_hz - 2.0).abs() < 1e-12);
+        for bad in ["light.cutoff_scale=0", "light.dim_shot_hz_lx=-1"] {
+            let e = Perturbation::parse(&[bad]).unwrap_err().to_string();
+            assert!(e.contains(bad.split('=').next().unwrap()), "{e}");
+        }
     }
 
     #[test]

@@ -24,6 +24,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../../../deploy/studies/baselines.toml"),
     ),
     ("light", include_str!("../../../deploy/studies/light.toml")),
+    (
+        "light-bandwidth",
+        include_str!("../../../deploy/studies/light-bandwidth.toml"),
+    ),
     ("wind", include_str!("../../../deploy/studies/wind.toml")),
     (
         "real-noise",

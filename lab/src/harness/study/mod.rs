@@ -586,7 +586,7 @@ levels = [0.0, 0.5]
         // model: both refused before anything flies, naming the level.
         for (levels, says) in [
             ("[500.0, 200000.0]", "200000"),
-            ("[500.0, 0.01]", "light.lux = 0.01"),
+            ("[500.0, 0.001]", "light.lux = 0.001"),
         ] {
             let dark = GOOD
                 .replace("events.shot_noise_hz\"", "light.lux\"")
