@@ -55,6 +55,7 @@ fn main() -> Result<()> {
     let mut config = SchedulerConfig::new(node.observers, modality)
         .with_offer_sites(&parse_sites(&args.own.offers)?);
     config.rounds = args.own.rounds;
+    config.max_broadcasts = args.own.max_broadcasts;
     config.flights = args.own.flights;
     if let Some(limit) = args.own.time_limit_s
         && !(limit.is_finite() && limit > 0.0 && limit <= 1.0e6)

@@ -576,3 +576,70 @@ fn throttled_runs_with_and_without_delay_are_identical() {
         "observers.json differs"
     );
 }
+
+/// Sched broadcasts recorded in `dir/session.mcap`: (round, offers' payloads) in order.
+fn recorded_broadcasts(dir: &std::path::Path) -> Vec<(u32, Vec<String>)> {
+    use recording::{Decoded, MessageKind, RAW_ENCODING, ReadError, decode, read_recording};
+    let mut out = Vec::new();
+    let outcome = read_recording::<ReadError>(&dir.join("session.mcap"), |m| {
+        if let Some(MessageKind::BroadcastTick) = MessageKind::from_schema_name(m.schema)
+            && m.message_encoding == RAW_ENCODING
+            && let Decoded::BroadcastTick(t) = decode(MessageKind::BroadcastTick, m.data).unwrap()
+            && let Some(b) = t.broadcast
+        {
+            let payloads = b.offers.iter().map(|o| o.to_bits()).collect();
+            out.push((b.round, payloads));
+        }
+        Ok(())
+    })
+    .unwrap();
+    assert!(outcome.complete, "{:?}", outcome.problem);
+    out
+}
+
+#[test]
+fn a_repeated_broadcast_is_recorded_audited_and_replayed() {
+    // only-a offers A alone, so nobody ever holds a message for both sites and decides: with
+    // --max-broadcasts 2 the round flies A twice, and each observer's one message counts once.
+    let r = run(
+        "only-a",
+        "events",
+        "max-broadcasts",
+        &["--max-broadcasts", "2"],
+    );
+    r.assert_pass();
+    r.every_process_exited_cleanly();
+    assert_eq!(r.messages(), [1, 1, 1]);
+    for o in ["O1", "O2", "O3"] {
+        assert_eq!(
+            r.summary.mission.observers[o].payloads,
+            ["011010", "011010"],
+            "{o}"
+        );
+    }
+    let dir = out_dir_path("max-broadcasts");
+    let flown = recorded_broadcasts(&dir);
+    let a = vec!["011010".to_string()];
+    assert_eq!(flown, [(1, a.clone()), (1, a)]);
+    let audit = waggle()
+        .arg("audit")
+        .arg(&dir)
+        .arg("--json")
+        .output()
+        .unwrap();
+    let v: Value = serde_json::from_slice(&audit.stdout).unwrap();
+    assert!(audit.status.success() && v["pass"] == true, "{v:#}");
+    let v = replay_json(&dir.join("session.mcap"));
+    assert_eq!(v["all_matched"], true, "{v:#}");
+    // Out of range, refused before anything starts, naming the option.
+    let bad = waggle()
+        .args(["run", "only-a", "--max-broadcasts", "9"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("--max-broadcasts"),
+        "{}",
+        String::from_utf8_lossy(&bad.stderr)
+    );
+}

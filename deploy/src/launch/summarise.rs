@@ -197,14 +197,13 @@ fn observer_records(
         rec.frames.sort_by_key(|f| f.seq);
         rec.track.sort_by_key(|t| t.stamp_ns);
         rec.track.dedup_by_key(|t| t.stamp_ns);
-        let frames: Vec<_> = rec.frames.iter().map(|f| f.frame.clone()).collect();
         let services = report
             .as_ref()
             .and_then(|r| r.services.get(&id).cloned())
             .unwrap_or_default();
         summaries.insert(
             id.to_string(),
-            ObserverSummary::from_record(&frames, &rec.decisions, &services, rec.tokens.len()),
+            ObserverSummary::from_record(&rec.frames, &rec.decisions, &services, rec.tokens.len()),
         );
         violations.extend(provenance_violations(&rec.decisions, &departures));
         records.insert(id.to_string(), rec);

@@ -16,4 +16,4 @@ pub mod sweep;
 pub mod trials;
 pub mod viewpoints;
 
-pub use commands::common::{FlightsArg, PerturbArgs, RenderArg, parse_jobs};
+pub use commands::common::{CaseOverrides, PerturbArgs, RenderArg, parse_jobs};

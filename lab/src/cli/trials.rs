@@ -55,6 +55,9 @@ pub(super) fn perturbation_with(
 
 /// The camera of link trials (real noise only for events).
 fn link_modality(args: &TrialsArgs) -> Result<Modality> {
+    if args.overrides.mode.is_some() || args.overrides.max_broadcasts.is_some() {
+        bail!("--flights and --max-broadcasts change a whole case: they need --case");
+    }
     let Some(modality) = args.modality.sensor() else {
         bail!("--link trials need a sensor: --modality rgb or events (ideal is for --case)");
     };
@@ -249,7 +252,7 @@ fn progress_bar(trials: u64, first: &str) -> ProgressBar {
 fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
     let name = args.case.as_deref().unwrap_or_default();
     let case_text = run_format::case::case_source(name)?;
-    let case = Case::from_text(&case_text, name)?;
+    let case = args.overrides.apply(Case::from_text(&case_text, name)?);
     if !case.modalities.contains(&args.modality) && args.modality != Receiver::Ideal {
         bail!(
             "case {} does not apply to the {} modality (it lists {:?})",
@@ -275,7 +278,7 @@ fn run_case(args: TrialsArgs, perturbation: Perturbation) -> Result<()> {
     let _lock = RunLock::acquire(&args.out)?;
     RunManifest {
         kind: RunKind::Missions,
-        definition: MissionsDefinition::of(&opts, name, &case_text).to_text()?,
+        definition: MissionsDefinition::of(&opts, name, &case_text)?.to_text()?,
         requested: opts.trials,
         shard: shard.map(|s| s.to_string()),
     }

@@ -1,17 +1,23 @@
-//! Argument groups and value parsers shared by several commands: `--flights`, `--sensor-preset`/`--perturb`, `--render`, `--jobs`, `--payload`, `--viewpoint`, where a recorded or live camera was (`--viewpoint`/`--observer`), `--policy` and an observer's plug-in receiver (`--receiver O2=python:M:C`).
+//! Argument groups and value parsers shared by several commands: `--flights` and `--max-broadcasts`, `--sensor-preset`/`--perturb`, `--render`, `--jobs`, `--payload`, `--viewpoint`, where a recorded or live camera was (`--viewpoint`/`--observer`), `--policy` and an observer's plug-in receiver (`--receiver O2=python:M:C`).
 
 use anyhow::Result;
 use proto::scene::Placement;
 use serde::{Deserialize, Serialize};
 
-/// `--flights sequential|concurrent`, shared by the commands that fly a whole case.
+/// `--flights sequential|concurrent` and `--max-broadcasts N`, overriding a case's own, shared
+/// by the commands that fly a whole case.
 #[derive(Debug, Clone, Copy, clap::Args)]
-pub struct FlightsArg {
+pub struct CaseOverrides {
     /// Safety router, overriding the case's `flights`: `sequential` flies one trip at a time
     /// (the paper), `concurrent` lets trips overlap when their reserved space-time paths keep
     /// the 0.4 m clearance.
     #[arg(long = "flights", value_enum)]
     pub mode: Option<proto::FlightMode>,
+    /// Broadcasts a round may fly, overriding the case's `max_broadcasts`: the round's offers
+    /// flown again while a live observer has not decided (1, the paper: one broadcast).
+    #[arg(long = "max-broadcasts", value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=proto::sched::MAX_ROUND_BROADCASTS as i64))]
+    pub max_broadcasts: Option<u32>,
 }
 
 /// `--sensor-preset NAME` and `--perturb KEY=VALUE…`, shared by the commands that perturb.
@@ -107,11 +113,14 @@ fn parse_observer_plugin(s: &str) -> Result<receiver_plugin::ObserverPlugin, Str
         .map_err(|e: receiver_plugin::PluginError| e.to_string())
 }
 
-impl FlightsArg {
-    /// `case` with the override applied.
+impl CaseOverrides {
+    /// `case` with the overrides applied.
     pub fn apply(self, mut case: run_format::case::Case) -> run_format::case::Case {
         if let Some(mode) = self.mode {
             case.flights = mode;
+        }
+        if let Some(n) = self.max_broadcasts {
+            case.max_broadcasts = n;
         }
         case
     }

@@ -43,7 +43,7 @@ pub mod trials;
 pub mod up;
 pub mod viewpoints;
 
-pub use common::{FlightsArg, PerturbArgs, Policy, RenderArg};
+pub use common::{CaseOverrides, PerturbArgs, Policy, RenderArg};
 
 /// `waggle`'s command line.
 #[derive(Debug, Parser)]

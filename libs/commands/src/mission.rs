@@ -15,7 +15,7 @@ pub struct MissionArgs {
     #[command(flatten)]
     pub render: crate::common::RenderArg,
     #[command(flatten)]
-    pub flights: crate::common::FlightsArg,
+    pub flights: crate::common::CaseOverrides,
     /// Allocation policy: `waggle` (decode the broadcast) or `fixed` (the no-communication
     /// baseline: observer i always takes offer site i mod sites).
     #[arg(long, value_enum, default_value_t)]

@@ -19,7 +19,7 @@ pub struct SessionArgs {
     #[command(flatten)]
     pub render: crate::common::RenderArg,
     #[command(flatten)]
-    pub flights: crate::common::FlightsArg,
+    pub flights: crate::common::CaseOverrides,
     /// The event cameras' sensor model: a preset and `events.*` terms (other groups are
     /// modelled by `waggle trials` and `waggle mission` only).
     #[command(flatten)]

@@ -17,6 +17,9 @@ pub struct TrialsArgs {
     /// trial; success is the case's expected outcome.
     #[arg(long)]
     pub case: Option<String>,
+    /// Whole missions only: overrides of the case's `flights` and `max_broadcasts`.
+    #[command(flatten)]
+    pub overrides: crate::common::CaseOverrides,
     /// Whole missions only: `waggle` or the `fixed` no-communication baseline.
     #[arg(long, value_enum, default_value_t, requires = "case")]
     pub policy: Policy,

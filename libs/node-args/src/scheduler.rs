@@ -16,6 +16,9 @@ pub struct SchedulerArgs {
     /// Number of rounds.
     #[arg(long, default_value_t = 2)]
     pub rounds: u32,
+    /// Broadcasts a round may fly: its offers again while a live observer is undecided.
+    #[arg(long, default_value_t = 1)]
+    pub max_broadcasts: u32,
     /// Hard limit on simulated time, seconds.
     #[arg(long)]
     pub time_limit_s: Option<f64>,
@@ -31,6 +34,11 @@ impl SchedulerArgs {
             .value("--modality", self.modality.as_str())
             .value("--offers", &self.offers)
             .value("--rounds", self.rounds)
+            // Only when asked for, so the paper's compose lines stay as they were.
+            .opt(
+                "--max-broadcasts",
+                (self.max_broadcasts != 1).then_some(self.max_broadcasts),
+            )
             .opt("--time-limit-s", self.time_limit_s)
             .value("--flights", self.flights)
             .done()

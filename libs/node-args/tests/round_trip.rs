@@ -62,26 +62,35 @@ fn ros2_source() -> impl Strategy<Value = Ros2Source> {
     ]
 }
 
-fn command() -> impl Strategy<Value = NodeCommand> {
-    prop_oneof![
-        Just(NodeCommand::Sim),
-        Just(NodeCommand::Performer),
-        (
-            modality(),
-            "[A-D](,[A-D]){0,3}",
-            0u32..10,
-            proptest::option::of(1.0f64..1e5),
-            prop_oneof![Just(FlightMode::Sequential), Just(FlightMode::Concurrent)],
-        )
-            .prop_map(|(modality, offers, rounds, time_limit_s, flights)| {
+/// Any `scheduler-node` command line.
+fn scheduler() -> impl Strategy<Value = NodeCommand> {
+    (
+        modality(),
+        "[A-D](,[A-D]){0,3}",
+        0u32..10,
+        1u32..9,
+        proptest::option::of(1.0f64..1e5),
+        prop_oneof![Just(FlightMode::Sequential), Just(FlightMode::Concurrent)],
+    )
+        .prop_map(
+            |(modality, offers, rounds, max_broadcasts, time_limit_s, flights)| {
                 NodeCommand::Scheduler(SchedulerArgs {
                     modality,
                     offers,
                     rounds,
+                    max_broadcasts,
                     time_limit_s,
                     flights,
                 })
-            }),
+            },
+        )
+}
+
+fn command() -> impl Strategy<Value = NodeCommand> {
+    prop_oneof![
+        Just(NodeCommand::Sim),
+        Just(NodeCommand::Performer),
+        scheduler(),
         (
             observer_id(),
             modality(),

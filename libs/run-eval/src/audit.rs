@@ -102,7 +102,6 @@ impl Gathered {
             let id = ObserverId::from_index(i);
             let mut frames = self.frames.remove(&id).unwrap_or_default();
             frames.sort_by_key(|f| f.seq);
-            let released: Vec<_> = frames.iter().map(|f| f.frame.clone()).collect();
             let decisions = self.decisions.remove(&id).unwrap_or_default();
             let services = self
                 .report
@@ -110,7 +109,7 @@ impl Gathered {
                 .and_then(|r| r.services.get(&id).cloned())
                 .unwrap_or_default();
             let summary = ObserverSummary::from_record(
-                &released,
+                &frames,
                 &decisions,
                 &services,
                 self.tokens.get(&id).copied().unwrap_or(0),

@@ -199,10 +199,13 @@ pub fn flown_payloads<'a>(
 ) -> BTreeMap<u32, Vec<u8>> {
     let mut flown: BTreeMap<u32, Vec<u8>> = BTreeMap::new();
     for b in broadcasts {
-        flown
-            .entry(b.round)
-            .or_default()
-            .extend(b.offers.iter().map(proto::Offer::to_payload));
+        // A round that flew its broadcast again flew each offer once more, not a new one.
+        let round = flown.entry(b.round).or_default();
+        for p in b.offers.iter().map(proto::Offer::to_payload) {
+            if !round.contains(&p) {
+                round.push(p);
+            }
+        }
     }
     flown
 }

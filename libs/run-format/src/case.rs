@@ -63,6 +63,11 @@ pub enum CaseCheckError {
     EmptyName,
     #[error("rounds = 0: a mission has at least one round")]
     NoRounds,
+    #[error(
+        "max_broadcasts = {0}: a round flies 1 to {max} broadcasts",
+        max = proto::sched::MAX_ROUND_BROADCASTS
+    )]
+    MaxBroadcasts(u32),
     #[error("rounds = {0} exceeds {MAX_ROUNDS}")]
     TooManyRounds(u32),
     /// A time field (`field`) outside `0..=MAX_TIME_S` or not finite.
@@ -235,6 +240,10 @@ fn default_rounds() -> u32 {
     2
 }
 
+fn default_max_broadcasts() -> u32 {
+    1
+}
+
 fn default_modalities() -> Vec<Receiver> {
     vec![Receiver::Rgb, Receiver::Events]
 }
@@ -272,6 +281,10 @@ pub struct Case {
     /// Broadcast rounds of `offer_sites` (default 2).
     #[serde(default = "default_rounds")]
     pub rounds: u32,
+    /// Broadcasts a round may fly (default 1, the paper's one-shot): while a live observer has
+    /// not decided when a broadcast's window would close, the round's offers are flown again.
+    #[serde(default = "default_max_broadcasts")]
+    pub max_broadcasts: u32,
     /// Sensor modalities this case applies to (`rgb`, `events`; default both — every built-in
     /// case states it). The ideal receiver can fly every case.
     #[serde(default = "default_modalities")]
@@ -339,6 +352,9 @@ impl Case {
         }
         if self.rounds > MAX_ROUNDS {
             return Err(E::TooManyRounds(self.rounds));
+        }
+        if !(1..=proto::sched::MAX_ROUND_BROADCASTS).contains(&self.max_broadcasts) {
+            return Err(E::MaxBroadcasts(self.max_broadcasts));
         }
         if let Some(limit) = self.time_limit_s {
             check_time_s("time_limit_s", limit)?;
@@ -526,6 +542,14 @@ mod tests {
             (
                 "name='x'\nobservers=1\nmodalities=['rgb']\ntime_limit_s=0\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
                 "time_limit_s = 0",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\nmax_broadcasts=0\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "max_broadcasts = 0",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\nmax_broadcasts=9\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "max_broadcasts = 9",
             ),
             (
                 "name='x'\nobservers=1\nmodalities=['rgb']\nrounds=0\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",

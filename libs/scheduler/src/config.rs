@@ -3,7 +3,7 @@
 
 use proto::Site;
 use proto::scene::MAX_OBSERVERS;
-use proto::sched::MAX_BROADCAST_OFFERS;
+use proto::sched::{MAX_BROADCAST_OFFERS, MAX_ROUND_BROADCASTS};
 use proto::{GestureConfig, NS_PER_S};
 
 use crate::error::ConfigError;
@@ -95,6 +95,10 @@ pub struct SchedulerConfig {
     pub offer_sites: Vec<Site>,
     /// Number of rounds (the paper runs 2).
     pub rounds: u32,
+    /// Broadcasts a round may fly: the round's offers again, whole, while a live observer has
+    /// not decided when a broadcast's window would close (its decision says it holds every
+    /// offer). 1 is the paper's one-shot broadcast.
+    pub max_broadcasts: u32,
     /// Gesture timing, so the scheduler knows exactly when a broadcast ends.
     pub gesture: GestureConfig,
     pub timing: Timing,
@@ -113,6 +117,7 @@ impl SchedulerConfig {
             modality,
             offer_sites: Site::ALL.to_vec(),
             rounds: 2,
+            max_broadcasts: 1,
             gesture: GestureConfig::default(),
             timing: Timing::default(),
             flight: FlightLimits::default(),
@@ -141,6 +146,11 @@ impl SchedulerConfig {
         }
         if self.rounds == 0 {
             return Err(ConfigError::NoRounds);
+        }
+        if !(1..=MAX_ROUND_BROADCASTS).contains(&self.max_broadcasts) {
+            return Err(ConfigError::MaxBroadcasts {
+                max_broadcasts: self.max_broadcasts,
+            });
         }
         if self.offer_sites.len() > MAX_BROADCAST_OFFERS {
             return Err(ConfigError::TooManyOffers {

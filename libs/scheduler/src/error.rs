@@ -10,6 +10,11 @@ pub enum ConfigError {
     ObserverCount { observers: usize },
     #[error("a mission needs at least one round")]
     NoRounds,
+    #[error(
+        "max_broadcasts = {max_broadcasts}: a round flies 1 to {max} broadcasts",
+        max = proto::sched::MAX_ROUND_BROADCASTS
+    )]
+    MaxBroadcasts { max_broadcasts: u32 },
     #[error("{offers} offers per round exceed the broadcast limit")]
     TooManyOffers { offers: usize },
     #[error("flight limits must be finite and positive, with at least 3 ring points")]

@@ -180,6 +180,77 @@ fn o2_black_does_four_units_and_o1_serves_a_twice() {
     check_provenance(&r);
 }
 
+/// Broadcasts per round, in order.
+fn broadcasts_per_round(run: &Run) -> Vec<u32> {
+    let mut per: BTreeMap<u32, u32> = BTreeMap::new();
+    for b in run.sched.broadcasts() {
+        *per.entry(b.round).or_default() += 1;
+    }
+    per.into_values().collect()
+}
+
+#[test]
+fn a_repeated_broadcast_reaches_an_observer_that_missed_the_first() {
+    // One-shot (the paper): O2 misses every round's only broadcast and never decides.
+    let mut case = Case::new(3, Modality::Events);
+    case.miss_first.insert(1);
+    let once = run(&case);
+    assert_eq!(broadcasts_per_round(&once), vec![1, 1]);
+    assert_eq!(once.sched.stats().work_units, 4);
+    // Up to three: the round flies its offers again once, O2 decides from the repeat, and the
+    // mission does the paper's six units; the window closes as soon as O2 has decided.
+    case.config.max_broadcasts = 3;
+    let r = run(&case);
+    assert_eq!(broadcasts_per_round(&r), vec![2, 2]);
+    assert_eq!(r.sched.stats().work_units, 6);
+    assert_eq!(services(&r, "O1"), vec![(1, A), (2, B)]);
+    assert_eq!(services(&r, "O2"), vec![(1, A), (2, B)]);
+    assert_eq!(services(&r, "O3"), vec![(1, B), (2, B)]);
+    let broadcasts = r.sched.broadcasts();
+    for (t, e) in r.events() {
+        if let EventKind::WindowClosed { round } = e {
+            let repeat = broadcasts.iter().rfind(|b| b.round == *round).unwrap();
+            assert!(t < repeat.end_ns + NS_PER_S, "round {round} closed at {t}");
+        }
+    }
+    // Each repeat starts a window margin after the broadcast before it ended, and flies the
+    // same offers.
+    for w in broadcasts.windows(2).filter(|w| w[0].round == w[1].round) {
+        assert_eq!(w[1].start_ns, w[0].end_ns + NS_PER_S);
+        assert_eq!(w[1].offers, w[0].offers);
+    }
+    check_router_and_homes(&r);
+    check_provenance(&r);
+}
+
+#[test]
+fn a_deaf_observer_holds_a_round_for_at_most_its_broadcasts() {
+    let mut case = Case::new(3, Modality::Rgb);
+    case.black.insert(1);
+    case.config.max_broadcasts = 3;
+    let r = run(&case);
+    assert_eq!(broadcasts_per_round(&r), vec![3, 3]);
+    assert_eq!(r.sched.stats().work_units, 4);
+    for (t, e) in r.events() {
+        if let EventKind::WindowClosed { round } = e {
+            let last = r
+                .sched
+                .broadcasts()
+                .iter()
+                .rfind(|b| b.round == *round)
+                .unwrap();
+            assert_eq!(t, last.end_ns + NS_PER_S);
+        }
+    }
+    for bad in [0, 9] {
+        case.config.max_broadcasts = bad;
+        let e = scheduler::Scheduler::new(case.config.clone())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(&format!("max_broadcasts = {bad}")), "{e}");
+    }
+}
+
 #[test]
 fn a_dead_observer_is_not_waited_for() {
     // O2's process dies at 35 s: same work outcome as black input, but the window closes as

@@ -99,6 +99,10 @@ pub struct Broadcast {
 /// Largest number of frames one broadcast may request.
 pub const MAX_BROADCAST_OFFERS: usize = 16;
 
+/// The most broadcasts one round may fly (a case's `max_broadcasts`): enough to ride out a few
+/// losses, few enough that a deaf observer cannot hold a mission for long.
+pub const MAX_ROUND_BROADCASTS: u32 = 8;
+
 impl Validate for Broadcast {
     fn validate(&self) -> Result<(), String> {
         if self.offers.len() > MAX_BROADCAST_OFFERS {

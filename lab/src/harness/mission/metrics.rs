@@ -118,7 +118,8 @@ fn reassignments(scheduler: &Scheduler) -> Vec<Reassignment> {
                 );
             }
             EventKind::BroadcastStarted { round, .. } => {
-                broadcast_ns.insert(*round, e.t_ns);
+                // From the round's first broadcast: a repeat is part of the delay.
+                broadcast_ns.entry(*round).or_insert(e.t_ns);
             }
             EventKind::Departure {
                 observer,

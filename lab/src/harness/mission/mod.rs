@@ -379,9 +379,8 @@ impl Mission {
             .iter()
             .map(|o| {
                 let services = stats.services.get(&o.id).cloned().unwrap_or_default();
-                let frames: Vec<_> = o.record.frames.iter().map(|f| f.frame.clone()).collect();
                 let summary = ObserverSummary::from_record(
-                    &frames,
+                    &o.record.frames,
                     &o.record.decisions,
                     &services,
                     o.record.tokens.len(),
@@ -445,6 +444,7 @@ fn scheduler_for(case: &Case, modality: Modality) -> Result<Scheduler> {
         .collect::<Result<_, _>>()?;
     let mut config = SchedulerConfig::new(case.observers, modality).with_offer_sites(&sites);
     config.rounds = case.rounds;
+    config.max_broadcasts = case.max_broadcasts;
     config.flights = case.flights;
     if let Some(limit) = case.time_limit_s {
         config.time_limit_ns = Some((limit * 1e9).round() as u64);

@@ -223,19 +223,26 @@ pub struct MissionsDefinition {
     pub policy: Policy,
     pub seed: u64,
     pub perturb: BTreeMap<String, f64>,
+    /// `--max-broadcasts`, when it overrode the case's own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_broadcasts: Option<u32>,
 }
 
 impl MissionsDefinition {
-    /// The definition of `opts`, whose case was given as `case` with text `case_text`.
-    pub fn of(opts: &MissionTrialsOptions, case: &str, case_text: &str) -> Self {
-        Self {
+    /// The definition of `opts`, whose case was given as `case` with text `case_text` (and
+    /// `opts.case` may carry a `--max-broadcasts` override of it).
+    pub fn of(opts: &MissionTrialsOptions, case: &str, case_text: &str) -> Result<Self> {
+        let written = Case::from_text(case_text, case)?;
+        Ok(Self {
             case: case.to_string(),
             case_text: case_text.to_string(),
             modality: opts.modality,
             policy: opts.policy,
             seed: opts.seed,
             perturb: opts.perturbation.recorded(),
-        }
+            max_broadcasts: (opts.case.max_broadcasts != written.max_broadcasts)
+                .then_some(opts.case.max_broadcasts),
+        })
     }
 
     /// As `run.json`'s `definition`.
@@ -260,8 +267,12 @@ impl MissionsDefinition {
             perturbation.set(k, *v).context("run.json: perturb")?;
         }
         perturbation.check().context("run.json: perturb")?;
+        let mut case = Case::from_text(&d.case_text, &d.case)?;
+        if let Some(n) = d.max_broadcasts {
+            case.max_broadcasts = n;
+        }
         Ok(MissionTrialsOptions {
-            case: Case::from_text(&d.case_text, &d.case)?,
+            case,
             modality: d.modality,
             policy: d.policy,
             trials,

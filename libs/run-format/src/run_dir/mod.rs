@@ -96,19 +96,23 @@ pub struct ObserverSummary {
 
 impl ObserverSummary {
     /// One observer's summary from what it released and decided (in order), the services the
-    /// scheduler completed for it and its token count. A complete message is a released frame
-    /// whose payload is a valid offer (what the agent caches).
+    /// scheduler completed for it and its token count. A complete message is an offer the
+    /// observer released in a round (a released frame whose payload is a valid offer, what the
+    /// agent caches); a round that flies its broadcast again counts each offer once.
     pub fn from_record(
-        frames: &[ReleasedFrame],
+        frames: &[FrameEvent],
         decisions: &[Decision],
         services: &[(u32, Site)],
         tokens: usize,
     ) -> Self {
+        let messages: std::collections::BTreeSet<(u32, u8)> = frames
+            .iter()
+            .filter(|f| Offer::from_payload(f.frame.payload).is_ok())
+            .map(|f| (f.round, f.frame.payload))
+            .collect();
+        let frames: Vec<&ReleasedFrame> = frames.iter().map(|f| &f.frame).collect();
         Self {
-            complete_messages: frames
-                .iter()
-                .filter(|f| Offer::from_payload(f.payload).is_ok())
-                .count(),
+            complete_messages: messages.len(),
             payloads: frames
                 .iter()
                 .map(|f| format!("{:06b}", f.payload))

@@ -22,6 +22,8 @@ pub(super) struct Round {
     /// `None`: this round broadcasts nothing.
     pub(super) broadcast_due_ns: Option<u64>,
     pub(super) broadcast: Option<(u64, u64)>,
+    /// Broadcasts flown this round (more than one only under `max_broadcasts`).
+    pub(super) broadcasts_flown: u32,
     pub(super) window_open: bool,
     pub(super) deadline_ns: Option<u64>,
     pub(super) deadline_logged: bool,
@@ -44,6 +46,7 @@ impl Scheduler {
             offers: offers.clone(),
             broadcast_due_ns,
             broadcast: None,
+            broadcasts_flown: 0,
             window_open: true,
             deadline_ns: None,
             deadline_logged: false,
@@ -117,8 +120,18 @@ impl Scheduler {
             }
             self.send_broadcast(&round, now, out)?;
         }
-        // Window close: broadcast end + margin, or as soon as every live observer decided.
+        // Window close: broadcast end + margin, or as soon as every live observer decided. A
+        // round allowed more broadcasts flies its offers again instead while one is undecided.
         let all_decided = self.all_alive_decided(alive);
+        if let Some(r) = self.round.clone()
+            && r.window_open
+            && !all_decided
+            && r.broadcasts_flown < self.config.max_broadcasts
+            && r.broadcast
+                .is_some_and(|(_, end_ns)| now >= end_ns.saturating_add(timing.window_margin_ns))
+        {
+            self.send_broadcast(&r, now, out)?;
+        }
         if let Some(r) = self.round.as_mut()
             && r.window_open
         {
@@ -178,6 +191,7 @@ impl Scheduler {
         let plan = BroadcastPlan::plan(round.number, &round.offers, now, &self.config)?;
         if let Some(r) = self.round.as_mut() {
             r.broadcast = Some((now, plan.end_ns));
+            r.broadcasts_flown += 1;
         }
         self.emit(
             out,

@@ -23,6 +23,8 @@ pub struct Case {
     pub config: SchedulerConfig,
     /// Observers (0-based) whose input is black: they never decode anything.
     pub black: BTreeSet<usize>,
+    /// Observers (0-based) that miss the first broadcast of every round (and see its repeats).
+    pub miss_first: BTreeSet<usize>,
     /// Observers whose process dies at the given sim time (no decisions, not alive).
     pub dies_at_ns: BTreeMap<usize, u64>,
     /// Extra (bad) decisions injected at given ticks.
@@ -34,6 +36,7 @@ impl Case {
         Self {
             config: SchedulerConfig::new(n, modality),
             black: BTreeSet::new(),
+            miss_first: BTreeSet::new(),
             dies_at_ns: BTreeMap::new(),
             injected: BTreeMap::new(),
         }
@@ -78,6 +81,7 @@ pub fn run(case: &Case) -> Run {
         .collect();
     let mut outputs = Vec::new();
     let mut min_separation_m = f64::INFINITY;
+    let mut round_broadcasts = 0;
     for k in 0..MAX_TICKS {
         let now = k * TICK_NS;
         let dead = |i: usize| case.dies_at_ns.get(&i).is_some_and(|t| now >= *t);
@@ -117,6 +121,7 @@ pub fn run(case: &Case) -> Run {
             .expect("tick");
         for c in &out.session {
             if let SessionEvent::RoundReset { round } = c.event {
+                round_broadcasts = 0;
                 for o in &mut obs {
                     o.cache.start_round(round);
                     o.pending.clear();
@@ -125,8 +130,11 @@ pub fn run(case: &Case) -> Run {
             }
         }
         if let Some(b) = &out.broadcast {
+            round_broadcasts += 1;
             for (i, o) in obs.iter_mut().enumerate() {
-                if case.black.contains(&i) {
+                if case.black.contains(&i)
+                    || (round_broadcasts == 1 && case.miss_first.contains(&i))
+                {
                     continue;
                 }
                 for (seq, (offer, s)) in b.offers.iter().zip(&b.scheduled).enumerate() {
