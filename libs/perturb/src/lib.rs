@@ -1,6 +1,7 @@
 //! Perturbation models for seeded trials (`waggle trials`, `waggle study`): what a researcher
 //! may perturb, each term a named parameter with its unit, all off by default.
 //!
+//! * `parameters` — the table of terms: key, unit, default (off), range, meaning.
 //! * [`spec`] — the parameter set ([`Perturbation`]): `events.*` (the event sensor's v2e terms,
 //!   applied by [`event_camera::NoisyConverter`]), `rgb.*` ([`rgb::RgbNoise`]), `geometry.*` and
 //!   `flight.*` (placement jitter and gusts: a re-flown trial) and `link.*` ([`link::LinkNoise`]).
@@ -26,6 +27,7 @@ pub mod error;
 pub mod flight;
 pub mod light;
 pub mod link;
+mod parameters;
 pub mod preset;
 pub mod real;
 pub mod reference;
