@@ -173,6 +173,9 @@ fn recorded(run: &Path) -> Recorded {
             Decoded::FrameEvent(f) => bump(format!("/{}/frames", f.observer)),
             Decoded::Decision(d) => bump(format!("/{}/decision", d.observer)),
             Decoded::Fault(f) => bump(format!("/{}/fault", f.observer)),
+            Decoded::BroadcastTick(t) if t.broadcast.is_some() => {
+                bump("/performer/broadcast".into());
+            }
             _ => {}
         }
         Ok(())
@@ -421,13 +424,14 @@ fn a_damaged_or_cut_recording_is_refused_naming_the_file_and_bytes() {
 }
 
 /// Writes the bag of [`every_waggle_message_kind_reads_back_with_its_values`]: 6 tokens on
-/// `/O3/tokens`, 3 frames on `/O1/frames`, 2 decisions on `/O1/decision`, 3 faults on `/O2/fault`.
+/// `/O3/tokens`, 3 frames on `/O1/frames`, 2 decisions on `/O1/decision`, 3 faults on `/O2/fault`,
+/// 2 broadcasts on `/performer/broadcast`.
 fn write_every_waggle_kind(bag: &Path) {
     use proto::{
-        Decision, Fault, FaultKind, FrameEvent, ObserverId, Offer, ReleasedFrame, Site,
+        Broadcast, Decision, Fault, FaultKind, FrameEvent, ObserverId, Offer, ReleasedFrame, Site,
         SourceFrame, Token, TokenEvent,
     };
-    use ros2_bag::waggle_msgs::{DecisionMsg, FaultMsg, FrameMsg, TokenMsg};
+    use ros2_bag::waggle_msgs::{BroadcastMsg, DecisionMsg, FaultMsg, FrameMsg, TokenMsg};
     use ros2_bag::{BagWriter, QosProfile};
 
     let o = |s: &str| ObserverId::new(s).unwrap();
@@ -522,8 +526,31 @@ fn write_every_waggle_kind(bag: &Path) {
         let msg = FaultMsg::from_wire(&f).unwrap();
         w.write("/O2/fault", vol, f.from_ns, &msg).unwrap();
     }
+    // A round's first broadcast (acquisition first) and its repeat, one offer withdrawn.
+    for (tick, acquisition, offers) in [
+        (
+            100,
+            true,
+            vec![
+                Offer::new(Site::A, 2, 1).unwrap(),
+                Offer::withdrawal(Site::B),
+            ],
+        ),
+        (700, false, vec![Offer::new(Site::A, 2, 1).unwrap()]),
+    ] {
+        let b = Broadcast {
+            tick,
+            round: 5,
+            start_ns: tick * 40_000_000 + 1,
+            offers,
+            acquisition,
+        };
+        let msg = BroadcastMsg::from_wire(&b).unwrap();
+        w.write("/performer/broadcast", vol, b.start_ns, &msg)
+            .unwrap();
+    }
     let summary = w.finish().unwrap();
-    assert_eq!(summary.message_count, 6 + 3 + 2 + 3);
+    assert_eq!(summary.message_count, 6 + 3 + 2 + 3 + 2);
 }
 
 /// Every `waggle_msgs` kind and every value its fields can take apart from numbers (all six
@@ -544,16 +571,18 @@ fn every_waggle_message_kind_reads_back_with_its_values() {
     let report = check(&bag);
     assert_eq!(report["profile"], "ros2");
     assert_eq!(report["disagreements"], json!([]), "{report}");
-    let counts = json!({"/O1/decision": 2, "/O1/frames": 3, "/O2/fault": 3, "/O3/tokens": 6});
+    let counts = json!({"/O1/decision": 2, "/O1/frames": 3, "/O2/fault": 3, "/O3/tokens": 6,
+                        "/performer/broadcast": 2});
     assert_eq!(report["rosbags"], counts);
     assert_eq!(report["mcap_ros2"], counts);
     assert_eq!(report["metadata"]["topics"], counts);
-    assert_eq!(report["metadata"]["message_count"], 14);
+    assert_eq!(report["metadata"]["message_count"], 16);
     let types = report["types"].as_object().unwrap();
     let names: Vec<&str> = types.keys().map(String::as_str).collect();
     assert_eq!(
         names,
         [
+            "waggle_msgs/msg/Broadcast",
             "waggle_msgs/msg/Decision",
             "waggle_msgs/msg/Fault",
             "waggle_msgs/msg/Frame",
@@ -630,6 +659,16 @@ fn every_waggle_message_kind_reads_back_with_its_values() {
             {"header": header(3_000_000_002, "O2"), "observer": "O2", "kind": 1,
              "drop_per_mille": 0, "delay_ms": 0, "active_from": time(3_000_000_002),
              "has_until": true, "active_until": time(21_000_000_000)}
+        ])
+    );
+
+    assert_eq!(
+        values["/performer/broadcast"],
+        json!([
+            {"header": header(4_000_000_001, "performer"), "round": 5, "acquisition": true,
+             "offers": [offer("A", 2, 1, false), offer("B", 0, 0, true)]},
+            {"header": header(28_000_000_001, "performer"), "round": 5, "acquisition": false,
+             "offers": [offer("A", 2, 1, false)]}
         ])
     );
     let _ = std::fs::remove_dir_all(&dir);

@@ -19,7 +19,7 @@ use crate::messages::{
     CompressedImageMsg, EventPacketMsg, HeaderMsg, ImageMsg, QuaternionMsg, TfMessage,
     TransformStampedMsg, Vector3Msg,
 };
-use crate::waggle_msgs::{DecisionMsg, FaultMsg, FrameMsg, TokenMsg, optical_frame};
+use crate::waggle_msgs::{BroadcastMsg, DecisionMsg, FaultMsg, FrameMsg, TokenMsg, optical_frame};
 
 /// The world frame of `/tf`.
 pub const WORLD_FRAME: &str = "world";
@@ -324,6 +324,14 @@ impl RosConverter {
                 let m = FaultMsg::from_wire(&f)?;
                 self.queue(format!("/{}/fault", f.observer), vol, log_time_ns, &m);
             }
+            // Only the ticks that start a broadcast; the others carry nothing to export.
+            Decoded::BroadcastTick(t) => match t.broadcast {
+                Some(b) => {
+                    let m = BroadcastMsg::from_wire(&b)?;
+                    self.queue("/performer/broadcast".into(), vol, log_time_ns, &m);
+                }
+                None => return Ok(false),
+            },
             _ => return Ok(false),
         }
         Ok(true)

@@ -55,7 +55,7 @@ macro_rules! waggle {
 }
 
 /// Every definition a bag may need.
-pub const DEFINITIONS: [MsgDefinition; 19] = [
+pub const DEFINITIONS: [MsgDefinition; 20] = [
     standard!("builtin_interfaces", "Time"),
     standard!("std_msgs", "Header"),
     standard!("geometry_msgs", "Vector3"),
@@ -75,6 +75,7 @@ pub const DEFINITIONS: [MsgDefinition; 19] = [
     waggle!("Assignment"),
     waggle!("Decision"),
     waggle!("Fault"),
+    waggle!("Broadcast"),
 ];
 
 /// The primitive types of `.msg` files (rosbag2's list).

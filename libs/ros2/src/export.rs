@@ -9,14 +9,16 @@
 //! | (camera mounts) | `/tf_static` (`<o>` → `<o>/camera_optical`), latched | `tf2_msgs/msg/TFMessage` |
 //! | `observer/<o>/tokens`, `frames`, `decision` | `/<o>/tokens`, `/<o>/frames`, `/<o>/decision` | `waggle_msgs/msg/Token`, `Frame`, `Decision` |
 //! | `fault/<o>` | `/<o>/fault` | `waggle_msgs/msg/Fault` |
+//! | `sched/broadcast` (ticks that start a broadcast) | `/performer/broadcast` | `waggle_msgs/msg/Broadcast` |
 //!
 //! Times: ROS time is Waggle's sim clock (from 0); each message keeps the recording's log time.
 //! Event packets are stamped with their start watermark and cover (stamp, stamp + 40 ms]; their
 //! EVT 3.0 words, concatenated per camera, are one EVT 3.0 stream (time-high wraps made visible,
 //! `time_base` 0), and each packet repeats the time and row words first so a decoder may start
 //! at any packet, and ends with the time words of its end watermark, so the stream's clock
-//! runs through packets without events as a camera's does. Other keys (clock, status, tracks, setpoints, truth, scheduler, rejects) are
-//! not exported and are counted in [`ExportReport::not_exported`].
+//! runs through packets without events as a camera's does. Other keys (clock, status, tracks,
+//! setpoints, truth, the scheduler's others and broadcast ticks without a broadcast, rejects)
+//! are not exported and are counted in [`ExportReport::not_exported`].
 //!
 //! Output is sorted by log time within a sliding window ([`REORDER_WINDOW_NS`]; ties keep the
 //! recording's order) and deterministic: the same recording gives the same bytes. A recording

@@ -1,7 +1,7 @@
 //! Waggle's own messages (`waggle_msgs`, defined in `libs/ros2/msg/waggle_msgs/msg/`), built
 //! from the wire types of `proto` and encoded in CDR.
 
-use proto::{Decision, Fault, FaultKind, FrameEvent, Offer, Token, TokenEvent};
+use proto::{Broadcast, Decision, Fault, FaultKind, FrameEvent, Offer, Token, TokenEvent};
 
 use crate::cdr::{CdrEncode, CdrWriter, RosMessage};
 use crate::error::Ros2Error;
@@ -297,6 +297,42 @@ impl CdrEncode for FaultMsg {
 
 impl RosMessage for FaultMsg {
     const TYPE_NAME: &'static str = "waggle_msgs/msg/Fault";
+}
+
+/// The performer's body frame, as `/tf` names it.
+pub const PERFORMER_FRAME: &str = "performer";
+
+/// `waggle_msgs/msg/Broadcast`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BroadcastMsg {
+    pub header: HeaderMsg,
+    pub round: u32,
+    pub acquisition: bool,
+    pub offers: Vec<OfferMsg>,
+}
+
+impl BroadcastMsg {
+    pub fn from_wire(b: &Broadcast) -> Result<Self, Ros2Error> {
+        Ok(Self {
+            header: HeaderMsg::at(b.start_ns, PERFORMER_FRAME)?,
+            round: b.round,
+            acquisition: b.acquisition,
+            offers: b.offers.iter().map(OfferMsg::from).collect(),
+        })
+    }
+}
+
+impl CdrEncode for BroadcastMsg {
+    fn encode(&self, w: &mut CdrWriter) {
+        self.header.encode(w);
+        w.u32(self.round);
+        w.bool(self.acquisition);
+        self.offers.encode(w);
+    }
+}
+
+impl RosMessage for BroadcastMsg {
+    const TYPE_NAME: &'static str = "waggle_msgs/msg/Broadcast";
 }
 
 #[cfg(test)]
