@@ -35,25 +35,9 @@ else
 fi
 [ -x "$bin/waggle" ] || die "no waggle binary in $bin"
 
-venv="$root/third_party/picture-venv"
-pins=("numpy==2.4.6" "mcap==1.6.0" "zstandard==0.25.0" "lz4==4.4.5" "pillow==11.3.0")
-venv_ok() {
-  "$venv/bin/python" - "${pins[@]}" <<'PY' 2>/dev/null
-import sys
-from importlib.metadata import version
-import numpy, mcap.reader, zstandard, lz4.frame, PIL.Image
-sys.exit(any(version(p.split("==")[0]) != p.split("==")[1] for p in sys.argv[1:]))
-PY
-}
-if ! venv_ok; then
-  say "installing ${pins[*]} into third_party/picture-venv"
-  command -v python3 >/dev/null || die "python3 (with venv and pip) is needed"
-  "$venv/bin/python" -c '' 2>/dev/null || rm -rf "$venv"
-  [ -x "$venv/bin/python" ] || python3 -m venv "$venv" || die "could not create $venv (Debian: apt-get install python3-venv)"
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --only-binary=:all: "${pins[@]}" \
-    || die "could not install ${pins[*]} from PyPI"
-  venv_ok || die "$venv still lacks ${pins[*]}"
-fi
+# shellcheck source=docs/images/picture-venv.sh
+source docs/images/picture-venv.sh
+venv="$(picture_venv)"
 
 tmp="$(mktemp -d)"
 trap 'rm -rf "$tmp"' EXIT

@@ -7,8 +7,8 @@ mod scene;
 use std::sync::OnceLock;
 
 use perception::events::{
-    AcquisitionEvent, EventInterruptCause, EventReceiver, EventReceiverConfig, PacketOutcome,
-    PacketRejection, SupportScratch, gather,
+    AcquisitionEvent, EventInterruptCause, EventReceiver, EventReceiverConfig, EventTrackerConfig,
+    PacketOutcome, PacketRejection, SupportScratch, TrackFault, gather,
 };
 use proto::{Action, EventPacket, Polarity, ReleasedFrame, Token};
 use proto::{Decoder, Sample, SegmenterConfig, TokenCause};
@@ -463,6 +463,37 @@ fn broad_scene_activity_interrupts_tracking() {
     let first = rx.tokens().first().expect("the acquisition's NULL");
     assert_eq!(first.token, Token::Null);
     assert!(first.stamp_ns < start_ns);
+}
+
+#[test]
+fn each_packet_names_its_tracker_fault_and_window_counts() {
+    let script = Script::new()
+        .hold(Label::Hold, NS_PER_S)
+        .acquisition()
+        .hold(Label::Null, 6 * NS_PER_S)
+        .action(Action::Start)
+        .hold(Label::Null, NULL_NS)
+        .background_change(14 * NS_PER_S, 100);
+    let packets = scene::convert(&script, false);
+    let mut rx = receiver();
+    let outcomes: Vec<_> = packets.iter().map(|p| rx.push_packet(p)).collect();
+    let faults: Vec<_> = outcomes.iter().filter_map(|o| o.track_fault).collect();
+    let [TrackFault::BroadActivity { active_cells }] = faults[..] else {
+        panic!("one broad-activity fault expected, got {faults:?}");
+    };
+    assert!(active_cells >= EventTrackerConfig::paper().broad_active_cells);
+    for o in &outcomes {
+        // The tracker looks at its window on every packet it does not give up on.
+        assert_eq!(o.window_on_off.is_some(), o.interruption.is_none(), "{o:?}");
+    }
+    let located = outcomes
+        .iter()
+        .filter(|o| o.point_px.is_some() && o.window_on_off.is_some_and(|[on, off]| on + off > 0))
+        .count();
+    assert!(
+        located > 10,
+        "{located} packets with a located target and events"
+    );
 }
 
 #[test]

@@ -161,6 +161,11 @@ pub struct PacketOutcome {
     pub rejection_detail: Option<String>,
     /// Set when this packet interrupted tracking.
     pub interruption: Option<EventInterruptCause>,
+    /// The tracker's fault behind that interruption, with its figures (e.g. the confirming
+    /// window's majority polarity share).
+    pub track_fault: Option<TrackFault>,
+    /// ON and OFF events the tracker saw in its window (after the front end), when it looked.
+    pub window_on_off: Option<[u64; 2]>,
     /// Acquisition or lease change at this packet.
     pub acquisition: Option<AcquisitionEvent>,
     /// The estimate fed to the segmenter, if any.
@@ -376,8 +381,16 @@ impl EventReceiver {
         } else {
             &self.filtered
         };
-        match self.tracker.observe(seen) {
+        let observation = self.tracker.observe(seen);
+        if let Observation::Located { evidence, .. }
+        | Observation::Held { evidence, .. }
+        | Observation::NoTarget { evidence } = &observation
+        {
+            out.window_on_off = Some([evidence.on_events as u64, evidence.off_events() as u64]);
+        }
+        match observation {
             Observation::Interrupted(fault) => {
+                out.track_fault = Some(fault);
                 self.interrupt_at(Some(stamp_ns), fault.into(), &mut out)
             }
             Observation::Located { point_px, .. } => self.track(stamp_ns, point_px, true, &mut out),
