@@ -22,18 +22,12 @@ OUT="docs/images/bit0-onset.png"
 say() { printf 'make-onset: %s\n' "$*" >&2; }
 die() { say "$*"; exit 1; }
 
-if [ -n "${WAGGLE_BIN_DIR:-}" ]; then
-  bin="$WAGGLE_BIN_DIR"
-else
-  bash deploy/waggle.sh --version >/dev/null
-  bin="$root/target/release"
-fi
-[ -x "$bin/waggle" ] || die "no waggle binary in $bin"
+# shellcheck source=docs/images/common.sh
+source docs/images/common.sh
+bin="$(picture_bin)"
 cargo build --release --quiet -p perception --example event_symbols
 symbols="$root/target/release/examples/event_symbols"
 
-# shellcheck source=docs/images/picture-venv.sh
-source docs/images/picture-venv.sh
 venv="$(picture_venv)"
 
 tmp="$(mktemp -d)"

@@ -27,16 +27,10 @@ OUT="docs/images/scene-and-events.png"
 say() { printf 'make-picture: %s\n' "$*" >&2; }
 die() { say "$*"; exit 1; }
 
-if [ -n "${WAGGLE_BIN_DIR:-}" ]; then
-  bin="$WAGGLE_BIN_DIR"
-else
-  bash deploy/waggle.sh --version >/dev/null
-  bin="$root/target/release"
-fi
-[ -x "$bin/waggle" ] || die "no waggle binary in $bin"
+# shellcheck source=docs/images/common.sh
+source docs/images/common.sh
+bin="$(picture_bin)"
 
-# shellcheck source=docs/images/picture-venv.sh
-source docs/images/picture-venv.sh
 venv="$(picture_venv)"
 
 tmp="$(mktemp -d)"

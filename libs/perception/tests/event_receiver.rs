@@ -436,18 +436,25 @@ fn quiet_beyond_the_lease_blocks_null_until_reacquired() {
     assert!(expired[0] > quiet.start_ns + 20 * NS_PER_S && expired[0] < quiet.end_ns);
 }
 
-#[test]
-fn broad_scene_activity_interrupts_tracking() {
-    let start_ns = 11 * NS_PER_S;
+/// START's first motion, ns, in [`light_change_during_start`].
+const START_NS: u64 = 11 * NS_PER_S;
+
+/// A START whose light changes in the middle of it.
+fn light_change_during_start() -> Vec<EventPacket> {
     let script = Script::new()
         .hold(Label::Hold, NS_PER_S)
         .acquisition()
         .hold(Label::Null, 6 * NS_PER_S)
         .action(Action::Start)
         .hold(Label::Null, NULL_NS)
-        // The light changes in the middle of START.
-        .background_change(start_ns + 3 * NS_PER_S, 100);
-    let packets = scene::convert(&script, false);
+        .background_change(START_NS + 3 * NS_PER_S, 100);
+    scene::convert(&script, false)
+}
+
+#[test]
+fn broad_scene_activity_interrupts_tracking() {
+    let start_ns = START_NS;
+    let packets = light_change_during_start();
     let rx = run(&packets);
     assert_eq!(
         rx.interruptions().get(&EventInterruptCause::BroadActivity),
@@ -467,14 +474,7 @@ fn broad_scene_activity_interrupts_tracking() {
 
 #[test]
 fn each_packet_names_its_tracker_fault_and_window_counts() {
-    let script = Script::new()
-        .hold(Label::Hold, NS_PER_S)
-        .acquisition()
-        .hold(Label::Null, 6 * NS_PER_S)
-        .action(Action::Start)
-        .hold(Label::Null, NULL_NS)
-        .background_change(14 * NS_PER_S, 100);
-    let packets = scene::convert(&script, false);
+    let packets = light_change_during_start();
     let mut rx = receiver();
     let outcomes: Vec<_> = packets.iter().map(|p| rx.push_packet(p)).collect();
     let faults: Vec<_> = outcomes.iter().filter_map(|o| o.track_fault).collect();

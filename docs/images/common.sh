@@ -1,6 +1,20 @@
-# Sourced by the picture scripts: `picture_venv` makes (on first use) and prints the path of a
-# venv in the git-ignored third_party/picture-venv with pinned numpy, mcap (and its zstd and lz4
-# decoders) and Pillow from PyPI. Messages go to standard error; a failure exits non-zero.
+# Sourced by the picture scripts, from the repository's root. `picture_bin` prints the directory
+# of the waggle binaries: WAGGLE_BIN_DIR if set, else target/release, built through
+# deploy/waggle.sh. `picture_venv` makes (on first use) and prints the path of a venv in the
+# git-ignored third_party/picture-venv with pinned numpy, mcap (and its zstd and lz4 decoders)
+# and Pillow from PyPI. Messages go to standard error; a failure returns non-zero.
+picture_bin() {
+  local bin
+  if [ -n "${WAGGLE_BIN_DIR:-}" ]; then
+    bin="$WAGGLE_BIN_DIR"
+  else
+    bash deploy/waggle.sh --version >/dev/null || return 1
+    bin="$PWD/target/release"
+  fi
+  [ -x "$bin/waggle" ] || { echo "picture: no waggle binary in $bin" >&2; return 1; }
+  printf '%s\n' "$bin"
+}
+
 picture_venv() {
   local venv="$PWD/third_party/picture-venv"
   local pins=("numpy==2.4.6" "mcap==1.6.0" "zstandard==0.25.0" "lz4==4.4.5" "pillow==11.3.0")
