@@ -56,6 +56,12 @@ macro_rules! bail {
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, focal_px};
 use serde::Deserialize;
 
+/// Largest image side, px, that a calibration or a remapped stream may have. A remap holds one
+/// entry per source pixel and computes each once, so the size a file or a message states bounds
+/// the memory (4096² pixels: 64 MiB) and the time it costs; 4096 holds a 4K camera and twice the
+/// largest sensor EVT 3.0 can carry.
+pub const MAX_SIDE_PX: u16 = 4096;
+
 /// Radial-tangential distortion coefficients `k1 k2 p1 p2 k3 k4 k5 k6` (OpenCV's order; missing
 /// ones are zero).
 pub type Distortion = [f64; 8];
@@ -118,9 +124,17 @@ impl Intrinsics {
                 }
                 Ok(Some(cam))
             }
-            None => Ok(size
-                .filter(|&s| s != reference)
-                .map(|(w, h)| Intrinsics::pinhole_like_reference(w, h))),
+            None => {
+                if let Some((w, h)) = size.filter(|&(w, h)| w > MAX_SIDE_PX || h > MAX_SIDE_PX) {
+                    bail!(
+                        "a {w}×{h} stream is larger than the {MAX_SIDE_PX}×{MAX_SIDE_PX} pixels \
+                         a remap into the reference camera is built for"
+                    );
+                }
+                Ok(size
+                    .filter(|&s| s != reference)
+                    .map(|(w, h)| Intrinsics::pinhole_like_reference(w, h)))
+            }
         }
     }
 
@@ -249,9 +263,14 @@ struct Matrix {
 impl CalibrationFile {
     fn intrinsics(&self) -> Result<Intrinsics> {
         let size = |v: u32, what: &str| {
-            u16::try_from(v).ok().filter(|&v| v > 0).ok_or_else(|| {
-                CalibrationError::Invalid(format!("{what} {v} is outside 1..=65535 pixels"))
-            })
+            u16::try_from(v)
+                .ok()
+                .filter(|&v| (1..=MAX_SIDE_PX).contains(&v))
+                .ok_or_else(|| {
+                    CalibrationError::Invalid(format!(
+                        "{what} {v} is outside 1..={MAX_SIDE_PX} pixels"
+                    ))
+                })
         };
         let k = &self.camera_matrix;
         if k.data.len() != 9 || k.rows.is_some_and(|r| r != 3) || k.cols.is_some_and(|c| c != 3) {
@@ -510,5 +529,19 @@ distortion_coefficients: !!opencv-matrix
         assert_eq!(remap.map(0, 240), None);
         // Half the focal length: a pixel half a pixel right of the centre lands 1.2 px right.
         assert_eq!(remap.map(320, 240), Some((321, 241)));
+    }
+
+    #[test]
+    fn sizes_beyond_a_remap_are_refused_before_allocating() {
+        let huge = OPENCV.replace("image_width: 346", "image_width: 65535");
+        let e = Intrinsics::from_yaml(&huge).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("image_width 65535 is outside 1..=4096"),
+            "{e}"
+        );
+        let e = Intrinsics::of_recording(None, Some((65535, 480))).unwrap_err();
+        assert!(e.to_string().contains("65535×480"), "{e}");
+        assert!(Intrinsics::of_recording(None, Some((4096, 4096))).is_ok());
     }
 }

@@ -66,12 +66,29 @@ pub fn write(
         "% evt 2.0\n% format EVT2;height={height};width={width}\n% geometry {width}x{height}\n% end\n"
     )?;
     let mut buf = Vec::with_capacity(events.len() * 4 + 64);
-    let mut high = None;
+    let time_high = |h: u64, buf: &mut Vec<u8>| {
+        buf.extend_from_slice(&((TIME_HIGH << 28) | h as u32).to_le_bytes());
+    };
+    // The last time-high written and the wraps of its 28 bits a reader has counted so far.
+    let (mut high, mut wraps) = (None, 0u64);
     for e in events {
         let t_us = e.t_ns / 1000;
         let h = (t_us >> 6) & 0x0FFF_FFFF;
+        let wrap = t_us >> 34;
+        // A reader counts a wrap at each time-high below the one before: a later high that is
+        // lower counts one by itself; any other wrap is marked by the highest, then the lowest
+        // time-high, so times past 2³⁴ µs (4.8 h) read back whole.
+        if wrap > wraps && !(wrap - wraps == 1 && high.is_some_and(|last| h < last)) {
+            while wraps < wrap {
+                time_high(0x0FFF_FFFF, &mut buf);
+                time_high(0, &mut buf);
+                wraps += 1;
+            }
+            high = Some(0);
+        }
+        wraps = wrap;
         if high != Some(h) {
-            buf.extend_from_slice(&((TIME_HIGH << 28) | h as u32).to_le_bytes());
+            time_high(h, &mut buf);
             high = Some(h);
         }
         let kind = if e.polarity == Polarity::On {
@@ -188,5 +205,19 @@ mod tests {
         assert!(e.to_string().contains("byte 14"), "{e}");
         assert!(read(b"% evt 3.0\n% end\n").is_err());
         assert!(write(&mut Vec::new(), 4, 4, &[ev(0, 4, 0, true)]).is_err());
+    }
+
+    #[test]
+    fn times_past_the_28_bit_time_high_read_back_whole() {
+        // The first event already past one wrap, then a jump over two more.
+        let wrap_ns = (1u64 << 34) * 1000;
+        let events = vec![
+            crate::test_event(wrap_ns + 5_000, 1, 2, true),
+            crate::test_event(wrap_ns + 9_000, 3, 4, false),
+            crate::test_event(3 * wrap_ns + 7_000, 5, 6, true),
+        ];
+        let mut bytes = Vec::new();
+        write(&mut bytes, 8, 8, &events).unwrap();
+        assert_eq!(read(&bytes).unwrap().events, events);
     }
 }

@@ -5,6 +5,7 @@
 //! - [`writer`]: [`SessionWriter`], raw wire bytes per key (lossless, empty event packets
 //!   included) plus Foxglove viewing channels, zstd chunks of bounded size, session metadata;
 //! - [`reader`]: [`read_recording`], chunk-by-chunk streaming that survives a cut file;
+//! - [`records`]: the MCAP records the reader parses, their lengths checked before `mcap` allocates;
 //! - [`views`], [`foxglove`]: event-frame pictures, log lines, the 3D scene and Foxglove's
 //!   official schemas (protobuf).
 //!
@@ -13,12 +14,14 @@
 
 pub mod foxglove;
 pub mod reader;
+pub mod records;
 pub mod topics;
 pub mod views;
 pub mod writer;
 
 pub use reader::{
     Damage, ReadError, ReadOutcome, RecordedMessage, leading_metadata, read_recording,
+    read_recording_from,
 };
 pub use topics::{Decoded, MessageKind, RAW_ENCODING, Topic, classify, decode};
 pub use writer::{

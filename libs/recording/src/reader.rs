@@ -14,6 +14,8 @@ use std::path::Path;
 use mcap::records::{Record, op};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
+use crate::records;
+
 /// One recorded message, borrowed from the reader.
 #[derive(Debug, Clone, Copy)]
 pub struct RecordedMessage<'a> {
@@ -151,11 +153,12 @@ impl Reading {
         visit: &mut impl FnMut(&RecordedMessage<'_>) -> Result<(), E>,
     ) -> Result<(), E> {
         match opcode {
-            op::CHUNK => match chunk_records(record) {
+            op::CHUNK => match records::chunk_records(record) {
                 Ok(inner) => {
                     for (op_inner, data) in inner {
-                        match mcap::parse_record(op_inner, &data) {
-                            Ok(rec) => self.record(rec, visit)?,
+                        match records::parse(op_inner, &data) {
+                            Ok(Some(rec)) => self.record(rec, visit)?,
+                            Ok(None) => {}
                             Err(e) => {
                                 let why = format!("record in a chunk does not parse: {e}");
                                 self.damage(pos, next, why);
@@ -166,15 +169,16 @@ impl Reading {
                 }
                 Err(e) => self.damage(pos, next, format!("chunk: {e}")),
             },
-            _ => match mcap::parse_record(opcode, &record[9..]) {
-                Ok(Record::DataEnd(d)) => {
+            _ => match records::parse(opcode, &record[9..]) {
+                Ok(None) => {}
+                Ok(Some(Record::DataEnd(d))) => {
                     self.data_end_byte = pos;
                     if d.data_section_crc != 0 && self.out.damaged.is_empty() {
                         let ok = d.data_section_crc == self.data_crc.clone().finalize();
                         self.out.data_crc_ok = Some(ok);
                     }
                 }
-                Ok(Record::Footer(f)) => {
+                Ok(Some(Record::Footer(f))) => {
                     self.saw_footer = true;
                     if f.summary_crc != 0 {
                         // The summary CRC covers the summary sections and the footer up to
@@ -184,7 +188,7 @@ impl Reading {
                         self.out.summary_crc_ok = Some(ok);
                     }
                 }
-                Ok(rec) => self.record(rec, visit)?,
+                Ok(Some(rec)) => self.record(rec, visit)?,
                 Err(e) => self.damage(
                     pos,
                     next,
@@ -267,37 +271,6 @@ impl Reading {
     }
 }
 
-/// The records inside one chunk record (`bytes`: opcode, length, body), decompressed and
-/// checked against the chunk's CRC before any is returned.
-fn chunk_records(bytes: &[u8]) -> Result<Vec<(u8, Vec<u8>)>, String> {
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            .with_skip_start_magic(true)
-            .with_skip_end_magic(true)
-            .with_prevalidate_chunk_crcs(true)
-            .with_record_length_limit(RECORD_LIMIT_BYTES),
-    );
-    let mut fed = false;
-    let mut out = Vec::new();
-    while let Some(event) = reader.next_event() {
-        match event.map_err(|e| e.to_string())? {
-            LinearReadEvent::ReadRequest(need) => {
-                if fed {
-                    reader.notify_read(0);
-                } else {
-                    let n = need.max(bytes.len());
-                    let buf = reader.insert(n);
-                    buf[..bytes.len()].copy_from_slice(bytes);
-                    reader.notify_read(bytes.len());
-                    fed = true;
-                }
-            }
-            LinearReadEvent::Record { data, opcode } => out.push((opcode, data.to_vec())),
-        }
-    }
-    Ok(out)
-}
-
 /// True when `body` (a record body following opcode `CHUNK`) looks like a chunk: a known
 /// compression and a records length that fills the record exactly.
 fn plausible_chunk(body_len: u64, head: &[u8]) -> bool {
@@ -319,16 +292,16 @@ fn plausible_chunk(body_len: u64, head: &[u8]) -> bool {
         return false;
     };
     let records_len = u64::from_le_bytes(rl.try_into().expect("8 bytes"));
-    CHUNK_FIXED_BYTES + 4 + n as u64 + 8 + records_len == body_len
+    (CHUNK_FIXED_BYTES + 4 + n as u64 + 8).checked_add(records_len) == Some(body_len)
 }
 
 /// The file, read at arbitrary offsets (resynchronisation seeks).
-struct Source {
-    file: std::fs::File,
+struct Source<R> {
+    file: R,
     len: u64,
 }
 
-impl Source {
+impl<R: Read + Seek> Source<R> {
     fn read_at(&mut self, pos: u64, buf: &mut [u8]) -> std::io::Result<()> {
         self.file.seek(SeekFrom::Start(pos))?;
         self.file.read_exact(buf)
@@ -362,7 +335,7 @@ impl Source {
                 }
                 let mut record = vec![0u8; (9 + body_len) as usize];
                 self.read_at(q, &mut record)?;
-                if chunk_records(&record).is_ok() {
+                if records::chunk_records(&record).is_ok() {
                     return Ok(Some((q, record)));
                 }
             }
@@ -380,7 +353,7 @@ impl Source {
 /// reading and is returned as is.
 pub fn read_recording<E: From<ReadError>>(
     path: &Path,
-    mut visit: impl FnMut(&RecordedMessage<'_>) -> Result<(), E>,
+    visit: impl FnMut(&RecordedMessage<'_>) -> Result<(), E>,
 ) -> Result<ReadOutcome, E> {
     let shown = path.display().to_string();
     let io = |source| ReadError::Io {
@@ -388,10 +361,24 @@ pub fn read_recording<E: From<ReadError>>(
         source,
     };
     let file = std::fs::File::open(path).map_err(io)?;
-    let len = file.metadata().map_err(io)?.len();
+    read_recording_from(file, &shown, visit)
+}
+
+/// [`read_recording`] over any seekable byte source (a file, or bytes in memory); `shown` names
+/// the source in errors.
+pub fn read_recording_from<E: From<ReadError>>(
+    mut file: impl Read + Seek,
+    shown: &str,
+    mut visit: impl FnMut(&RecordedMessage<'_>) -> Result<(), E>,
+) -> Result<ReadOutcome, E> {
+    let io = |source| ReadError::Io {
+        path: shown.to_string(),
+        source,
+    };
+    let len = file.seek(SeekFrom::End(0)).map_err(io)?;
     let mut src = Source { file, len };
     let not_mcap = |reason: &str| ReadError::NotMcap {
-        path: shown.clone(),
+        path: shown.to_string(),
         reason: reason.to_string(),
     };
     let mut magic = [0u8; 8];
@@ -502,19 +489,19 @@ pub fn leading_metadata(
                 let n = file.read(reader.insert(need)).map_err(io)?;
                 reader.notify_read(n);
             }
-            Ok(LinearReadEvent::Record { data, opcode }) => {
-                match mcap::parse_record(opcode, data) {
-                    Ok(Record::Metadata(m)) if m.name == name => return Ok(Some(m.metadata)),
-                    Ok(Record::Message { .. }) => return Ok(None),
-                    Ok(_) => {}
-                    Err(e) => {
-                        return Err(ReadError::NotMcap {
-                            path: shown,
-                            reason: e.to_string(),
-                        });
-                    }
+            Ok(LinearReadEvent::Record { data, opcode }) => match records::parse(opcode, data) {
+                Ok(Some(Record::Metadata(m))) if m.name == name => {
+                    return Ok(Some(m.metadata));
                 }
-            }
+                Ok(Some(Record::Message { .. })) => return Ok(None),
+                Ok(_) => {}
+                Err(e) => {
+                    return Err(ReadError::NotMcap {
+                        path: shown,
+                        reason: e.to_string(),
+                    });
+                }
+            },
         }
     }
     Ok(None)

@@ -10,6 +10,7 @@
 //! [`PacketDecoder`] and [`image_from_cdr`] decode one message at a time, for a bag here and for
 //! a live topic (`waggle observe`).
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use event_camera::Event;
@@ -297,24 +298,147 @@ fn topic_messages(
             path: file.display().to_string(),
             source,
         })?;
-        let mcap = |e: mcap::McapError| bag_error(file, format!("not a readable MCAP file: {e}"));
-        for m in mcap::MessageStream::new(&bytes).map_err(mcap)? {
-            let m = m.map_err(mcap)?;
-            let schema = m.channel.schema.as_ref().map(|s| s.name.as_str());
-            if schema == Some(type_name) && topic.is_none_or(|t| t == m.channel.topic) {
-                if m.channel.message_encoding != "cdr" {
-                    return Err(bag_error(
-                        file,
-                        format!(
-                            "{}: message encoding {:?}, not cdr",
-                            m.channel.topic, m.channel.message_encoding
-                        ),
-                    ));
+        let mut found = file_messages(file, &bytes, type_name, topic)?;
+        packets.extend(found.drain(..).map(|(t, time, cdr)| (t, k, time, cdr)));
+    }
+    choose_topic(path, packets, type_name, topic, preferred)
+}
+
+/// Reads the events of `topic` of one bag file already in memory (`bytes`; `path` names it in
+/// errors), as [`read_event_bag`] reads a file.
+pub fn read_event_bag_bytes(
+    path: &Path,
+    bytes: &[u8],
+    topic: Option<&str>,
+    preferred: Option<&str>,
+) -> Result<EventBag, Ros2Error> {
+    let preferred: Vec<&str> = preferred.into_iter().collect();
+    let found = file_messages(path, bytes, EventPacketMsg::TYPE_NAME, topic)?;
+    let packets = found.into_iter().map(|(t, time, cdr)| (t, 0, time, cdr));
+    let found = choose_topic(
+        path,
+        packets.collect(),
+        EventPacketMsg::TYPE_NAME,
+        topic,
+        &preferred,
+    )?;
+    decode_packets(path, found)
+}
+
+/// Largest record of a bag read back (a chunk decompressed, or one message): 128 MiB holds an
+/// event packet of 64 M EVT 3.0 words or five 4K RGB images; a length field claiming more is
+/// refused before anything is allocated for it.
+const BAG_RECORD_LIMIT_BYTES: usize = 128 << 20;
+
+/// `(topic, log time, CDR bytes)` of every message of type `type_name` (on `topic`, if given)
+/// of one MCAP file's `bytes`, read record by record (chunks decompressed) with every length
+/// checked before `mcap` allocates for it (`recording::records`).
+fn file_messages(
+    file: &Path,
+    bytes: &[u8],
+    type_name: &str,
+    topic: Option<&str>,
+) -> Result<Vec<(String, u64, Vec<u8>)>, Ros2Error> {
+    use mcap::records::op;
+    use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+    let bad = |e: String| bag_error(file, e);
+    let unreadable = |e: String| bag_error(file, format!("not a readable MCAP file: {e}"));
+    // Chunks come whole and go through the recorder's checked chunk reader.
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_record_length_limit(BAG_RECORD_LIMIT_BYTES)
+            .with_emit_chunks(true),
+    );
+    let mut bag = BagRecords::default();
+    let mut fed = false;
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| unreadable(e.to_string()))? {
+            LinearReadEvent::ReadRequest(_) if fed => reader.notify_read(0),
+            LinearReadEvent::ReadRequest(_) => {
+                reader.insert(bytes.len()).copy_from_slice(bytes);
+                reader.notify_read(bytes.len());
+                fed = true;
+            }
+            LinearReadEvent::Record { data, opcode } if opcode == op::CHUNK => {
+                let mut record = vec![opcode];
+                record.extend((data.len() as u64).to_le_bytes());
+                record.extend(data);
+                let inner = recording::records::chunk_records(&record).map_err(unreadable)?;
+                for (opcode, data) in inner {
+                    bag.take(opcode, &data, type_name, topic).map_err(bad)?;
                 }
-                packets.push((m.channel.topic.clone(), k, m.log_time, m.data.into_owned()));
+            }
+            LinearReadEvent::Record { data, opcode } => {
+                bag.take(opcode, data, type_name, topic).map_err(bad)?;
             }
         }
     }
+    Ok(bag.out)
+}
+
+/// The schemas and channels of a bag file so far, and the messages kept.
+#[derive(Default)]
+struct BagRecords {
+    schemas: BTreeMap<u16, String>,
+    channels: BTreeMap<u16, mcap::records::Channel>,
+    out: Vec<(String, u64, Vec<u8>)>,
+}
+
+impl BagRecords {
+    /// Takes one record: a schema or channel is kept, a message of type `type_name` (on
+    /// `topic`, if given) too.
+    fn take(
+        &mut self,
+        opcode: u8,
+        data: &[u8],
+        type_name: &str,
+        topic: Option<&str>,
+    ) -> Result<(), String> {
+        use mcap::records::Record;
+        let record = recording::records::parse(opcode, data)
+            .map_err(|e| format!("not a readable MCAP file: {e}"))?;
+        match record {
+            Some(Record::Schema { header, .. }) => {
+                self.schemas.insert(header.id, header.name);
+            }
+            Some(Record::Channel(c)) => {
+                self.channels.insert(c.id, c);
+            }
+            Some(Record::Message { header, data }) => {
+                let c = self.channels.get(&header.channel_id).ok_or_else(|| {
+                    format!(
+                        "not a readable MCAP file: a message on undeclared channel {}",
+                        header.channel_id
+                    )
+                })?;
+                let schema = self.schemas.get(&c.schema_id).map(String::as_str);
+                if schema != Some(type_name) || topic.is_some_and(|t| t != c.topic) {
+                    return Ok(());
+                }
+                if c.message_encoding != "cdr" {
+                    return Err(format!(
+                        "{}: message encoding {:?}, not cdr",
+                        c.topic, c.message_encoding
+                    ));
+                }
+                self.out
+                    .push((c.topic.clone(), header.log_time, data.into_owned()));
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}
+
+/// The messages of the topic chosen among `packets` (`(topic, file, log time, CDR bytes)`):
+/// `topic`, else the only topic, else the first of `preferred` present.
+fn choose_topic(
+    path: &Path,
+    packets: Vec<(String, usize, u64, Vec<u8>)>,
+    type_name: &str,
+    topic: Option<&str>,
+    preferred: &[&str],
+) -> Result<TopicMessages, Ros2Error> {
     let mut topics: Vec<&str> = packets.iter().map(|p| p.0.as_str()).collect();
     topics.sort_unstable();
     topics.dedup();

@@ -1,0 +1,75 @@
+//! Text and framed inputs: camera calibration YAML, case TOML, a receiver plug-in's replies.
+//!
+//! [`calibration`] parses a ROS `camera_info` / OpenCV YAML document; accepted intrinsics must
+//! survive being written as YAML and read again, and the remaps Waggle builds from them (events
+//! and images into the reference camera) must be built. [`case_toml`] checks that a case reads
+//! the same from its TOML as from that TOML printed again. [`plugin_reply`] reads a worker's
+//! frame as the plug-in host does and re-frames what it read.
+
+use std::io::Cursor;
+
+use event_camera::calibration::{EventRemap, ImageRemap, Intrinsics};
+use receiver_plugin::wire::{MAX_REPLY_BYTES, encode, read_reply};
+use run_format::case::Case;
+
+/// `i` as a ROS `camera_info` YAML document.
+fn calibration_yaml(i: &Intrinsics) -> String {
+    let d: Vec<String> = i.distortion.iter().map(|v| format!("{v:?}")).collect();
+    format!(
+        "image_width: {}\nimage_height: {}\ncamera_matrix:\n  rows: 3\n  cols: 3\n  data: \
+         [{:?}, 0.0, {:?}, 0.0, {:?}, {:?}, 0.0, 0.0, 1.0]\ndistortion_model: \
+         rational_polynomial\ndistortion_coefficients:\n  rows: 1\n  cols: 8\n  data: [{}]\n",
+        i.width_px,
+        i.height_px,
+        i.fx_px,
+        i.cx_px,
+        i.fy_px,
+        i.cy_px,
+        d.join(", ")
+    )
+}
+
+/// A calibration YAML document.
+pub fn calibration(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(intrinsics) = Intrinsics::from_yaml(text) else {
+        return;
+    };
+    let yaml = calibration_yaml(&intrinsics);
+    let back = Intrinsics::from_yaml(&yaml).expect("intrinsics Waggle wrote read back");
+    assert_eq!(back, intrinsics, "{yaml}");
+    let events = EventRemap::new(&intrinsics);
+    let _ = events.map(intrinsics.width_px - 1, intrinsics.height_px - 1);
+    let images = ImageRemap::new(&intrinsics);
+    let _ = images;
+}
+
+/// A case file's TOML text.
+pub fn case_toml(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(case) = Case::from_text(text, "fuzz input") else {
+        return;
+    };
+    let table: toml::Table = toml::from_str(text).expect("a case is a TOML table");
+    let printed = toml::to_string(&table).expect("a TOML table prints");
+    let again = Case::from_text(&printed, "printed again")
+        .unwrap_or_else(|e| panic!("the case printed again is refused: {e}\n{printed}"));
+    assert_eq!(format!("{again:?}"), format!("{case:?}"), "{printed}");
+}
+
+/// A worker's reply frame.
+pub fn plugin_reply(data: &[u8]) {
+    let mut r = Cursor::new(data);
+    let Ok(header) = read_reply(&mut r, MAX_REPLY_BYTES) else {
+        return;
+    };
+    assert!(r.position() as usize <= data.len());
+    let framed = encode(&header, &[]);
+    let back = read_reply(&mut Cursor::new(&framed), MAX_REPLY_BYTES)
+        .expect("a header Waggle framed reads back");
+    assert_eq!(back, header);
+}
