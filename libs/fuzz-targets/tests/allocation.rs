@@ -95,6 +95,28 @@ fn peak_of(run: impl FnOnce()) -> usize {
     PEAK.load(Ordering::Relaxed).saturating_sub(before)
 }
 
+/// The recording's path-based reader of its leading metadata (`waggle replay`, `export`), fed
+/// a file whose first record claims 512 MiB of which 4 bytes follow.
+fn leading_record_longer_than_its_file() -> usize {
+    let dir = std::env::temp_dir().join(format!("waggle-leading-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("claims-half-a-gigabyte.mcap");
+    // The magic, then a metadata record (opcode 0x0C) claiming 512 MiB.
+    let mut bytes = b"\x89MCAP0\r\n".to_vec();
+    bytes.push(0x0C);
+    bytes.extend_from_slice(&(512u64 << 20).to_le_bytes());
+    bytes.extend_from_slice(&[0; 4]);
+    std::fs::write(&path, &bytes).unwrap();
+    let mut got = None;
+    let peak = peak_of(|| got = Some(recording::leading_metadata(&path, "session")));
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(
+        matches!(got, Some(Err(recording::ReadError::NotMcap { .. }))),
+        "{got:?}"
+    );
+    peak
+}
+
 #[test]
 fn huge_length_fields_allocate_at_most_the_bound() {
     let mut report = Vec::new();
@@ -121,6 +143,13 @@ fn huge_length_fields_allocate_at_most_the_bound() {
         report.push((target, worst));
     }
     let mut over = Vec::new();
+    let leading = leading_record_longer_than_its_file();
+    eprintln!("recording::leading_metadata: peak {leading} B");
+    if leading > BOUND_BYTES {
+        over.push(format!(
+            "recording::leading_metadata: {leading} B > {BOUND_BYTES} B"
+        ));
+    }
     for (target, (peak, k, at, huge)) in &report {
         eprintln!("{target}: peak {peak} B (file {k}, field at {at} = {huge:#x})");
         let bound = if CHUNKED.contains(target) {

@@ -474,6 +474,8 @@ pub fn leading_metadata(
         source,
     };
     let mut file = std::fs::File::open(path).map_err(io)?;
+    // What the file still holds: a record's claimed length never sizes a buffer beyond it.
+    let mut left = file.metadata().map_err(io)?.len();
     let mut reader = LinearReader::new_with_options(
         LinearReaderOptions::default().with_record_length_limit(RECORD_LIMIT_BYTES),
     );
@@ -486,7 +488,13 @@ pub fn leading_metadata(
                 });
             }
             Ok(LinearReadEvent::ReadRequest(need)) => {
-                let n = file.read(reader.insert(need)).map_err(io)?;
+                let want = need.min(usize::try_from(left).unwrap_or(usize::MAX));
+                let n = if want == 0 {
+                    0
+                } else {
+                    file.read(reader.insert(want)).map_err(io)?
+                };
+                left -= n as u64;
                 reader.notify_read(n);
             }
             Ok(LinearReadEvent::Record { data, opcode }) => match records::parse(opcode, data) {

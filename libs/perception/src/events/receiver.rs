@@ -555,7 +555,12 @@ mod tests {
     fn nothing_reaches_the_decoder_before_a_target_was_localised() {
         let mut rx = receiver();
         for seq in 0..10 {
-            assert_eq!(rx.push_packet(&packet(seq, &[])), PacketOutcome::default());
+            // The tracker looked, in its search window, and saw nothing.
+            let nothing = PacketOutcome {
+                window_on_off: Some([0, 0]),
+                ..PacketOutcome::default()
+            };
+            assert_eq!(rx.push_packet(&packet(seq, &[])), nothing);
         }
         // Faults before any target: counted, but no token to report.
         let out = rx.push_bytes(b"not a packet");
