@@ -80,23 +80,42 @@ pub fn evt3(data: &[u8]) {
 pub fn evt2(data: &[u8]) {
     use event_formats::evt2::{read, write};
     let Ok(rec) = read(data) else { return };
-    let (w, h) = sensor(rec.geometry, &rec.events);
-    let mut out = Vec::new();
-    if write(&mut out, w, h, &rec.events).is_ok() {
-        let again = read(&out).expect("EVT 2.0 that Waggle wrote reads back");
-        same_events("EVT 2.0", &rec.events, &again.events);
-    }
+    rewrite(
+        "EVT 2.0",
+        sensor(rec.geometry, &rec.events),
+        &rec.events,
+        |out, w, h, events| write(out, w, h, events).is_ok(),
+        |bytes| read(bytes).map(|r| r.events).map_err(|e| e.to_string()),
+    );
 }
 
 /// DAT: read, write back, read again.
 pub fn dat(data: &[u8]) {
     use event_formats::dat::{read, write};
     let Ok(rec) = read(data) else { return };
-    let (w, h) = sensor(rec.geometry, &rec.events);
+    rewrite(
+        "DAT",
+        sensor(rec.geometry, &rec.events),
+        &rec.events,
+        |out, w, h, events| write(out, w, h, events).is_ok(),
+        |bytes| read(bytes).map(|r| r.events).map_err(|e| e.to_string()),
+    );
+}
+
+/// Writes `events` back as `format` on a `w`×`h` sensor; what Waggle wrote must read back
+/// (`read`) as the same events. A refused write (events the format cannot hold) ends the check.
+fn rewrite(
+    format: &str,
+    (w, h): (u16, u16),
+    events: &[Event],
+    write: impl FnOnce(&mut Vec<u8>, u16, u16, &[Event]) -> bool,
+    read: impl FnOnce(&[u8]) -> Result<Vec<Event>, String>,
+) {
     let mut out = Vec::new();
-    if write(&mut out, w, h, &rec.events).is_ok() {
-        let again = read(&out).expect("DAT that Waggle wrote reads back");
-        same_events("DAT", &rec.events, &again.events);
+    if write(&mut out, w, h, events) {
+        let again = read(&out)
+            .unwrap_or_else(|e| panic!("{format} that Waggle wrote does not read back: {e}"));
+        same_events(format, events, &again);
     }
 }
 

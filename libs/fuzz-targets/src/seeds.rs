@@ -10,7 +10,7 @@ use std::path::Path;
 use event_camera::{Event, Polarity};
 use proto::{ClockTick, EventPacket, Fault, FaultKind, Keys, ObserverId, TICK_NS};
 use recording::{RecordError, RecorderOptions, SessionInfo, SessionWriter};
-use ros2_bag::messages::{EventPacketMsg, HeaderMsg, ImageMsg, TimeMsg};
+use ros2_bag::messages::{EventPacketMsg, HeaderMsg, ImageMsg};
 use ros2_bag::{BagWriter, QosProfile, Ros2Error, RosMessage};
 
 use crate::wire::KEYS;
@@ -166,14 +166,9 @@ fn recording_seed(out: &mut Vec<SeedFile>) -> Result<(), SeedError> {
     Ok(())
 }
 
-fn header() -> HeaderMsg {
-    HeaderMsg {
-        stamp: TimeMsg {
-            sec: 2,
-            nanosec: 40_000_000,
-        },
-        frame_id: "O1/camera_optical".into(),
-    }
+/// Every seed message's header: O1's optical frame at 2.04 s.
+fn header() -> Result<HeaderMsg, SeedError> {
+    Ok(HeaderMsg::at(2_040_000_000, "O1/camera_optical")?)
 }
 
 fn event_packet_msg(seq: u64, events: &[Event]) -> Result<EventPacketMsg, SeedError> {
@@ -182,7 +177,7 @@ fn event_packet_msg(seq: u64, events: &[Event]) -> Result<EventPacketMsg, SeedEr
     let mut payload = Vec::new();
     enc.encode(events, &mut payload).map_err(err)?;
     Ok(EventPacketMsg {
-        header: header(),
+        header: header()?,
         height: 48,
         width: 64,
         seq,
@@ -202,7 +197,7 @@ fn ros2_seeds(out: &mut Vec<SeedFile>, scratch: &Path) -> Result<(), SeedError> 
         out.push(("ros2_cdr", name.into(), cdr));
     }
     let image = ImageMsg {
-        header: header(),
+        header: header()?,
         height: 2,
         width: 2,
         encoding: "rgb8".into(),
