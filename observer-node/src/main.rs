@@ -80,6 +80,7 @@ fn main() -> Result<()> {
 fn runtime(own: &ObserverArgs, roster: Roster) -> Result<ObserverRuntime> {
     let Some(spec) = &own.receiver else {
         return ObserverRuntime::new(own.id.clone(), roster, own.modality)
+            .map(|r| r.with_frame_check(own.frame_check))
             .context("building the receiver");
     };
     let home_m = roster
@@ -107,11 +108,10 @@ fn runtime(own: &ObserverArgs, roster: Roster) -> Result<ObserverRuntime> {
     )
     .with_context(|| format!("starting the receiver {spec}"))?;
     tracing::info!(observer = %own.id, receiver = %spec, "receiving with a plug-in");
-    Ok(ObserverRuntime::with_receiver(
-        own.id.clone(),
-        roster,
-        Box::new(chain),
-    ))
+    Ok(
+        ObserverRuntime::with_receiver(own.id.clone(), roster, Box::new(chain))
+            .with_frame_check(own.frame_check),
+    )
 }
 
 /// The process's state: the pure observer core, plus what only a process has (keys, the

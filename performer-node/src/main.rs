@@ -26,6 +26,8 @@ use proto::{GestureConfig, Schedule, broadcast, performer_setpoint};
 struct Args {
     #[command(flatten)]
     node: NodeArgs,
+    #[command(flatten)]
+    own: node_args::PerformerArgs,
 }
 
 /// The performer's answer to one tick.
@@ -82,7 +84,13 @@ fn main() -> Result<()> {
                 }
                 if let Some(b) = &msg.broadcast {
                     let payloads: Vec<u8> = b.offers.iter().map(|o| o.to_payload()).collect();
-                    match broadcast(b.start_ns, &payloads, b.acquisition, &gesture) {
+                    match broadcast(
+                        b.start_ns,
+                        &payloads,
+                        b.acquisition,
+                        &gesture,
+                        args.own.frame_check,
+                    ) {
                         Ok(s) => {
                             schedule = Some(s);
                             round = b.round;
@@ -133,7 +141,14 @@ mod tests {
         assert_eq!(sp.kin.pos_m, PERFORMER_HOVER_M);
         assert_eq!(truth.activity, PerformerActivity::Idle);
         assert_eq!(truth.stamp_ns, 7 * TICK_NS);
-        let s = broadcast(0, &[0b011010], false, &GestureConfig::default()).unwrap();
+        let s = broadcast(
+            0,
+            &[0b011010],
+            false,
+            &GestureConfig::default(),
+            proto::FrameCheck::None,
+        )
+        .unwrap();
         let moving = (0..20_000u64)
             .map(|k| answer(Some(&s), 1, k))
             .find(|(sp, _)| sp.kin.vel_mps.iter().any(|v| v.abs() > 1e-6))

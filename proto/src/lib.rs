@@ -32,7 +32,7 @@ pub use codec::{DecodeError, FORMAT_VERSION, Validate, decode, encode};
 pub use decoder::{DecodeStep, Decoder};
 pub use end_reason::EndReason;
 pub use fault::{Fault, FaultKind};
-pub use frame::{FrameParser, ReleasedFrame};
+pub use frame::{FrameCheck, FrameParser, ReleasedFrame};
 pub use gesture::{GestureConfig, MotionProfile, NS_PER_MS, NS_PER_S};
 pub use keys::{Key, KeyError, Keys, ObserverId, Role};
 pub use modality::{FlightMode, Modality, Receiver, RenderPath, UnknownName};

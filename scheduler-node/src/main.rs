@@ -56,6 +56,7 @@ fn main() -> Result<()> {
         .with_offer_sites(&parse_sites(&args.own.offers)?);
     config.rounds = args.own.rounds;
     config.max_broadcasts = args.own.max_broadcasts;
+    config.frame_check = args.own.frame_check;
     config.flights = args.own.flights;
     if let Some(limit) = args.own.time_limit_s
         && !(limit.is_finite() && limit > 0.0 && limit <= 1.0e6)

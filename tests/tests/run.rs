@@ -598,14 +598,16 @@ fn recorded_broadcasts(dir: &std::path::Path) -> Vec<(u32, Vec<String>)> {
 }
 
 #[test]
-fn a_repeated_broadcast_is_recorded_audited_and_replayed() {
+fn a_repeated_checked_broadcast_is_recorded_audited_and_replayed() {
     // only-a offers A alone, so nobody ever holds a message for both sites and decides: with
     // --max-broadcasts 2 the round flies A twice, and each observer's one message counts once.
+    // With --frame-check crc3 every frame carries three check bits (23 tokens): replay releases
+    // the same frames only if it reads the check from the recorded case.
     let r = run(
         "only-a",
         "events",
         "max-broadcasts",
-        &["--max-broadcasts", "2"],
+        &["--max-broadcasts", "2", "--frame-check", "crc3"],
     );
     r.assert_pass();
     r.every_process_exited_cleanly();
@@ -616,8 +618,13 @@ fn a_repeated_broadcast_is_recorded_audited_and_replayed() {
             ["011010", "011010"],
             "{o}"
         );
+        for f in &r.observers[o].frames {
+            assert_eq!(f.frame.token_stamps_ns.len(), 23, "{o}: {f:?}");
+        }
     }
     let dir = out_dir_path("max-broadcasts");
+    let case = std::fs::read_to_string(dir.join("case.toml")).unwrap();
+    assert!(case.contains("frame_check = \"crc3\""), "{case}");
     let flown = recorded_broadcasts(&dir);
     let a = vec!["011010".to_string()];
     assert_eq!(flown, [(1, a.clone()), (1, a)]);
@@ -639,6 +646,16 @@ fn a_repeated_broadcast_is_recorded_audited_and_replayed() {
     assert!(!bad.status.success());
     assert!(
         String::from_utf8_lossy(&bad.stderr).contains("--max-broadcasts"),
+        "{}",
+        String::from_utf8_lossy(&bad.stderr)
+    );
+    let bad = waggle()
+        .args(["run", "only-a", "--frame-check", "crc8"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("--frame-check"),
         "{}",
         String::from_utf8_lossy(&bad.stderr)
     );

@@ -3,7 +3,8 @@
 use anyhow::Result;
 use bus::Process;
 use node_args::{
-    CameraArgs, NodeCommand, NodeLine, ObserverArgs, RecorderArgs, SchedulerArgs, SensorArgs,
+    CameraArgs, NodeCommand, NodeLine, ObserverArgs, PerformerArgs, RecorderArgs, SchedulerArgs,
+    SensorArgs,
 };
 use proto::{Modality, ObserverId, RenderPath, Role};
 
@@ -148,7 +149,12 @@ impl NodeArgs<'_> {
                 Process::singleton(Role::Scheduler),
                 NodeCommand::Scheduler(self.scheduler_args()),
             ),
-            node(Process::singleton(Role::Performer), NodeCommand::Performer),
+            node(
+                Process::singleton(Role::Performer),
+                NodeCommand::Performer(PerformerArgs {
+                    frame_check: self.case.frame_check,
+                }),
+            ),
         ];
         for o in self.observers {
             let camera = CameraArgs {
@@ -178,6 +184,7 @@ impl NodeArgs<'_> {
                 plugin_time_limit_ms: receiver.as_ref().and(self.opts.plugin_time_limit_ms),
                 plugin_seed: receiver.as_ref().map(|_| self.opts.sensor.seed),
                 receiver,
+                frame_check: self.case.frame_check,
             };
             let deny = if self.opts.observer_acl {
                 observer_denied_keys(self.keys, o, self.observers)
@@ -211,6 +218,7 @@ impl NodeArgs<'_> {
             max_broadcasts: self.case.max_broadcasts,
             time_limit_s: self.case.time_limit_s,
             flights: self.case.flights,
+            frame_check: self.case.frame_check,
         }
     }
 }

@@ -99,11 +99,17 @@ struct Replayer {
 }
 
 impl Replayer {
-    fn new(id: ObserverId, observers: usize, modality: Modality) -> Result<Self> {
+    fn new(
+        id: ObserverId,
+        observers: usize,
+        modality: Modality,
+        check: proto::FrameCheck,
+    ) -> Result<Self> {
         Ok(Self {
             core: ObserverCore::new(
                 ObserverRuntime::new(id, Roster::default_scene(observers), modality)
-                    .context("building the receiver")?,
+                    .context("building the receiver")?
+                    .with_frame_check(check),
             ),
             done: false,
             tokens: Vec::new(),
@@ -191,6 +197,8 @@ struct Replay {
     /// Observers of the session (the scene's most when unknown).
     n: usize,
     modality: Modality,
+    /// The session's frame check (the recorded case's; none when it holds no case).
+    check: proto::FrameCheck,
     /// The event packets' source when the recording kept the sensors' input.
     regenerator: Option<Regenerator>,
 }
@@ -202,6 +210,7 @@ impl Replay {
             o,
             self.n,
             self.modality,
+            self.check,
             &self.sessions_all,
         )
     }
@@ -302,6 +311,16 @@ pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
         Some("rgb") => Modality::Rgb,
         _ => Modality::Events,
     };
+    // The receivers must release exactly the frames the live ones did, so they take the
+    // session's frame check from the case the recording holds.
+    let check = match info.as_ref().and_then(|i| i.case_toml.as_deref()) {
+        Some(text) => {
+            toml::from_str::<run_format::case::Case>(text)
+                .context("parsing the case stored in the recording")?
+                .frame_check
+        }
+        None => proto::FrameCheck::None,
+    };
     let mut replay = Replay {
         replayers: BTreeMap::new(),
         live: BTreeMap::new(),
@@ -310,6 +329,7 @@ pub fn replay_recording(path: &std::path::Path) -> Result<ReplayReport> {
         whole_rgb_frames: 0,
         n: observers.unwrap_or(proto::scene::MAX_OBSERVERS),
         modality,
+        check,
         regenerator: match (&info, modality) {
             (Some(info), Modality::Events) => Regenerator::of(info)?,
             _ => None,
@@ -392,11 +412,12 @@ fn replayer<'a>(
     id: &ObserverId,
     n: usize,
     modality: Modality,
+    check: proto::FrameCheck,
     sessions: &BTreeMap<u64, Vec<SessionControl>>,
 ) -> Result<&'a mut Replayer> {
     if !replayers.contains_key(id) {
         // Session ticks recorded before this observer's first packet apply to it too.
-        let mut r = Replayer::new(id.clone(), n, modality)?;
+        let mut r = Replayer::new(id.clone(), n, modality, check)?;
         for (tick, controls) in sessions {
             r.core.session(*tick, controls.clone());
         }

@@ -297,21 +297,41 @@ pub(crate) fn with_logs(e: anyhow::Error, log_dir: &Path, procs: &[Proc]) -> any
     ))
 }
 
-/// The case's text with any command-line override of `flights` written into it, so the
-/// recorded case is the one that flew.
+/// The case's text with any command-line override of `flights` or `frame_check` written into
+/// it, so the recorded case is the one that flew (the audit times frames by its check).
 pub fn case_text_as_flown(case_arg: &str, case: &Case) -> Result<String> {
     let text = case_source(case_arg)?;
     let written: Case = toml::from_str(&text).context("re-reading the case text")?;
-    if written.flights == case.flights {
+    let overridden: Vec<(&str, String)> = [
+        (
+            "flights",
+            written.flights != case.flights,
+            case.flights.to_string(),
+        ),
+        (
+            "frame_check",
+            written.frame_check != case.frame_check,
+            case.frame_check.to_string(),
+        ),
+    ]
+    .into_iter()
+    .filter_map(|(key, differs, value)| differs.then_some((key, value)))
+    .collect();
+    if overridden.is_empty() {
         return Ok(text);
     }
     let kept: Vec<&str> = text
         .lines()
-        .filter(|l| !l.trim_start().starts_with("flights"))
+        .filter(|l| {
+            let l = l.trim_start();
+            !overridden.iter().any(|(key, _)| l.starts_with(key))
+        })
         .collect();
-    Ok(format!(
-        "# flights set on the command line\nflights = \"{}\"\n{}\n",
-        case.flights,
-        kept.join("\n")
-    ))
+    let mut out = String::new();
+    for (key, value) in &overridden {
+        out.push_str(&format!(
+            "# {key} set on the command line\n{key} = \"{value}\"\n"
+        ));
+    }
+    Ok(format!("{out}{}\n", kept.join("\n")))
 }

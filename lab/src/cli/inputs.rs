@@ -60,6 +60,7 @@ fn options(args: &InputsArgs) -> Result<TrialsOptions> {
         rectification: args.rectify,
         acquisition: args.acquisition,
         plugin: None,
+        frame_check: proto::FrameCheck::None,
     };
     opts.check()?;
     Ok(opts)

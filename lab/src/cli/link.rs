@@ -62,6 +62,7 @@ pub fn run(args: LinkArgs) -> Result<()> {
         viewpoints: args.viewpoints,
         rectification: args.rectify,
         events_raw: args.events_raw,
+        frame_check: args.frame_check,
     };
     if opts.events_raw.is_some() && opts.modality != Receiver::Events {
         bail!("--events-raw writes event cameras' events: use --modality events");
@@ -131,6 +132,7 @@ fn fly_link_with_sensors(opts: &LinkOptions, p: &Perturbation, seed: u64) -> Res
     for (i, placement) in flight.spec.formation.placements().iter().enumerate() {
         let mut perception =
             Perception::for_camera(Modality::Events, placement.camera(), opts.rectification)?;
+        perception.set_frame_check(opts.frame_check);
         let config = CameraConfig::paper(IMAGE_WIDTH_PX, IMAGE_HEIGHT_PX)
             .with_model(p.event_sensor(stream_seed(seed, Stream::EventSensor, i)));
         let mut camera = EventCamera::new(config).context("event camera")?;

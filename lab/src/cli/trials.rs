@@ -72,33 +72,7 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     if args.case.is_some() {
         return run_case(args, perturbation);
     }
-    let modality = link_modality(&args)?;
-    let formation = if args.viewpoints.is_empty() {
-        Formation::standard(args.observers).map_err(|_| {
-            anyhow::anyhow!(
-                "--observers {} is outside 1..={MAX_OBSERVERS}",
-                args.observers
-            )
-        })?
-    } else {
-        Formation::custom(args.viewpoints).context("--viewpoint")?
-    };
-    let opts = TrialsOptions {
-        payloads: args.link,
-        formation,
-        modality,
-        trials: args.trials,
-        seed: args.seed,
-        perturbation,
-        jobs: args.jobs.unwrap_or_else(default_jobs).max(1),
-        render: args.render.path,
-        rectification: args.rectify,
-        acquisition: args.acquisition,
-        plugin: args.receiver.clone().map(|spec| PluginOptions {
-            spec,
-            trial_limit: Some(std::time::Duration::from_secs_f64(args.plugin_time_limit_s)),
-        }),
-    };
+    let opts = link_options(&args, perturbation)?;
     opts.check()?;
     let shard = args.shard.shard()?;
     let cache = super::shard::open_cache(&args.render_cache)?;
@@ -188,6 +162,38 @@ pub fn run(args: TrialsArgs) -> Result<()> {
         return finished_shard(&stop);
     }
     write_results(&args.out, &stop)
+}
+
+/// The options of a link's trials (`--link`) from the command line.
+fn link_options(args: &TrialsArgs, perturbation: Perturbation) -> Result<TrialsOptions> {
+    let modality = link_modality(args)?;
+    let formation = if args.viewpoints.is_empty() {
+        Formation::standard(args.observers).map_err(|_| {
+            anyhow::anyhow!(
+                "--observers {} is outside 1..={MAX_OBSERVERS}",
+                args.observers
+            )
+        })?
+    } else {
+        Formation::custom(args.viewpoints.clone()).context("--viewpoint")?
+    };
+    Ok(TrialsOptions {
+        payloads: args.link.clone(),
+        formation,
+        modality,
+        trials: args.trials,
+        seed: args.seed,
+        perturbation,
+        jobs: args.jobs.unwrap_or_else(default_jobs).max(1),
+        render: args.render.path,
+        rectification: args.rectify,
+        acquisition: args.acquisition,
+        plugin: args.receiver.clone().map(|spec| PluginOptions {
+            spec,
+            trial_limit: Some(std::time::Duration::from_secs_f64(args.plugin_time_limit_s)),
+        }),
+        frame_check: args.overrides.frame_check.unwrap_or_default(),
+    })
 }
 
 /// Writes `trials.json` from the records in `dir` (partial ones when `stop` interrupted the

@@ -55,6 +55,7 @@ pub fn sensor_comparison(
         &[FIRST_OFFER],
         true,
         &GestureConfig::default(),
+        proto::FrameCheck::None,
     )
     .context("building the broadcast schedule")?;
     let timeline = schedule.timeline();

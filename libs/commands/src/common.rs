@@ -1,4 +1,4 @@
-//! Argument groups and value parsers shared by several commands: `--flights` and `--max-broadcasts`, `--sensor-preset`/`--perturb`, `--render`, `--jobs`, `--payload`, `--viewpoint`, where a recorded or live camera was (`--viewpoint`/`--observer`), `--policy` and an observer's plug-in receiver (`--receiver O2=python:M:C`).
+//! Argument groups and value parsers shared by several commands: `--flights`, `--max-broadcasts` and `--frame-check`, `--sensor-preset`/`--perturb`, `--render`, `--jobs`, `--payload`, `--viewpoint`, where a recorded or live camera was (`--viewpoint`/`--observer`), `--policy` and an observer's plug-in receiver (`--receiver O2=python:M:C`).
 
 use anyhow::Result;
 use proto::scene::Placement;
@@ -18,6 +18,11 @@ pub struct CaseOverrides {
     #[arg(long = "max-broadcasts", value_name = "N",
           value_parser = clap::value_parser!(u32).range(1..=proto::sched::MAX_ROUND_BROADCASTS as i64))]
     pub max_broadcasts: Option<u32>,
+    /// The check every frame carries after its six payload bits, overriding the case's
+    /// `frame_check` (with --link: the broadcast's): `none` (the paper), `parity` or `crc3`;
+    /// a frame that fails it is never released.
+    #[arg(long = "frame-check", value_enum, value_name = "CHECK")]
+    pub frame_check: Option<proto::FrameCheck>,
 }
 
 /// `--sensor-preset NAME` and `--perturb KEY=VALUE…`, shared by the commands that perturb.
@@ -121,6 +126,9 @@ impl CaseOverrides {
         }
         if let Some(n) = self.max_broadcasts {
             case.max_broadcasts = n;
+        }
+        if let Some(c) = self.frame_check {
+            case.frame_check = c;
         }
         case
     }

@@ -48,6 +48,15 @@ pub struct LinkArgs {
     /// 3.0, readable by Metavision tools and `waggle decode --events`).
     #[arg(long, value_name = "DIR")]
     pub events_raw: Option<std::path::PathBuf>,
+    /// The check every frame carries after its six payload bits: `none` (the paper), `parity`
+    /// or `crc3`; a frame that fails it is never released.
+    #[arg(
+        long = "frame-check",
+        value_enum,
+        value_name = "CHECK",
+        default_value_t
+    )]
+    pub frame_check: proto::FrameCheck,
     /// Print machine-readable JSON instead of the table.
     #[arg(long)]
     pub json: bool,

@@ -92,6 +92,13 @@ impl IdealReceiver {
         Ok(Self { chains })
     }
 
+    /// Parses frames carrying `check` from now on (the broadcast's own, before its first sample).
+    pub fn set_frame_check(&mut self, check: proto::FrameCheck) {
+        for chain in &mut self.chains {
+            chain.decoder.set_frame_check(check);
+        }
+    }
+
     /// One synchronous camera instant: the performer's true position at `stamp_ns`. A position
     /// that projects outside an observer's image is a lost sample for that observer.
     pub fn push(&mut self, stamp_ns: u64, performer_m: [f64; 3]) -> Result<(), IdealReceiverError> {

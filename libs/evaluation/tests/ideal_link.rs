@@ -125,6 +125,7 @@ fn every_observer_of_n_releases_both_offers(n: usize) {
             &payloads,
             acquisition,
             &GestureConfig::default(),
+            proto::FrameCheck::None,
         )
         .unwrap();
         for (name, config) in configs() {
@@ -184,6 +185,7 @@ fn offer_start_to_final_null_is_about_the_papers_95_6_s() {
         &[0b011010, 0b100111],
         false,
         &GestureConfig::default(),
+        proto::FrameCheck::None,
     )
     .unwrap();
     let r = run(&s, 3, SegmenterConfig::rgb(), 0);
@@ -207,7 +209,14 @@ fn offer_start_to_final_null_is_about_the_papers_95_6_s() {
 #[test]
 fn an_interruption_mid_frame_prevents_release_of_that_frame_only() {
     let payloads = [0b011010, 0b100111];
-    let s = broadcast(5 * NS_PER_S, &payloads, false, &GestureConfig::default()).unwrap();
+    let s = broadcast(
+        5 * NS_PER_S,
+        &payloads,
+        false,
+        &GestureConfig::default(),
+        proto::FrameCheck::None,
+    )
+    .unwrap();
     // In the middle of offer 1's bit 3.
     let bit3 = s
         .timeline()
@@ -251,7 +260,14 @@ fn an_interruption_mid_frame_prevents_release_of_that_frame_only() {
 
 #[test]
 fn a_single_missing_camera_frame_mid_frame_prevents_release() {
-    let s = broadcast(5 * NS_PER_S, &[0b010000], false, &GestureConfig::default()).unwrap();
+    let s = broadcast(
+        5 * NS_PER_S,
+        &[0b010000],
+        false,
+        &GestureConfig::default(),
+        proto::FrameCheck::None,
+    )
+    .unwrap();
     let null5 = s
         .timeline()
         .iter()
@@ -280,7 +296,14 @@ fn a_single_missing_camera_frame_mid_frame_prevents_release() {
 fn event_acquisition_preamble_gives_a_first_null_before_start() {
     // An event receiver cannot see a stationary target, so it starts seeing at the sweep.
     let config = GestureConfig::default();
-    let s = broadcast(16 * NS_PER_S, &[0b011010], true, &config).unwrap();
+    let s = broadcast(
+        16 * NS_PER_S,
+        &[0b011010],
+        true,
+        &config,
+        proto::FrameCheck::None,
+    )
+    .unwrap();
     let sweep = s.timeline()[0];
     assert_eq!(sweep.symbol, TruthSymbol::Acquisition);
     let start_span = s.timeline()[2];
@@ -301,7 +324,14 @@ fn event_acquisition_preamble_gives_a_first_null_before_start() {
         assert_eq!(o.frames[0].first_null_ns(), t[0].stamp_ns);
     }
     // The preamble costs only the sweep: the offer itself is laid out as without it.
-    let plain = broadcast(16 * NS_PER_S, &[0b011010], false, &config).unwrap();
+    let plain = broadcast(
+        16 * NS_PER_S,
+        &[0b011010],
+        false,
+        &config,
+        proto::FrameCheck::None,
+    )
+    .unwrap();
     assert_eq!(
         s.offers()[0].start_ns,
         plain.offers()[0].start_ns + config.acquisition.duration_ns
@@ -319,6 +349,7 @@ fn ideal_receiver_is_deterministic() {
         &[0b011010, 0b100111],
         true,
         &GestureConfig::default(),
+        proto::FrameCheck::None,
     )
     .unwrap();
     let a = run(&s, 3, SegmenterConfig::events(), 0);

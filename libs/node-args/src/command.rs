@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand};
 
-use crate::{CameraArgs, ObserverArgs, RecorderArgs, SchedulerArgs};
+use crate::{CameraArgs, ObserverArgs, PerformerArgs, RecorderArgs, SchedulerArgs};
 
 /// Why a node's arguments were refused.
 #[derive(Debug, thiserror::Error)]
@@ -29,7 +29,7 @@ pub enum NodeCommand {
     Sim,
     Scheduler(SchedulerArgs),
     /// `performer-node`.
-    Performer,
+    Performer(PerformerArgs),
     /// `sim-node camera …`: one observer's camera.
     Camera(CameraArgs),
     Observer(ObserverArgs),
@@ -42,7 +42,7 @@ impl NodeCommand {
         match self {
             NodeCommand::Sim | NodeCommand::Camera(_) => "sim-node",
             NodeCommand::Scheduler(_) => "scheduler-node",
-            NodeCommand::Performer => "performer-node",
+            NodeCommand::Performer(_) => "performer-node",
             NodeCommand::Observer(_) => "observer-node",
             NodeCommand::Recorder(_) => "recorder-node",
         }
@@ -56,7 +56,7 @@ impl NodeCommand {
                 .chain(c.to_args())
                 .collect(),
             NodeCommand::Scheduler(s) => s.to_args(),
-            NodeCommand::Performer => Vec::new(),
+            NodeCommand::Performer(p) => p.to_args(),
             NodeCommand::Observer(o) => o.to_args(),
             NodeCommand::Recorder(r) => r.to_args(),
         }
@@ -136,8 +136,8 @@ impl NodeLine {
                 (NodeCommand::Scheduler(a), d)
             }
             "performer-node" => {
-                let (_, d) = own::<NoArgs>(argv).map_err(fail)?;
-                (NodeCommand::Performer, d)
+                let (a, d) = own::<PerformerArgs>(argv).map_err(fail)?;
+                (NodeCommand::Performer(a), d)
             }
             "observer-node" => {
                 let (a, d) = own::<ObserverArgs>(argv).map_err(fail)?;
@@ -161,9 +161,6 @@ struct Own<T: clap::Args> {
     #[arg(long = "deny")]
     deny: Vec<String>,
 }
-
-#[derive(clap::Args)]
-struct NoArgs {}
 
 #[derive(Parser)]
 struct SimCli {

@@ -19,6 +19,7 @@ mod camera;
 mod command;
 mod logging;
 mod observer;
+mod performer;
 mod recorder;
 mod scheduler;
 
@@ -28,6 +29,7 @@ pub use camera::{
 pub use command::{NodeArgsError, NodeCommand, NodeLine};
 pub use logging::init_logging;
 pub use observer::{DEFAULT_GRACE_MS, ObserverArgs};
+pub use performer::PerformerArgs;
 pub use recorder::{RecorderArgs, RecorderOutput};
 pub use scheduler::SchedulerArgs;
 

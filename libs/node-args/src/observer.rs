@@ -1,6 +1,6 @@
 //! `observer-node`'s own arguments.
 
-use proto::{Modality, ObserverId};
+use proto::{FrameCheck, Modality, ObserverId};
 use receiver_plugin::PluginSpec;
 
 use crate::ArgList;
@@ -37,6 +37,9 @@ pub struct ObserverArgs {
     /// The seed the plug-in is told (the session's sensor seed).
     #[arg(long, value_name = "SEED", requires = "receiver")]
     pub plugin_seed: Option<u64>,
+    /// The check the session's frames carry (the observer releases only frames that pass it).
+    #[arg(long, value_enum, default_value_t = FrameCheck::None)]
+    pub frame_check: FrameCheck,
 }
 
 impl ObserverArgs {
@@ -49,6 +52,10 @@ impl ObserverArgs {
             .opt("--receiver", self.receiver.as_ref())
             .opt("--plugin-time-limit-ms", self.plugin_time_limit_ms)
             .opt("--plugin-seed", self.plugin_seed)
+            .opt(
+                "--frame-check",
+                (self.frame_check != FrameCheck::None).then_some(self.frame_check),
+            )
             .done()
     }
 }

@@ -1,6 +1,6 @@
 //! `scheduler-node`'s own arguments.
 
-use proto::{FlightMode, Modality};
+use proto::{FlightMode, FrameCheck, Modality};
 
 use crate::ArgList;
 
@@ -25,6 +25,9 @@ pub struct SchedulerArgs {
     /// Safety router: one trip at a time, or overlapping trips on checked reservations.
     #[arg(long, value_enum, default_value_t = FlightMode::default())]
     pub flights: FlightMode,
+    /// The check every frame carries after its payload (its length sets the windows).
+    #[arg(long, value_enum, default_value_t = FrameCheck::None)]
+    pub frame_check: FrameCheck,
 }
 
 impl SchedulerArgs {
@@ -41,6 +44,10 @@ impl SchedulerArgs {
             )
             .opt("--time-limit-s", self.time_limit_s)
             .value("--flights", self.flights)
+            .opt(
+                "--frame-check",
+                (self.frame_check != FrameCheck::None).then_some(self.frame_check),
+            )
             .done()
     }
 }

@@ -2,14 +2,18 @@
 //! arguments are refused naming the node.
 
 use node_args::{
-    CameraArgs, CameraThrottle, NodeArgsError, NodeCommand, NodeLine, ObserverArgs, RecorderArgs,
-    RecorderOutput, Ros2Source, SchedulerArgs, SensorArgs,
+    CameraArgs, CameraThrottle, NodeArgsError, NodeCommand, NodeLine, ObserverArgs, PerformerArgs,
+    RecorderArgs, RecorderOutput, Ros2Source, SchedulerArgs, SensorArgs,
 };
 use proptest::prelude::*;
-use proto::{FlightMode, Modality, ObserverId, RenderPath};
+use proto::{FlightMode, FrameCheck, Modality, ObserverId, RenderPath};
 
 fn observer_id() -> impl Strategy<Value = ObserverId> {
     (0usize..8).prop_map(ObserverId::from_index)
+}
+
+fn frame_check() -> impl Strategy<Value = FrameCheck> {
+    proptest::sample::select(FrameCheck::ALL.to_vec())
 }
 
 fn modality() -> impl Strategy<Value = Modality> {
@@ -71,9 +75,10 @@ fn scheduler() -> impl Strategy<Value = NodeCommand> {
         1u32..9,
         proptest::option::of(1.0f64..1e5),
         prop_oneof![Just(FlightMode::Sequential), Just(FlightMode::Concurrent)],
+        frame_check(),
     )
         .prop_map(
-            |(modality, offers, rounds, max_broadcasts, time_limit_s, flights)| {
+            |(modality, offers, rounds, max_broadcasts, time_limit_s, flights, frame_check)| {
                 NodeCommand::Scheduler(SchedulerArgs {
                     modality,
                     offers,
@@ -81,6 +86,7 @@ fn scheduler() -> impl Strategy<Value = NodeCommand> {
                     max_broadcasts,
                     time_limit_s,
                     flights,
+                    frame_check,
                 })
             },
         )
@@ -89,7 +95,7 @@ fn scheduler() -> impl Strategy<Value = NodeCommand> {
 fn command() -> impl Strategy<Value = NodeCommand> {
     prop_oneof![
         Just(NodeCommand::Sim),
-        Just(NodeCommand::Performer),
+        frame_check().prop_map(|frame_check| NodeCommand::Performer(PerformerArgs { frame_check })),
         scheduler(),
         (
             observer_id(),
@@ -143,8 +149,9 @@ fn command() -> impl Strategy<Value = NodeCommand> {
                 proptest::option::of(any::<u64>()),
                 proptest::option::of(any::<u64>()),
             )),
+            frame_check(),
         )
-            .prop_map(|(id, modality, grace_ms, plugin)| {
+            .prop_map(|(id, modality, grace_ms, plugin, frame_check)| {
                 let (receiver, plugin_time_limit_ms, plugin_seed) = match plugin {
                     Some((spec, limit, seed)) => (Some(spec.parse().unwrap()), limit, seed),
                     None => (None, None, None),
@@ -156,6 +163,7 @@ fn command() -> impl Strategy<Value = NodeCommand> {
                     receiver,
                     plugin_time_limit_ms,
                     plugin_seed,
+                    frame_check,
                 })
             }),
         (
@@ -284,6 +292,13 @@ fn bad_arguments_are_refused_naming_the_node() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("--speed"), "{err}");
+    let err = NodeLine::parse("performer-node", &args(&["--frame-check", "crc8"]))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("--frame-check") && err.contains("crc8"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -121,7 +121,13 @@ fn main() -> Result<()> {
     if frames < 2 {
         bail!("--frames must be at least 2");
     }
-    let schedule = broadcast(LEAD_IN_NS, &[PAYLOAD], false, &GestureConfig::default())?;
+    let schedule = broadcast(
+        LEAD_IN_NS,
+        &[PAYLOAD],
+        false,
+        &GestureConfig::default(),
+        proto::FrameCheck::None,
+    )?;
     let start_ns = schedule
         .timeline()
         .iter()

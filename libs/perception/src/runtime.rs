@@ -101,6 +101,15 @@ impl ObserverRuntime {
         }
     }
 
+    /// This observer's session sends frames carrying `check`: its receiver and the status
+    /// mirror parse them so (set before the first tick).
+    #[must_use]
+    pub fn with_frame_check(mut self, check: proto::FrameCheck) -> Self {
+        self.perception.set_frame_check(check);
+        self.parser = FrameParser::with_check(check);
+        self
+    }
+
     pub fn id(&self) -> &ObserverId {
         &self.id
     }

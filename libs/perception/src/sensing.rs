@@ -84,6 +84,9 @@ pub trait Receiving: std::fmt::Debug {
     /// The observer's turn from its home attitude, undone from the next input on.
     fn set_ego_rotation(&mut self, ego: Option<proto::EgoRotation>);
 
+    /// The check the session's frames carry (set once, before the first input).
+    fn set_frame_check(&mut self, check: proto::FrameCheck);
+
     /// Why the receiver stopped working, once it has (a plug-in that raised, returned
     /// malformed output or ran past its time limit); Waggle's own receivers never do.
     fn failure(&self) -> Option<String> {
@@ -105,6 +108,10 @@ impl Receiving for Perception {
 
     fn reset(&mut self) {
         Perception::reset(self);
+    }
+
+    fn set_frame_check(&mut self, check: proto::FrameCheck) {
+        Perception::set_frame_check(self, check);
     }
 
     fn set_ego_rotation(&mut self, ego: Option<proto::EgoRotation>) {
@@ -233,6 +240,15 @@ impl Perception {
             Self::Events(r) => r.set_ego_rotation(ego),
             Self::Rgb(r) => r.set_ego_rotation(ego),
             Self::Tracked(d) => d.set_ego_rotation(ego),
+        }
+    }
+
+    /// The check the session's frames carry: frames that fail it are never released.
+    pub fn set_frame_check(&mut self, check: proto::FrameCheck) {
+        match self {
+            Self::Events(r) => r.set_frame_check(check),
+            Self::Rgb(r) => r.set_frame_check(check),
+            Self::Tracked(d) => d.set_frame_check(check),
         }
     }
 

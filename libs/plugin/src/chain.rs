@@ -153,6 +153,12 @@ impl Receiving for PluginChain {
         }
     }
 
+    fn set_frame_check(&mut self, check: proto::FrameCheck) {
+        if let Some(r) = self.receiver.as_mut() {
+            r.set_frame_check(check);
+        }
+    }
+
     fn failure(&self) -> Option<String> {
         self.failure
             .as_ref()

@@ -164,6 +164,16 @@ impl PluginReceiver {
         }
     }
 
+    /// The check the session's frames carry, for the parser below a tracker or token plug-in.
+    /// A full plug-in releases frames itself, so it must parse them with the same check.
+    pub fn set_frame_check(&mut self, check: proto::FrameCheck) {
+        match &mut self.below {
+            Below::Decoder(d) => d.set_frame_check(check),
+            Below::Parser(p) => *p = FrameParser::with_check(check),
+            Below::Nothing => {}
+        }
+    }
+
     /// One event packet: the step, and where the plug-in placed the target for it (a
     /// tracker's point, or the optional `point_px` of a token or full receiver).
     pub fn push_events(&mut self, packet: &EventPacket) -> Result<Pushed, PluginError> {

@@ -8,7 +8,7 @@
 
 use std::io::Read;
 
-use proto::frame::FRAME_TOKENS;
+use proto::frame::{FRAME_TOKENS, FrameCheck};
 use proto::{EventPacket, ReleasedFrame, RgbFrame, Token};
 use serde_json::{Value, json};
 
@@ -226,8 +226,12 @@ pub fn parse_frames(v: &Value, latest_ns: u64) -> Result<Vec<ReleasedFrame>, Str
             .ok_or_else(|| format!("frame {k}'s payload {} is not 0…63", pair[0]))?;
         let stamps = pair[1]
             .as_array()
-            .filter(|s| s.len() == FRAME_TOKENS)
-            .ok_or_else(|| format!("frame {k} does not have {FRAME_TOKENS} token stamps"))?;
+            .filter(|s| FrameCheck::for_frame_tokens(s.len()).is_some())
+            .ok_or_else(|| {
+                format!(
+                    "frame {k} does not have {FRAME_TOKENS} token stamps (19 or 23 with a check)"
+                )
+            })?;
         let token_stamps_ns = stamps
             .iter()
             .map(|s| stamp(s, &format!("a stamp of frame {k}")))

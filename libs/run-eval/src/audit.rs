@@ -251,7 +251,13 @@ pub fn audit_recording(path: &Path) -> Result<AuditReport> {
     let reasons = reasons(&scanned, case.as_ref(), &mission, report.is_some());
     mission.pass = reasons.is_empty();
     let (work_units_by_observer, work_units_by_site) = work_units(report.as_ref());
-    let timing = timing(&g.broadcasts, &g.frames, report.as_ref().map(|r| r.end_ns))?;
+    let check = case.as_ref().map(|c| c.frame_check).unwrap_or_default();
+    let timing = timing(
+        &g.broadcasts,
+        &g.frames,
+        report.as_ref().map(|r| r.end_ns),
+        check,
+    )?;
     Ok(AuditReport {
         partial: !scanned.outcome.complete,
         partial_reason: scanned.outcome.problem.clone(),
@@ -291,6 +297,7 @@ fn timing(
     broadcasts: &[Broadcast],
     frames: &BTreeMap<ObserverId, Vec<FrameEvent>>,
     end_ns: Option<u64>,
+    check: proto::FrameCheck,
 ) -> Result<AuditTiming> {
     let gesture = GestureConfig::default();
     // (round, payload) → offer start.
@@ -301,7 +308,7 @@ fn timing(
         if payloads.is_empty() {
             continue;
         }
-        let schedule = match broadcast(b.start_ns, &payloads, b.acquisition, &gesture) {
+        let schedule = match broadcast(b.start_ns, &payloads, b.acquisition, &gesture, check) {
             Ok(s) => s,
             Err(e) => bail!("rebuilding the broadcast of round {}: {e}", b.round),
         };

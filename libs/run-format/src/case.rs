@@ -285,6 +285,10 @@ pub struct Case {
     /// not decided when a broadcast's window would close, the round's offers are flown again.
     #[serde(default = "default_max_broadcasts")]
     pub max_broadcasts: u32,
+    /// The check every frame carries after its six payload bits (`none`, the paper's frame;
+    /// `parity`; `crc3`): a frame whose check disagrees is never released.
+    #[serde(default)]
+    pub frame_check: proto::FrameCheck,
     /// Sensor modalities this case applies to (`rgb`, `events`; default both — every built-in
     /// case states it). The ideal receiver can fly every case.
     #[serde(default = "default_modalities")]
@@ -550,6 +554,10 @@ mod tests {
             (
                 "name='x'\nobservers=1\nmodalities=['rgb']\nmax_broadcasts=9\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
                 "max_broadcasts = 9",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\nframe_check='crc8'\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "frame_check",
             ),
             (
                 "name='x'\nobservers=1\nmodalities=['rgb']\nrounds=0\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",

@@ -107,6 +107,8 @@ pub struct SchedulerConfig {
     pub time_limit_ns: Option<u64>,
     /// One trip at a time (the paper) or overlapping trips on checked reservations.
     pub flights: FlightMode,
+    /// The check every frame carries after its payload (none: the paper's frame).
+    pub frame_check: proto::FrameCheck,
 }
 
 impl SchedulerConfig {
@@ -123,6 +125,7 @@ impl SchedulerConfig {
             flight: FlightLimits::default(),
             time_limit_ns: None,
             flights: FlightMode::default(),
+            frame_check: proto::FrameCheck::None,
         }
     }
 

@@ -37,6 +37,12 @@ impl Decoder {
         &self.parser
     }
 
+    /// Parses frames carrying `check` from now on (a session's protocol, set before its first
+    /// sample); any incomplete frame is dropped.
+    pub fn set_frame_check(&mut self, check: crate::FrameCheck) {
+        self.parser = FrameParser::with_check(check);
+    }
+
     /// Consumes one receiver sample.
     pub fn push(&mut self, sample: Sample) -> Result<DecodeStep, SegmenterError> {
         let tokens = self.segmenter.push(sample)?;

@@ -1,5 +1,11 @@
 //! The 17-token frame parser: `NULL START NULL b1 NULL b2 … b6 NULL END NULL`.
 //!
+//! A session may agree on a [`FrameCheck`]: then the six bits are followed by one (parity) or
+//! three (CRC-3) check bits, each flown as a bit symbol between NULLs, before `END`. A frame
+//! whose check bits disagree with its payload is counted ([`FrameParser::check_failures`]) and
+//! never released. Everything below holds with "valid frame" meaning "matches the pattern and
+//! its check".
+//!
 //! The parser is a matcher for one fixed pattern whose six bit positions are wildcards over
 //! `{Bit0, Bit1}`. Its state is always the **longest suffix of the tokens seen since the last
 //! invalidation that is a prefix of a valid frame**. That one rule fixes every edge case:
@@ -27,10 +33,124 @@ use serde::{Deserialize, Serialize};
 
 use crate::token::Token;
 
-/// Tokens in a complete frame.
+/// Tokens in a complete frame without a check (the paper's frame).
 pub const FRAME_TOKENS: usize = 17;
 /// Payload bits in a frame.
 pub const FRAME_BITS: usize = 6;
+/// Tokens in the longest frame any [`FrameCheck`] gives.
+pub const MAX_FRAME_TOKENS: usize = FRAME_TOKENS + 2 * 3;
+
+/// The check a session's frames carry after their six payload bits.
+///
+/// A one-shot six-bit frame has none (the paper's protocol): a `Bit0` read as `Bit1` releases
+/// another valid offer. With a check, the performer flies the remainder of the payload divided
+/// by the check's generator polynomial, most significant bit first, and a receiver releases
+/// only frames whose remainder agrees. Parity (`x + 1`) catches any odd number of flipped bits;
+/// CRC-3 (`x³ + x + 1`) catches every single and double flip within the nine bits except two
+/// flips exactly seven apart, at the cost of three more symbols (≈ 35 s a frame).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum FrameCheck {
+    /// No check (the paper's frame, 17 tokens).
+    #[default]
+    None,
+    /// One even-parity bit (19 tokens).
+    Parity,
+    /// Three CRC bits, generator `x³ + x + 1` (23 tokens).
+    Crc3,
+}
+
+impl FrameCheck {
+    /// Every check, in the order of their names' sort.
+    pub const ALL: [FrameCheck; 3] = [FrameCheck::Crc3, FrameCheck::None, FrameCheck::Parity];
+
+    /// The name used in case files and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FrameCheck::None => "none",
+            FrameCheck::Parity => "parity",
+            FrameCheck::Crc3 => "crc3",
+        }
+    }
+
+    /// Check bits flown after the payload.
+    pub fn bits(self) -> usize {
+        match self {
+            FrameCheck::None => 0,
+            FrameCheck::Parity => 1,
+            FrameCheck::Crc3 => 3,
+        }
+    }
+
+    /// Tokens in one complete frame.
+    pub fn frame_tokens(self) -> usize {
+        FRAME_TOKENS + 2 * self.bits()
+    }
+
+    /// The check whose frames have `tokens` tokens, if any.
+    pub fn for_frame_tokens(tokens: usize) -> Option<FrameCheck> {
+        Self::ALL.into_iter().find(|c| c.frame_tokens() == tokens)
+    }
+
+    /// The check bits of a 6-bit `payload`, as a number (first flown = most significant).
+    pub fn remainder(self, payload: u8) -> u8 {
+        // Generator polynomials with their leading term, as bit masks.
+        let generator: u16 = match self {
+            FrameCheck::None => return 0,
+            FrameCheck::Parity => 0b11,
+            FrameCheck::Crc3 => 0b1011,
+        };
+        let n = self.bits();
+        let mut r = u16::from(payload & 0x3f) << n;
+        for i in (n..FRAME_BITS + n).rev() {
+            if r >> i & 1 == 1 {
+                r ^= generator << (i - n);
+            }
+        }
+        // Below 2^n after the division, so it fits in a byte.
+        (r & ((1 << n) - 1)) as u8
+    }
+
+    /// The tokens of the frame carrying `payload` (low six bits, b1 = most significant).
+    pub fn tokens_of(self, payload: u8) -> Vec<Token> {
+        let bits = self.frame_bits(payload);
+        let mut out = vec![Token::Null; self.frame_tokens()];
+        out[1] = Token::Start;
+        for (k, bit) in bits.iter().enumerate() {
+            out[3 + 2 * k] = if *bit { Token::Bit1 } else { Token::Bit0 };
+        }
+        let last = out.len() - 1;
+        out[last - 1] = Token::End;
+        out
+    }
+
+    /// The bits flown for `payload`: its six bits, then the check bits.
+    pub fn frame_bits(self, payload: u8) -> Vec<bool> {
+        let n = self.bits();
+        let check = self.remainder(payload);
+        (0..FRAME_BITS)
+            .map(|k| bit_of(payload, k))
+            .chain((0..n).map(|k| check >> (n - 1 - k) & 1 == 1))
+            .collect()
+    }
+}
+
+impl std::fmt::Display for FrameCheck {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl std::str::FromStr for FrameCheck {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|c| c.as_str() == s)
+            .ok_or_else(|| format!("frame_check = {s:?}: want one of crc3, none, parity"))
+    }
+}
 
 /// What a frame position accepts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -41,25 +161,15 @@ enum Slot {
     End,
 }
 
-const PATTERN: [Slot; FRAME_TOKENS] = [
-    Slot::Null,
-    Slot::Start,
-    Slot::Null,
-    Slot::Bit,
-    Slot::Null,
-    Slot::Bit,
-    Slot::Null,
-    Slot::Bit,
-    Slot::Null,
-    Slot::Bit,
-    Slot::Null,
-    Slot::Bit,
-    Slot::Null,
-    Slot::Bit,
-    Slot::Null,
-    Slot::End,
-    Slot::Null,
-];
+/// What position `i` of a frame of `len` tokens accepts.
+fn slot(i: usize, len: usize) -> Slot {
+    match i {
+        1 => Slot::Start,
+        _ if i + 2 == len => Slot::End,
+        _ if i.is_multiple_of(2) => Slot::Null,
+        _ => Slot::Bit,
+    }
+}
 
 fn fits(slot: Slot, token: Token) -> bool {
     matches!(
@@ -71,28 +181,45 @@ fn fits(slot: Slot, token: Token) -> bool {
     )
 }
 
-/// True when `tokens` is a prefix (possibly all) of a valid frame.
+/// True when `tokens` is a prefix (possibly all) of a paper frame's pattern.
 pub fn is_frame_prefix(tokens: &[Token]) -> bool {
-    tokens.len() <= FRAME_TOKENS && tokens.iter().zip(PATTERN).all(|(&t, s)| fits(s, t))
+    is_prefix_of(FrameCheck::None, tokens)
 }
 
-/// True when `tokens` is exactly one valid frame.
+/// True when `tokens` is a prefix (possibly all) of the pattern of a frame with `check`
+/// (the check itself is judged only on a whole frame).
+pub fn is_prefix_of(check: FrameCheck, tokens: &[Token]) -> bool {
+    let len = check.frame_tokens();
+    tokens.len() <= len
+        && tokens
+            .iter()
+            .enumerate()
+            .all(|(i, &t)| fits(slot(i, len), t))
+}
+
+/// True when `tokens` is exactly one valid paper frame.
 pub fn is_valid_frame(tokens: &[Token]) -> bool {
     tokens.len() == FRAME_TOKENS && is_frame_prefix(tokens)
 }
 
-/// The 17 tokens of the frame carrying `payload` (low six bits, b1 = most significant).
+/// True when `tokens` is exactly one frame with `check` whose check bits agree.
+pub fn is_valid_frame_of(check: FrameCheck, tokens: &[Token]) -> bool {
+    tokens.len() == check.frame_tokens()
+        && is_prefix_of(check, tokens)
+        && check.tokens_of(payload_of(tokens)) == tokens
+}
+
+/// The payload of a frame-shaped token sequence (its first six bit slots).
+fn payload_of(tokens: &[Token]) -> u8 {
+    (0..FRAME_BITS).fold(0u8, |acc, k| {
+        (acc << 1) | u8::from(tokens.get(3 + 2 * k) == Some(&Token::Bit1))
+    })
+}
+
+/// The 17 tokens of the paper frame carrying `payload` (low six bits, b1 = most significant).
 pub fn frame_tokens(payload: u8) -> [Token; FRAME_TOKENS] {
     let mut out = [Token::Null; FRAME_TOKENS];
-    out[1] = Token::Start;
-    for k in 0..FRAME_BITS {
-        out[3 + 2 * k] = if bit_of(payload, k) {
-            Token::Bit1
-        } else {
-            Token::Bit0
-        };
-    }
-    out[15] = Token::End;
+    out.copy_from_slice(&FrameCheck::None.tokens_of(payload));
     out
 }
 
@@ -134,9 +261,9 @@ impl ReleasedFrame {
                 self.payload
             ));
         }
-        if self.token_stamps_ns.len() != FRAME_TOKENS {
+        if FrameCheck::for_frame_tokens(self.token_stamps_ns.len()).is_none() {
             return Err(format!(
-                "frame has {} token stamps, want {FRAME_TOKENS}",
+                "frame has {} token stamps, want {FRAME_TOKENS} (or 19, 23 with a check)",
                 self.token_stamps_ns.len()
             ));
         }
@@ -150,6 +277,10 @@ impl ReleasedFrame {
 /// Incremental frame parser for one observer.
 #[derive(Debug, Clone, Default)]
 pub struct FrameParser {
+    /// The check the session's frames carry.
+    check: FrameCheck,
+    /// Whole frames whose check bits disagreed with their payload.
+    check_failures: u64,
     /// Longest valid frame prefix that is a suffix of the input, with token stamps.
     held: Vec<(Token, u64)>,
     /// Stamp of the last token pushed, when it was a NULL.
@@ -167,8 +298,27 @@ struct NullGap {
 }
 
 impl FrameParser {
+    /// A parser of the paper's frames (no check).
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// A parser of frames carrying `check`.
+    pub fn with_check(check: FrameCheck) -> Self {
+        Self {
+            check,
+            ..Self::default()
+        }
+    }
+
+    /// The check this parser expects.
+    pub fn check(&self) -> FrameCheck {
+        self.check
+    }
+
+    /// Whole frames refused because their check bits disagreed with their payload.
+    pub fn check_failures(&self) -> u64 {
+        self.check_failures
     }
 
     /// Number of tokens of the incomplete frame currently held (0 when idle).
@@ -240,22 +390,28 @@ impl FrameParser {
         }
         self.held.push((token, stamp_ns));
         // Shortest drop that leaves a valid prefix; always ends at most at the empty suffix.
+        let check = self.check;
         let keep_from = (0..=self.held.len())
-            .find(|&i| is_frame_prefix(&self.held_tokens().skip(i).collect::<Vec<_>>()))
+            .find(|&i| is_prefix_of(check, &self.held_tokens().skip(i).collect::<Vec<_>>()))
             .unwrap_or(self.held.len());
         self.held.drain(..keep_from);
-        if self.held.len() < FRAME_TOKENS {
+        let len = check.frame_tokens();
+        if self.held.len() < len {
             return None;
         }
-        let payload = (0..FRAME_BITS).fold(0u8, |acc, k| {
-            (acc << 1) | u8::from(self.held[3 + 2 * k].0 == Token::Bit1)
-        });
+        let tokens: Vec<Token> = self.held_tokens().collect();
+        let payload = payload_of(&tokens);
+        let agrees = check.tokens_of(payload) == tokens;
         let frame = ReleasedFrame {
             payload,
             token_stamps_ns: self.held.iter().map(|&(_, t)| t).collect(),
         };
-        // The releasing NULL may open the next frame.
-        self.held.drain(..FRAME_TOKENS - 1);
+        // The final NULL may open the next frame, whether or not this one passed its check.
+        self.held.drain(..len - 1);
+        if !agrees {
+            self.check_failures += 1;
+            return None;
+        }
         Some(frame)
     }
 }
@@ -456,6 +612,95 @@ mod tests {
         assert!(back.check().is_err());
     }
 
+    #[test]
+    fn check_bits_are_the_remainder_of_the_generator() {
+        for payload in 0u8..64 {
+            assert_eq!(
+                FrameCheck::Parity.remainder(payload),
+                (payload.count_ones() % 2) as u8,
+                "parity of {payload:06b}"
+            );
+            // Appending the remainder gives a multiple of the generator: dividing again leaves 0.
+            let word = (u16::from(payload) << 3) | u16::from(FrameCheck::Crc3.remainder(payload));
+            let mut r = word;
+            for i in (3..9).rev() {
+                if r >> i & 1 == 1 {
+                    r ^= 0b1011 << (i - 3);
+                }
+            }
+            assert_eq!(r, 0, "{payload:06b} with its CRC-3");
+        }
+        assert_eq!(FrameCheck::None.tokens_of(0b011010), frame_tokens(0b011010));
+        assert_eq!(
+            FrameCheck::Crc3.frame_bits(0b100000), // x⁸ mod (x³ + x + 1) = x
+            [true, false, false, false, false, false, false, true, false]
+        );
+    }
+
+    /// Flipping bits of a checked frame, as a receiver misreading a V would: which flips the
+    /// check lets through.
+    #[test]
+    fn checks_catch_the_flips_they_promise() {
+        let flipped = |check: FrameCheck, payload: u8, flips: &[usize]| {
+            let mut tokens = check.tokens_of(payload);
+            for &k in flips {
+                let t = &mut tokens[3 + 2 * k];
+                *t = if *t == Token::Bit1 {
+                    Token::Bit0
+                } else {
+                    Token::Bit1
+                };
+            }
+            tokens
+        };
+        for payload in 0u8..64 {
+            for check in [FrameCheck::Parity, FrameCheck::Crc3] {
+                let n = 6 + check.bits();
+                assert!(is_valid_frame_of(check, &check.tokens_of(payload)));
+                for a in 0..n {
+                    assert!(!is_valid_frame_of(check, &flipped(check, payload, &[a])));
+                    for b in a + 1..n {
+                        let caught = !is_valid_frame_of(check, &flipped(check, payload, &[a, b]));
+                        let promised = check == FrameCheck::Crc3 && b - a != 7;
+                        assert!(caught || !promised, "{check} {payload:06b} flips {a},{b}");
+                        if check == FrameCheck::Parity {
+                            assert!(!caught, "parity cannot see two flips");
+                        }
+                    }
+                }
+            }
+            // Without a check every flip is another valid frame.
+            assert!(is_valid_frame_of(
+                FrameCheck::None,
+                &flipped(FrameCheck::None, payload, &[2])
+            ));
+        }
+    }
+
+    #[test]
+    fn a_frame_failing_its_check_is_counted_and_its_final_null_reopens() {
+        let check = FrameCheck::Crc3;
+        let mut p = FrameParser::with_check(check);
+        let mut bad = check.tokens_of(0b010000);
+        bad[3 + 2 * 2] = Token::Bit1; // b3 misread: 011000 with 010000's check bits
+        let mut seq = bad.clone();
+        seq.extend(&check.tokens_of(0b100111)[1..]);
+        let released = feed(&mut p, &seq);
+        assert_eq!(released.len(), 1);
+        assert_eq!(released[0].1.payload, 0b100111);
+        assert_eq!(released[0].1.token_stamps_ns.len(), 23);
+        assert_eq!(released[0].1.check(), Ok(()));
+        assert_eq!(p.check_failures(), 1);
+        // The paper's parser releases the misread frame.
+        let mut paper = FrameParser::new();
+        let got = feed(&mut paper, &FrameCheck::None.tokens_of(0b011000));
+        assert_eq!(got[0].1.payload, 0b011000);
+        assert_eq!(paper.check_failures(), 0);
+        assert_eq!("crc3".parse(), Ok(FrameCheck::Crc3));
+        let e = "crc8".parse::<FrameCheck>().unwrap_err();
+        assert!(e.contains("frame_check = \"crc8\""), "{e}");
+    }
+
     proptest! {
         /// Releases happen exactly at the tokens that end a valid 17-token window of the input
         /// (an `Unknown` breaks every window through it), and carry that window's bits and stamps.
@@ -501,6 +746,38 @@ mod tests {
                 }
             }
             prop_assert_eq!(got, want, "action {:?} at {} of {:?}", seq[k], k, seq);
+        }
+
+        /// With a check, releases happen exactly where the last frame-length tokens are a
+        /// frame whose check agrees; every other full-length match is counted as a failure.
+        #[test]
+        fn checked_frames_release_iff_valid(
+            bits in prop::collection::vec((0u8..64, any::<bool>(), 0usize..9), 0..6),
+            crc in any::<bool>(),
+        ) {
+            let check = if crc { FrameCheck::Crc3 } else { FrameCheck::Parity };
+            let len = check.frame_tokens();
+            let mut seq = Vec::new();
+            for (payload, corrupt, k) in bits {
+                let mut f = check.tokens_of(payload);
+                if corrupt {
+                    let i = 3 + 2 * (k % (6 + check.bits()));
+                    f[i] = if f[i] == Token::Bit1 { Token::Bit0 } else { Token::Bit1 };
+                }
+                seq.extend(f);
+            }
+            let mut p = FrameParser::with_check(check);
+            let mut shaped = 0u64;
+            for (i, &t) in seq.iter().enumerate() {
+                let got = p.push(t, 10 * i as u64);
+                let window = (i + 1 >= len).then(|| &seq[i + 1 - len..=i]);
+                let valid = window.is_some_and(|w| is_valid_frame_of(check, w));
+                shaped += u64::from(window.is_some_and(|w| is_prefix_of(check, w)));
+                prop_assert_eq!(got.is_some(), valid, "at token {} of {:?}", i, seq);
+            }
+            let released = seq.len() / len;
+            prop_assert!(p.check_failures() <= shaped);
+            prop_assert!(p.check_failures() <= released as u64);
         }
 
         #[test]

@@ -71,7 +71,7 @@ pub struct FrameSlot {
     pub offer_index: u32,
     /// The offer's 6-bit payload (b1 most significant).
     pub payload: u8,
-    /// Token position in the frame, 0..17.
+    /// Token position in the frame, 0..17 (0..19 or 0..23 with a check).
     pub position: u8,
 }
 
@@ -117,6 +117,8 @@ pub struct Schedule {
     pieces: Vec<Piece>,
     timeline: Vec<TruthSpan>,
     offers: Vec<ScheduledOffer>,
+    /// The check its offers' frames carry.
+    frame_check: crate::frame::FrameCheck,
 }
 
 impl Schedule {
@@ -151,6 +153,11 @@ impl Schedule {
     }
 
     /// The offers, in transmission order.
+    /// The check its offers' frames carry (what a receiver of this broadcast must parse).
+    pub fn frame_check(&self) -> crate::frame::FrameCheck {
+        self.frame_check
+    }
+
     pub fn offers(&self) -> &[ScheduledOffer] {
         &self.offers
     }
@@ -217,6 +224,8 @@ impl Schedule {
 #[derive(Debug, Clone)]
 pub struct ScheduleBuilder {
     config: GestureConfig,
+    /// The check each offer's frame carries.
+    check: crate::frame::FrameCheck,
     schedule: Schedule,
     /// Index (in `pieces`, `timeline`) of the final NULL of the offer that ended the schedule so
     /// far, if the last thing appended was an offer.
@@ -236,6 +245,7 @@ impl ScheduleBuilder {
         }
         Ok(Self {
             config,
+            check: crate::frame::FrameCheck::None,
             schedule: Schedule {
                 start_ns,
                 end_ns: start_ns,
@@ -243,9 +253,17 @@ impl ScheduleBuilder {
                 pieces: Vec::new(),
                 timeline: Vec::new(),
                 offers: Vec::new(),
+                frame_check: crate::frame::FrameCheck::None,
             },
             open_final_null: None,
         })
+    }
+
+    /// Offers appended from now on carry `check` after their payload bits.
+    pub fn frame_check(&mut self, check: crate::frame::FrameCheck) -> &mut Self {
+        self.check = check;
+        self.schedule.frame_check = check;
+        self
     }
 
     /// Sim time at which the next appended piece starts.
@@ -288,7 +306,8 @@ impl ScheduleBuilder {
     }
 
     /// One offer: `NULL START NULL b1 … NULL b6 NULL END NULL` for a 6-bit `payload`
-    /// (b1 most significant). Directly after another offer, that offer's final NULL is
+    /// (b1 most significant), the check bits after b6 when the builder has a
+    /// [`Self::frame_check`]. Directly after another offer, that offer's final NULL is
     /// stretched to [`GestureConfig::shared_null_ns`] and doubles as this offer's first NULL.
     pub fn offer(&mut self, payload: u8) -> Result<&mut Self, ScheduleError> {
         if payload >= 1 << crate::frame::FRAME_BITS {
@@ -321,8 +340,11 @@ impl ScheduleBuilder {
                 start_ns
             }
         };
-        let bits = (0..crate::frame::FRAME_BITS)
-            .map(|k| Action::for_bit(payload >> (crate::frame::FRAME_BITS - 1 - k) & 1 == 1));
+        let bits = self
+            .check
+            .frame_bits(payload)
+            .into_iter()
+            .map(Action::for_bit);
         let actions: Vec<Action> = std::iter::once(Action::Start)
             .chain(bits)
             .chain([Action::End])
@@ -428,14 +450,16 @@ impl ScheduleBuilder {
 }
 
 /// A whole broadcast starting at `start_ns` from the nominal hover point: optionally the event
-/// acquisition sweep, then every payload as back-to-back offers.
+/// acquisition sweep, then every payload as back-to-back offers, each frame carrying `check`.
 pub fn broadcast(
     start_ns: u64,
     payloads: &[u8],
     acquisition: bool,
     config: &GestureConfig,
+    check: crate::frame::FrameCheck,
 ) -> Result<Schedule, ScheduleError> {
     let mut b = ScheduleBuilder::new(start_ns, crate::scene::PERFORMER_HOVER_M, *config)?;
+    b.frame_check(check);
     if acquisition {
         b.acquisition()?;
     }
@@ -543,7 +567,14 @@ mod tests {
 
     #[test]
     fn setpoints_are_smooth_and_derivatives_consistent() {
-        let s = broadcast(0, &[0b011010], true, &GestureConfig::default()).unwrap();
+        let s = broadcast(
+            0,
+            &[0b011010],
+            true,
+            &GestureConfig::default(),
+            crate::frame::FrameCheck::None,
+        )
+        .unwrap();
         let dt_ns = 2 * NS_PER_MS;
         let dt = dt_ns as f64 * 1e-9;
         let (v_peak, a_peak) = s.peak_motion(0, s.end_ns());
@@ -575,7 +606,14 @@ mod tests {
         let config = GestureConfig::default();
         let payloads = [0b011010, 0b100111, 0b010000];
         for acquisition in [false, true] {
-            let s = broadcast(1_000, &payloads, acquisition, &config).unwrap();
+            let s = broadcast(
+                1_000,
+                &payloads,
+                acquisition,
+                &config,
+                crate::frame::FrameCheck::None,
+            )
+            .unwrap();
             assert_eq!(s.offers().len(), payloads.len());
             for (k, offer) in s.offers().iter().enumerate() {
                 let spans: Vec<&TruthSpan> = s
@@ -646,6 +684,7 @@ mod tests {
             &[0b011010, 0b100111],
             true,
             &GestureConfig::default(),
+            crate::frame::FrameCheck::None,
         )
         .unwrap();
         assert_eq!(s.spans_at(0).count(), 0, "idle before the broadcast");
@@ -669,36 +708,80 @@ mod tests {
 
     #[test]
     fn one_offer_lasts_the_documented_98_s() {
-        let s = broadcast(0, &[0b100111], false, &GestureConfig::default()).unwrap();
+        let s = broadcast(
+            0,
+            &[0b100111],
+            false,
+            &GestureConfig::default(),
+            crate::frame::FrameCheck::None,
+        )
+        .unwrap();
         assert_eq!(s.end_ns(), 98_000 * NS_PER_MS);
         assert_eq!(s.offers()[0].final_null_start_ns, 93_000 * NS_PER_MS);
         // Sweep, then the first offer with its final NULL stretched to the shared 6 s, then the
         // second offer without a lead NULL of its own.
-        let s2 = broadcast(0, &[0b100111, 0b011010], true, &GestureConfig::default()).unwrap();
+        let s2 = broadcast(
+            0,
+            &[0b100111, 0b011010],
+            true,
+            &GestureConfig::default(),
+            crate::frame::FrameCheck::None,
+        )
+        .unwrap();
         assert_eq!(s2.end_ns(), (4_000 + 99_000 + 92_000) * NS_PER_MS);
+    }
+
+    #[test]
+    fn a_checked_frame_flies_its_check_bits_before_end() {
+        use crate::frame::FrameCheck;
+        let c = GestureConfig::default();
+        let plain = broadcast(0, &[0b010000], false, &c, FrameCheck::None).unwrap();
+        for check in [FrameCheck::Parity, FrameCheck::Crc3] {
+            let s = broadcast(0, &[0b010000], false, &c, check).unwrap();
+            let tokens: Vec<Token> = s
+                .timeline()
+                .iter()
+                .filter_map(|sp| sp.symbol.token())
+                .collect();
+            assert_eq!(tokens, check.tokens_of(0b010000), "{check}");
+            let per_bit_ns = c.profile(Action::Bit0).duration_ns + c.null_hold_ns;
+            assert_eq!(
+                s.end_ns(),
+                plain.end_ns() + check.bits() as u64 * per_bit_ns
+            );
+            let last = s.timeline().last().and_then(|sp| sp.slot).unwrap();
+            assert_eq!(usize::from(last.position) + 1, check.frame_tokens());
+        }
     }
 
     #[test]
     fn bad_inputs_are_typed_errors() {
         let c = GestureConfig::default();
         assert_eq!(
-            broadcast(0, &[64], false, &c).unwrap_err(),
+            broadcast(0, &[64], false, &c, crate::frame::FrameCheck::None).unwrap_err(),
             ScheduleError::PayloadTooWide { payload: 64 }
         );
         assert_eq!(
-            broadcast(u64::MAX - 10, &[1], false, &c).unwrap_err(),
+            broadcast(
+                u64::MAX - 10,
+                &[1],
+                false,
+                &c,
+                crate::frame::FrameCheck::None
+            )
+            .unwrap_err(),
             ScheduleError::TimeOverflow
         );
         let mut z = c;
         z.null_hold_ns = 0;
         assert_eq!(
-            broadcast(0, &[1], false, &z).unwrap_err(),
+            broadcast(0, &[1], false, &z, crate::frame::FrameCheck::None).unwrap_err(),
             ScheduleError::ZeroDuration
         );
         let mut a = c;
         a.actions[2].amplitude_u_m = f64::NAN;
         assert!(matches!(
-            broadcast(0, &[1], false, &a),
+            broadcast(0, &[1], false, &a, crate::frame::FrameCheck::None),
             Err(ScheduleError::BadAmplitude { .. })
         ));
         assert!(matches!(

@@ -145,10 +145,11 @@ pub struct ObserverStatus {
 
 impl Validate for ObserverStatus {
     fn validate(&self) -> Result<(), String> {
-        if usize::from(self.parser_progress) >= crate::frame::FRAME_TOKENS {
+        if usize::from(self.parser_progress) >= crate::frame::MAX_FRAME_TOKENS {
             return Err(format!(
-                "parser progress {} of a 17-token frame",
-                self.parser_progress
+                "parser progress {} beyond the longest frame ({} tokens)",
+                self.parser_progress,
+                crate::frame::MAX_FRAME_TOKENS
             ));
         }
         if let Some(d) = &self.decision {

@@ -214,10 +214,10 @@ impl Validate for PerformerTruth {
         }
         if self
             .frame_slot
-            .is_some_and(|s| usize::from(s) >= crate::frame::FRAME_TOKENS)
+            .is_some_and(|s| usize::from(s) >= crate::frame::MAX_FRAME_TOKENS)
         {
             return Err(format!(
-                "frame slot {:?} beyond the 17-token frame",
+                "frame slot {:?} beyond the longest frame",
                 self.frame_slot
             ));
         }

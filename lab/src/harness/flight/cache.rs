@@ -405,6 +405,7 @@ mod tests {
             rectification: Rectification::Pitched,
             acquisition: Some(false),
             plugin: None,
+            frame_check: proto::FrameCheck::None,
         };
         let mut spec = opts.shared_flight_spec(40_000_000).unwrap();
         spec.end_ns = end_ns;

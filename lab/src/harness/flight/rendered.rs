@@ -224,8 +224,12 @@ pub fn fly_streamed(
         .iter()
         .map(|&m| {
             let config = SegmenterConfig::for_modality(m);
-            IdealReceiver::with_formation(&spec.formation, config, spec.rectification)
-                .map(|r| (m, r))
+            IdealReceiver::with_formation(&spec.formation, config, spec.rectification).map(
+                |mut r| {
+                    r.set_frame_check(spec.schedule.frame_check());
+                    (m, r)
+                },
+            )
         })
         .collect::<Result<Vec<_>, _>>()?;
     // Whether each camera has rendered yet (its first render is handed over whole).

@@ -48,6 +48,8 @@ pub struct LinkOptions {
     pub rectification: Rectification,
     /// Events modality: write each observer's events to `DIR/<observer>.raw` (EVT 3.0).
     pub events_raw: Option<std::path::PathBuf>,
+    /// The check every frame carries after its payload.
+    pub frame_check: proto::FrameCheck,
 }
 
 impl LinkOptions {
@@ -61,7 +63,7 @@ impl LinkOptions {
         } else {
             0
         };
-        broadcast_schedule(&self.payloads, acquisition, hover_ns)
+        broadcast_schedule(&self.payloads, acquisition, hover_ns, self.frame_check)
     }
 
     /// The observers' placements: the viewpoints if given, else the built-in formation.
@@ -86,9 +88,16 @@ pub(crate) fn broadcast_schedule(
     payloads: &[u8],
     acquisition: bool,
     hover_ns: u64,
+    check: proto::FrameCheck,
 ) -> Result<(Schedule, u64)> {
-    let schedule = broadcast(LEAD_IN_NS, payloads, acquisition, &GestureConfig::default())
-        .context("building the broadcast schedule")?;
+    let schedule = broadcast(
+        LEAD_IN_NS,
+        payloads,
+        acquisition,
+        &GestureConfig::default(),
+        check,
+    )
+    .context("building the broadcast schedule")?;
     let end_ns = schedule.end_ns().max(LEAD_IN_NS + hover_ns) + TAIL_NS;
     Ok((schedule, end_ns))
 }
@@ -220,9 +229,11 @@ fn chains(args: &LinkOptions, formation: &Formation, black: &[bool]) -> Result<V
         .iter()
         .enumerate()
         .map(|(i, p)| -> Result<Chain> {
+            let mut perception = Perception::for_camera(kind, p.camera(), args.rectification)?;
+            perception.set_frame_check(args.frame_check);
             Ok(Chain {
                 sensor: ObserverSensor::new(kind, i, black[i])?,
-                perception: Perception::for_camera(kind, p.camera(), args.rectification)?,
+                perception,
                 tokens: Vec::new(),
                 frames: Vec::new(),
                 events: args.events_raw.as_ref().map(|_| Vec::new()),
@@ -258,6 +269,7 @@ pub fn fly_link(args: &LinkOptions) -> Result<LinkOut> {
         SegmenterConfig::rgb()
     };
     let mut ideal = IdealReceiver::with_formation(&formation, ideal_config, args.rectification)?;
+    ideal.set_frame_check(args.frame_check);
     let black: Vec<bool> = names.iter().map(|n| args.black.contains(n)).collect();
     let mut chains = chains(args, &formation, &black)?;
     let mut renderer = if chains.is_empty() {

@@ -85,6 +85,7 @@ pub fn measure(
                 .map(|&az| Placement::viewpoint(az, opts.elevation_deg, distance_m))
                 .collect(),
             rectification,
+            frame_check: proto::FrameCheck::None,
         })?;
         for (i, (_, o)) in out.observers.iter().enumerate() {
             results.push(ViewpointResult {

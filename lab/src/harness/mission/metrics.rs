@@ -91,6 +91,7 @@ fn communication(scheduler: &Scheduler) -> (u64, u64) {
             &payloads,
             plan.acquisition,
             &GestureConfig::default(),
+            scheduler.config().frame_check,
         ) {
             symbols += s
                 .timeline()

@@ -282,6 +282,7 @@ impl Mission {
                 &payloads,
                 plan.acquisition,
                 &self.gesture,
+                self.scheduler.config().frame_check,
             )?);
         }
         if let Some(reason) = out.mission_end {
@@ -445,6 +446,7 @@ fn scheduler_for(case: &Case, modality: Modality) -> Result<Scheduler> {
     let mut config = SchedulerConfig::new(case.observers, modality).with_offer_sites(&sites);
     config.rounds = case.rounds;
     config.max_broadcasts = case.max_broadcasts;
+    config.frame_check = case.frame_check;
     config.flights = case.flights;
     if let Some(limit) = case.time_limit_s {
         config.time_limit_ns = Some((limit * 1e9).round() as u64);

@@ -108,11 +108,10 @@ impl MissionObserver {
         };
         let rgb = opts.perturbation.rgb();
         Ok(Self {
-            core: ObserverCore::new(ObserverRuntime::with_receiver(
-                id.clone(),
-                roster,
-                perception,
-            )),
+            core: ObserverCore::new(
+                ObserverRuntime::with_receiver(id.clone(), roster, perception)
+                    .with_frame_check(case.frame_check),
+            ),
             dropout: case.dropout_ns(&name).map(|from_ns| Fault {
                 observer: id.clone(),
                 kind: FaultKind::StreamDropout,

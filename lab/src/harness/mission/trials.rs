@@ -226,6 +226,9 @@ pub struct MissionsDefinition {
     /// `--max-broadcasts`, when it overrode the case's own.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_broadcasts: Option<u32>,
+    /// `--frame-check`, when it overrode the case's own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_check: Option<proto::FrameCheck>,
 }
 
 impl MissionsDefinition {
@@ -242,6 +245,8 @@ impl MissionsDefinition {
             perturb: opts.perturbation.recorded(),
             max_broadcasts: (opts.case.max_broadcasts != written.max_broadcasts)
                 .then_some(opts.case.max_broadcasts),
+            frame_check: (opts.case.frame_check != written.frame_check)
+                .then_some(opts.case.frame_check),
         })
     }
 
@@ -270,6 +275,9 @@ impl MissionsDefinition {
         let mut case = Case::from_text(&d.case_text, &d.case)?;
         if let Some(n) = d.max_broadcasts {
             case.max_broadcasts = n;
+        }
+        if let Some(c) = d.frame_check {
+            case.frame_check = c;
         }
         Ok(MissionTrialsOptions {
             case,

@@ -449,6 +449,7 @@ impl StudyFile {
                             spec,
                             trial_limit: Some(trial_limit),
                         }),
+                        frame_check: proto::FrameCheck::None,
                     },
                 });
             }

@@ -59,6 +59,8 @@ pub struct TrialsOptions {
     pub acquisition: Option<bool>,
     /// The receiver: `None`, Waggle's own for the modality; else a Python plug-in.
     pub plugin: Option<PluginOptions>,
+    /// The check every frame carries after its payload.
+    pub frame_check: proto::FrameCheck,
 }
 
 /// A plug-in receiver and how long one trial of it may take.
@@ -78,6 +80,7 @@ impl TrialsOptions {
             perturbation: &self.perturbation,
             plugin,
             tap: None,
+            frame_check: self.frame_check,
         }
     }
 
@@ -133,7 +136,8 @@ impl TrialsOptions {
         let acquisition = self
             .acquisition
             .unwrap_or(self.modality == Modality::Events);
-        let (schedule, end_ns) = broadcast_schedule(&self.payloads, acquisition, 0)?;
+        let (schedule, end_ns) =
+            broadcast_schedule(&self.payloads, acquisition, 0, self.frame_check)?;
         let mut formation = self.formation.clone();
         let mut gusts = None;
         let mut air = None;
@@ -519,7 +523,7 @@ pub fn run_trials(
 pub fn definition(opts: &TrialsOptions) -> String {
     format!(
         "link {:?}; placements {:?}; modality {}; trials {}; seed {}; perturb {:?}; \
-         rectification {:?}; acquisition {:?}{}{}",
+         rectification {:?}; acquisition {:?}{}{}{}",
         opts.want(),
         opts.formation.placements(),
         opts.modality,
@@ -538,7 +542,13 @@ pub fn definition(opts: &TrialsOptions) -> String {
         // Only with a plug-in, so a run of Waggle's receiver keeps its fingerprint.
         opts.plugin
             .as_ref()
-            .map_or_else(String::new, |p| format!("; receiver {}", p.spec))
+            .map_or_else(String::new, |p| format!("; receiver {}", p.spec)),
+        // Only with a check, likewise.
+        if opts.frame_check == proto::FrameCheck::None {
+            String::new()
+        } else {
+            format!("; frame check {}", opts.frame_check)
+        }
     )
 }
 
@@ -586,6 +596,7 @@ mod tests {
                 rectification: Rectification::Pitched,
                 acquisition: Some(false),
                 plugin: None,
+                frame_check: proto::FrameCheck::None,
             };
             assert!(opts.perturbation.reflies());
             let mut spec = opts.flight_spec(Some(11)).unwrap();

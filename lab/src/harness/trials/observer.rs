@@ -46,6 +46,8 @@ pub struct Sensing<'a> {
     /// Instead of decoding, hand every input its receiver would get to this channel (the
     /// Python package's sensor streams).
     pub tap: Option<&'a SyncSender<Tapped>>,
+    /// The check every frame carries after its payload.
+    pub frame_check: proto::FrameCheck,
 }
 
 /// One input as the observer's receiver gets it (after the link), handed out of the trial.
@@ -91,7 +93,7 @@ struct Tap {
 /// An observer's receiver in a trial: Waggle's own, or a plug-in on the trial's worker.
 enum TrialReceiver {
     Native(Perception),
-    Plugin(PluginReceiver),
+    Plugin(Box<PluginReceiver>),
     Tap(Box<Tap>),
 }
 
@@ -235,11 +237,12 @@ impl Observer {
                 ego: None,
                 performer_px: None,
             })),
-            None => TrialReceiver::Native(Perception::for_camera(
-                opts.modality,
-                placement.camera(),
-                opts.rectification,
-            )?),
+            None => {
+                let mut p =
+                    Perception::for_camera(opts.modality, placement.camera(), opts.rectification)?;
+                p.set_frame_check(opts.frame_check);
+                TrialReceiver::Native(p)
+            }
             Some(w) => {
                 let info = ObserverInfo::new(
                     observer_name(i),
@@ -250,7 +253,9 @@ impl Observer {
                 );
                 let segmenter = SegmenterConfig::for_modality(opts.modality)
                     .rectified(placement.camera(), opts.rectification);
-                TrialReceiver::Plugin(PluginReceiver::open(w.worker.clone(), &info, segmenter)?)
+                let mut r = PluginReceiver::open(w.worker.clone(), &info, segmenter)?;
+                r.set_frame_check(opts.frame_check);
+                TrialReceiver::Plugin(Box::new(r))
             }
         };
         let sensor = match opts.modality {

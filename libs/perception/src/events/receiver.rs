@@ -421,6 +421,11 @@ impl EventReceiver {
         self.decoder.set_ego_rotation(ego);
     }
 
+    /// The check the session's frames carry ([`Decoder::set_frame_check`]).
+    pub fn set_frame_check(&mut self, check: proto::FrameCheck) {
+        self.decoder.set_frame_check(check);
+    }
+
     /// Starts afresh (a round reset or a new reception window): target, acquisition, segmenter
     /// and incomplete frame are forgotten without a token, and the next packet starts a new
     /// stream. History and counters are kept.

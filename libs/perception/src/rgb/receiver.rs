@@ -339,6 +339,11 @@ impl RgbReceiver {
         self.decoder.set_ego_rotation(ego);
     }
 
+    /// The check the session's frames carry ([`Decoder::set_frame_check`]).
+    pub fn set_frame_check(&mut self, check: proto::FrameCheck) {
+        self.decoder.set_frame_check(check);
+    }
+
     /// A new round or reception window: forgets target, partial frame and stream continuity
     /// (the history of tokens, frames and trajectories is kept).
     pub fn reset(&mut self) {

@@ -35,7 +35,13 @@ impl BroadcastPlan {
     ) -> Result<Self, SchedulerError> {
         let payloads: Vec<u8> = offers.iter().map(Offer::to_payload).collect();
         let acquisition = config.modality.acquisition();
-        let schedule = proto::broadcast(start_ns, &payloads, acquisition, &config.gesture)?;
+        let schedule = proto::broadcast(
+            start_ns,
+            &payloads,
+            acquisition,
+            &config.gesture,
+            config.frame_check,
+        )?;
         Ok(Self {
             round,
             offers: offers.to_vec(),

@@ -74,7 +74,8 @@ pub struct Scheduler {
 impl Scheduler {
     pub fn new(config: SchedulerConfig) -> Result<Self, SchedulerError> {
         config.validate()?;
-        proto::broadcast(0, &[0], true, &config.gesture).map_err(ConfigError::from)?;
+        proto::broadcast(0, &[0], true, &config.gesture, config.frame_check)
+            .map_err(ConfigError::from)?;
         let n = config.observers;
         let task =
             TaskState::initial(n).map_err(|_| ConfigError::ObserverCount { observers: n })?;
