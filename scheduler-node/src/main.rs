@@ -47,6 +47,27 @@ fn parse_sites(list: &str) -> Result<Vec<Site>> {
         .collect()
 }
 
+/// `--work A=24,B=40`: each named site's initial work units.
+fn parse_work(list: &str) -> Result<BTreeMap<Site, u32>> {
+    let mut out = BTreeMap::new();
+    for entry in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let (site, units) = entry
+            .split_once('=')
+            .with_context(|| format!("--work {list}: {entry:?} is not SITE=UNITS"))?;
+        let site = site
+            .parse::<Site>()
+            .map_err(|e| anyhow::anyhow!("--work {list}: {e}"))?;
+        let units = units
+            .trim()
+            .parse::<u32>()
+            .with_context(|| format!("--work {list}: {units:?} is not a unit count"))?;
+        if out.insert(site, units).is_some() {
+            bail!("--work {list}: site {site:?} named twice");
+        }
+    }
+    Ok(out)
+}
+
 fn main() -> Result<()> {
     node_args::init_logging();
     let args = Args::parse();
@@ -55,6 +76,9 @@ fn main() -> Result<()> {
     let mut config = SchedulerConfig::new(node.observers, modality)
         .with_offer_sites(&parse_sites(&args.own.offers)?);
     config.rounds = args.own.rounds;
+    if let Some(work) = &args.own.work {
+        config.work = parse_work(work)?;
+    }
     config.max_broadcasts = args.own.max_broadcasts;
     config.frame_check = args.own.frame_check;
     config.flights = args.own.flights;

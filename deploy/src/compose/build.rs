@@ -215,6 +215,7 @@ impl NodeArgs<'_> {
             modality: self.opts.modality,
             offers: self.case.offer_sites.join(","),
             rounds: self.case.rounds,
+            work: self.case.work_arg(),
             max_broadcasts: self.case.max_broadcasts,
             time_limit_s: self.case.time_limit_s,
             flights: self.case.flights,

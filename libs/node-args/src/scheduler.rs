@@ -16,6 +16,10 @@ pub struct SchedulerArgs {
     /// Number of rounds.
     #[arg(long, default_value_t = 2)]
     pub rounds: u32,
+    /// Initial work units of the sites named, `A=24,B=40` (default: `max(1, N−1)` at A and
+    /// `N+1` at B).
+    #[arg(long)]
+    pub work: Option<String>,
     /// Broadcasts a round may fly: its offers again while a live observer is undecided.
     #[arg(long, default_value_t = 1)]
     pub max_broadcasts: u32,
@@ -37,6 +41,8 @@ impl SchedulerArgs {
             .value("--modality", self.modality.as_str())
             .value("--offers", &self.offers)
             .value("--rounds", self.rounds)
+            // Only when the case sets it, so every other command line stays as it was.
+            .opt("--work", self.work.as_deref())
             // Only when asked for, so the paper's compose lines stay as they were.
             .opt(
                 "--max-broadcasts",

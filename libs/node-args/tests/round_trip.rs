@@ -71,18 +71,30 @@ fn scheduler() -> impl Strategy<Value = NodeCommand> {
     (
         modality(),
         "[A-D](,[A-D]){0,3}",
-        0u32..10,
+        (
+            0u32..10,
+            proptest::option::of("[AB]=[0-9]{1,4}(,B=[0-9]{1,4})?"),
+        ),
         1u32..9,
         proptest::option::of(1.0f64..1e5),
         prop_oneof![Just(FlightMode::Sequential), Just(FlightMode::Concurrent)],
         frame_check(),
     )
         .prop_map(
-            |(modality, offers, rounds, max_broadcasts, time_limit_s, flights, frame_check)| {
+            |(
+                modality,
+                offers,
+                (rounds, work),
+                max_broadcasts,
+                time_limit_s,
+                flights,
+                frame_check,
+            )| {
                 NodeCommand::Scheduler(SchedulerArgs {
                     modality,
                     offers,
                     rounds,
+                    work,
                     max_broadcasts,
                     time_limit_s,
                     flights,

@@ -97,6 +97,13 @@ pub enum CaseCheckError {
     /// An `offer_sites` entry is not a site.
     #[error("offer_sites: {0}")]
     OfferSite(proto::PayloadError),
+    /// A `work` entry names no site, or more units than [`MAX_WORK_UNITS`].
+    #[error("work.{site} = {units}: {why}")]
+    Work {
+        site: String,
+        units: u32,
+        why: String,
+    },
     #[error("modalities = {0:?}: list rgb and/or events, each once (ideal applies to every case)")]
     Modalities(Vec<Receiver>),
     #[error("expected.messages has {entries} entries for {observers} observers")]
@@ -150,6 +157,11 @@ pub const BUILT_IN: &[(&str, &str)] = &[
     (
         "eight-observers",
         include_str!("../../../deploy/cases/eight-observers.toml"),
+    ),
+    // Long runs: many rounds over an hour of sim time.
+    (
+        "long-hour",
+        include_str!("../../../deploy/cases/long-hour.toml"),
     ),
 ];
 
@@ -255,6 +267,8 @@ pub const MAX_TIME_S: f64 = 1.0e6;
 pub const MAX_ROUNDS: u32 = 1000;
 /// The longest throttle delay a case may ask for, ms.
 pub const MAX_DELAY_MS: u32 = 60_000;
+/// The most work units a case may give one site.
+pub const MAX_WORK_UNITS: u32 = 10_000;
 
 /// A time field must be a finite number of seconds in `0..=MAX_TIME_S`.
 fn check_time_s(field: &str, value_s: f64) -> Result<(), CaseCheckError> {
@@ -281,6 +295,10 @@ pub struct Case {
     /// Broadcast rounds of `offer_sites` (default 2).
     #[serde(default = "default_rounds")]
     pub rounds: u32,
+    /// Initial work units per site, `{ A = 24, B = 40 }`, instead of the default `max(1, N−1)`
+    /// at A and `N+1` at B; a site not named keeps its default.
+    #[serde(default)]
+    pub work: BTreeMap<String, u32>,
     /// Broadcasts a round may fly (default 1, the paper's one-shot): while a live observer has
     /// not decided when a broadcast's window would close, the round's offers are flown again.
     #[serde(default = "default_max_broadcasts")]
@@ -407,6 +425,7 @@ impl Case {
         for s in &self.offer_sites {
             s.parse::<proto::Site>().map_err(E::OfferSite)?;
         }
+        self.work_units()?;
         if self.modalities.is_empty()
             || self.modalities.contains(&Receiver::Ideal)
             || (1..self.modalities.len())
@@ -432,6 +451,40 @@ impl Case {
             }
         }
         Ok(())
+    }
+
+    /// The initial work units the case sets, by site (empty: the default task state); an
+    /// entry naming no site, or more than [`MAX_WORK_UNITS`], is refused naming it.
+    pub fn work_units(&self) -> Result<BTreeMap<proto::Site, u32>, CaseCheckError> {
+        let mut out = BTreeMap::new();
+        for (name, units) in &self.work {
+            let bad = |why: String| CaseCheckError::Work {
+                site: name.clone(),
+                units: *units,
+                why,
+            };
+            // Only the names a case writes elsewhere (`A`, `B`), not the payload ids.
+            if !["A", "B"].contains(&name.as_str()) {
+                return Err(bad("the sites are A and B".into()));
+            }
+            let site: proto::Site = name.parse().map_err(|e| bad(format!("{e}")))?;
+            if *units > MAX_WORK_UNITS {
+                return Err(bad(format!("at most {MAX_WORK_UNITS} units per site")));
+            }
+            out.insert(site, *units);
+        }
+        Ok(out)
+    }
+
+    /// The `--work` argument of the scheduler, `A=24,B=40`, when the case sets any.
+    pub fn work_arg(&self) -> Option<String> {
+        (!self.work.is_empty()).then(|| {
+            self.work
+                .iter()
+                .map(|(site, units)| format!("{site}={units}"))
+                .collect::<Vec<_>>()
+                .join(",")
+        })
     }
 
     /// Sim time (ns) at which `observer`'s stream drops out, if it does.
@@ -587,6 +640,18 @@ mod tests {
                 "name='x'\nobservers=1\nmodalities=['rgb']\n[[faults]]\nobserver='O1'\nkind='throttle'\ndelay_ms=99999999\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
                 "delay_ms",
             ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\nwork={C=3}\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "work.C = 3",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\nwork={A=10001}\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "work.A = 10001",
+            ),
+            (
+                "name='x'\nobservers=1\nmodalities=['rgb']\nwork={A=-1}\n[expected]\nmessages=[0]\nwork_units=0\nservices={}\n",
+                "work",
+            ),
         ] {
             let path = dir.join("case.toml");
             std::fs::write(&path, text).unwrap();
@@ -594,5 +659,19 @@ mod tests {
             assert!(err.contains(needle) && err.contains("case.toml"), "{err}");
         }
         assert!(chain(&Case::load("nope").unwrap_err()).contains("neither a built-in case"));
+    }
+
+    #[test]
+    fn work_units_reach_the_scheduler_argument_only_when_set() {
+        let c = Case::load("long-hour").unwrap();
+        assert_eq!(c.work_arg().as_deref(), Some("A=24,B=40"));
+        let units = c.work_units().unwrap();
+        assert_eq!(units[&proto::Site::A], 24);
+        assert_eq!(units[&proto::Site::B], 40);
+        for (name, _) in BUILT_IN.iter().filter(|(n, _)| *n != "long-hour") {
+            let c = Case::load(name).unwrap();
+            assert_eq!(c.work_arg(), None, "{name}");
+            assert!(c.work_units().unwrap().is_empty());
+        }
     }
 }

@@ -1,6 +1,8 @@
 //! Case options and every timing and flight constant of the scheduler, with the reasons for the
 //! defaults.
 
+use std::collections::BTreeMap;
+
 use proto::Site;
 use proto::scene::MAX_OBSERVERS;
 use proto::sched::{MAX_BROADCAST_OFFERS, MAX_ROUND_BROADCASTS};
@@ -95,6 +97,9 @@ pub struct SchedulerConfig {
     pub offer_sites: Vec<Site>,
     /// Number of rounds (the paper runs 2).
     pub rounds: u32,
+    /// Initial work units of the sites it names, instead of the default `max(1, N − 1)` at A
+    /// and `N + 1` at B (empty: the paper's task state).
+    pub work: BTreeMap<Site, u32>,
     /// Broadcasts a round may fly: the round's offers again, whole, while a live observer has
     /// not decided when a broadcast's window would close (its decision says it holds every
     /// offer). 1 is the paper's one-shot broadcast.
@@ -119,6 +124,7 @@ impl SchedulerConfig {
             modality,
             offer_sites: Site::ALL.to_vec(),
             rounds: 2,
+            work: BTreeMap::new(),
             max_broadcasts: 1,
             gesture: GestureConfig::default(),
             timing: Timing::default(),

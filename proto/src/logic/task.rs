@@ -4,6 +4,7 @@
 //! at quality 1 (N = 3 gives the paper's default: A 2 units, B 4 units). The advertised capacity
 //! is the remaining work capped at 3; a depleted site is advertised as the withdrawal `q = 0,
 //! c = 0` (round 2 of the nominal case sends A as `010000`). A service decrements the counter.
+//! A case may set a site's initial units itself (its `work` key, [`TaskState::with_units`]).
 
 use std::collections::BTreeMap;
 
@@ -42,6 +43,16 @@ impl TaskState {
             remaining: BTreeMap::from([(Site::A, n.saturating_sub(1).max(1)), (Site::B, n + 1)]),
             quality: BTreeMap::from([(Site::A, QUALITY_A), (Site::B, QUALITY_B)]),
         })
+    }
+
+    /// The initial task state for `n_observers` observers, with the units of each site `units`
+    /// names instead of the default (a long mission needs more work than the paper's).
+    pub fn with_units(n_observers: usize, units: &BTreeMap<Site, u32>) -> Result<Self, TaskError> {
+        let mut state = Self::initial(n_observers)?;
+        for (site, n) in units {
+            state.remaining.insert(*site, *n);
+        }
+        Ok(state)
     }
 
     /// Remaining work units at `site`.
@@ -123,6 +134,26 @@ mod tests {
         assert_eq!((t2.remaining(Site::A), t2.remaining(Site::B)), (1, 3));
         assert_eq!(bits(&t2), ["011001", "100111"]);
         assert_eq!(TaskState::initial(0), Err(TaskError::NoObservers));
+    }
+
+    #[test]
+    fn a_case_can_set_each_sites_units() {
+        let t = TaskState::with_units(3, &BTreeMap::from([(Site::A, 24), (Site::B, 40)])).unwrap();
+        assert_eq!((t.remaining(Site::A), t.remaining(Site::B)), (24, 40));
+        assert_eq!(bits(&t), ["011011", "100111"]);
+        let only_b = TaskState::with_units(3, &BTreeMap::from([(Site::B, 0)])).unwrap();
+        assert_eq!(
+            (only_b.remaining(Site::A), only_b.remaining(Site::B)),
+            (2, 0)
+        );
+        assert_eq!(
+            TaskState::with_units(3, &BTreeMap::new()).unwrap(),
+            TaskState::initial(3).unwrap()
+        );
+        assert_eq!(
+            TaskState::with_units(0, &BTreeMap::new()),
+            Err(TaskError::NoObservers)
+        );
     }
 
     #[test]

@@ -445,6 +445,7 @@ fn scheduler_for(case: &Case, modality: Modality) -> Result<Scheduler> {
         .collect::<Result<_, _>>()?;
     let mut config = SchedulerConfig::new(case.observers, modality).with_offer_sites(&sites);
     config.rounds = case.rounds;
+    config.work = case.work_units()?;
     config.max_broadcasts = case.max_broadcasts;
     config.frame_check = case.frame_check;
     config.flights = case.flights;

@@ -77,8 +77,8 @@ impl Scheduler {
         proto::broadcast(0, &[0], true, &config.gesture, config.frame_check)
             .map_err(ConfigError::from)?;
         let n = config.observers;
-        let task =
-            TaskState::initial(n).map_err(|_| ConfigError::ObserverCount { observers: n })?;
+        let task = TaskState::with_units(n, &config.work)
+            .map_err(|_| ConfigError::ObserverCount { observers: n })?;
         let homes_m: Vec<[f64; 3]> = (0..n).map(|i| observer_home_m(i, n)).collect();
         Ok(Self {
             ids: (0..n).map(ObserverId::from_index).collect(),
