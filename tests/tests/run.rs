@@ -114,10 +114,31 @@ fn processes_of(session: &str) -> Vec<String> {
     out
 }
 
+/// The no-broadcast case (15 s of sim time) also samples memory every 10 sim seconds: rss.csv
+/// has a column per process, the launcher's included, and rows at 0 and 10 s.
 #[test]
 fn no_broadcast_runs_as_separate_processes_in_lockstep() {
-    let r = run("no-broadcast", "events", "no-broadcast", &[]);
+    let r = run(
+        "no-broadcast",
+        "events",
+        "no-broadcast",
+        &["--rss-every-s", "10"],
+    );
     r.assert_pass();
+    let (names, rows) =
+        deploy::launch::rss::read(&out_dir_path("no-broadcast").join("rss.csv")).unwrap();
+    let mut want: Vec<String> = r.summary.processes.keys().cloned().collect();
+    want.push("launcher".into());
+    want.sort();
+    assert_eq!(names, want);
+    assert_eq!(rows.iter().map(|(s, _)| *s).collect::<Vec<_>>(), [0, 10]);
+    for (sim_s, kb) in &rows {
+        // Every process was running at both samples, each with some memory.
+        assert!(
+            kb.iter().all(|k| k.is_some_and(|k| k > 1000)),
+            "{sim_s} s: {kb:?}"
+        );
+    }
     r.every_process_exited_cleanly();
     assert_eq!(r.messages(), [0, 0, 0]);
     assert_eq!(r.summary.mission.work_units, 0);
@@ -659,4 +680,89 @@ fn a_repeated_checked_broadcast_is_recorded_audited_and_replayed() {
         "{}",
         String::from_utf8_lossy(&bad.stderr)
     );
+}
+
+/// Sim time after which memory must be flat: the first rounds (≈ 240 s each) fill every
+/// process's caches, pools and the allocator's arenas.
+const FIRST_ROUNDS_S: u64 = 600;
+
+/// Each process's growth from the first sample at or after [`FIRST_ROUNDS_S`] to the last
+/// sample every process was alive for: (name, kB then, kB last, growth %, kB per sim minute).
+fn rss_growth(csv: &std::path::Path) -> Vec<(String, u64, u64, f64, f64)> {
+    let (names, rows) = deploy::launch::rss::read(csv).unwrap();
+    let base = rows
+        .iter()
+        .find(|(s, _)| *s >= FIRST_ROUNDS_S)
+        .expect("a sample after the first rounds");
+    let last = rows
+        .iter()
+        .rev()
+        .find(|(_, kb)| kb.iter().all(Option::is_some))
+        .expect("a sample with every process alive");
+    let minutes = (last.0 - base.0) as f64 / 60.0;
+    names
+        .iter()
+        .enumerate()
+        .map(|(i, name)| {
+            let (from, to) = (base.1[i].unwrap_or(0), last.1[i].unwrap_or(0));
+            let grown = to as f64 - from as f64;
+            let pct = 100.0 * grown / from.max(1) as f64;
+            (name.clone(), from, to, pct, grown / minutes.max(1.0))
+        })
+        .collect()
+}
+
+/// The most a process may grow after the first rounds: 10 % of its size then, the target
+/// every process but three meets. Those three keep a record that grows with the mission, and
+/// are bounded in kB per sim minute at about twice what an hour measured
+/// (docs/decisions/long-runs.md): the launcher (every token, frame, decision and track sample
+/// until it writes observers.json; 116 kB/min), the recorder (92 kB/min) and each observer
+/// (its receiver keeps every token, frame and symbol trajectory; 38 kB/min).
+fn growth_limit(name: &str) -> GrowthLimit {
+    match name {
+        "launcher" => GrowthLimit::KbPerSimMinute(240.0),
+        "recorder" => GrowthLimit::KbPerSimMinute(180.0),
+        n if n.starts_with("observer-") => GrowthLimit::KbPerSimMinute(80.0),
+        _ => GrowthLimit::Percent(10.0),
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+enum GrowthLimit {
+    Percent(f64),
+    KbPerSimMinute(f64),
+}
+
+/// long-hour as processes with event cameras: 16 rounds, more than an hour of sim time, every
+/// process's memory sampled each sim minute. The outcome is the case's, and after the first
+/// rounds no process grows by more than its [`growth_limit`].
+#[test]
+#[ignore = "an hour of sim time as processes, ≈ 9 min: deploy/test.sh --full"]
+fn long_hour_memory_stays_flat_after_the_first_rounds() {
+    let r = run("long-hour", "events", "long-hour", &["--rss-every-s", "60"]);
+    let growth = rss_growth(&out_dir_path("long-hour").join("rss.csv"));
+    for (name, from, to, pct, per_min) in &growth {
+        println!(
+            "{name}: {from} kB at {FIRST_ROUNDS_S} s → {to} kB ({pct:+.1} %, {per_min:+.1} kB/sim min)"
+        );
+    }
+    r.assert_pass();
+    r.every_process_exited_cleanly();
+    assert!(
+        r.summary.mission.mission_time_s >= 3600.0,
+        "{}",
+        r.summary.mission.mission_time_s
+    );
+    assert_eq!(growth.len(), 11, "{growth:?}");
+    for (name, from, to, pct, per_min) in &growth {
+        let within = match growth_limit(name) {
+            GrowthLimit::Percent(limit) => *pct <= limit,
+            GrowthLimit::KbPerSimMinute(limit) => *per_min <= limit,
+        };
+        assert!(
+            within,
+            "{name}: {from} → {to} kB ({pct:+.1} %, {per_min:+.1} kB/sim min), limit {:?}",
+            growth_limit(name)
+        );
+    }
 }

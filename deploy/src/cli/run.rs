@@ -59,6 +59,7 @@ pub fn session_options(session: SessionArgs) -> Result<(Case, Modality, RunOptio
         sensor,
         receivers,
         plugin_time_limit_ms,
+        rss_every_s: None,
     };
     Ok((case, modality, opts))
 }
@@ -102,6 +103,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     opts.bin_dir = launch.bin_dir;
     opts.quiet = launch.quiet;
     opts.live = launch.live;
+    opts.rss_every_s = launch.rss_every_s;
     opts.endpoints = args.endpoints;
     opts.ros2_cameras = args
         .ros2_camera

@@ -45,6 +45,7 @@ pub fn run(args: UpArgs) -> Result<()> {
         quiet: args.launch.quiet,
         live: args.launch.live,
         ros2,
+        rss_every_s: args.launch.rss_every_s,
     };
     match up(&compose, secrets.as_ref(), &opts)? {
         UpDone::Supervised(done) => {

@@ -173,6 +173,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                     sensor: node_args::SensorArgs::default(),
                     receivers: Default::default(),
                     plugin_time_limit_ms: None,
+                    rss_every_s: None,
                 },
             )?;
             if done.summary.interrupted {

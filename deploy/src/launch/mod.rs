@@ -23,6 +23,7 @@ pub mod own_log;
 pub mod process;
 pub mod refusals;
 pub mod router;
+pub mod rss;
 pub mod summarise;
 pub mod supervise;
 pub mod up;
@@ -90,6 +91,9 @@ pub struct RunOptions {
     pub receivers: std::collections::BTreeMap<proto::ObserverId, receiver_plugin::PluginSpec>,
     /// The plug-ins' wall-clock limit over the session, ms.
     pub plugin_time_limit_ms: Option<u64>,
+    /// Sample every process's resident memory each time sim time crosses a multiple of this
+    /// many seconds, into `DIR/rss.csv`.
+    pub rss_every_s: Option<u32>,
 }
 
 /// Where one run lives.
@@ -258,6 +262,7 @@ pub fn run_case(case: &Case, modality: Modality, opts: &RunOptions) -> Result<Ru
         quiet: opts.quiet,
         live: opts.live,
         ros2: opts.ros2.clone(),
+        rss_every_s: opts.rss_every_s,
     };
     match up::up(&compose, secrets.as_ref(), &up_opts)? {
         UpDone::Supervised(done) => Ok(*done),

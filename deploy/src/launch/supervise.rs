@@ -15,6 +15,7 @@ use proto::{Keys, ObserverId, Role};
 
 use super::gather::Gathered;
 use super::process::Proc;
+use super::rss::RssSampler;
 use crate::case::Case;
 use crate::fault::Injected;
 use run_eval::summary::ns_s;
@@ -65,6 +66,8 @@ pub struct Supervisor<'a> {
     /// A recorder takes part (on whichever host).
     pub recorder: bool,
     pub duty: Duty,
+    /// `--rss-every-s`: samples every process's resident memory (a measurement only).
+    pub rss: Option<RssSampler>,
 }
 
 /// What a supervised run gathered.
@@ -205,6 +208,7 @@ impl Supervisor<'_> {
             }
             self.receive(&keys, g)?;
             self.kill_cameras(g, &mut kills, fault_log);
+            self.sample_rss(g);
             if children_polled.is_none_or(|t| t.elapsed() >= CHILD_POLL) {
                 self.check_children(g)?;
                 children_polled = Some(Instant::now());
@@ -266,6 +270,20 @@ impl Supervisor<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Samples the processes' memory when sim time crosses the next multiple of the period;
+    /// a file that cannot be written ends the sampling, never the run.
+    fn sample_rss(&mut self, g: &Gathered) {
+        if g.clock_started.is_none() {
+            return;
+        }
+        if let Some(rss) = self.rss.as_mut()
+            && let Err(e) = rss.sample(g.now_ns(), self.procs)
+        {
+            eprintln!("waggle: {e:#}: no more memory samples");
+            self.rss = None;
+        }
     }
 
     /// SIGKILLs each dropout camera once the clock has passed its time.

@@ -18,6 +18,7 @@ use node_args::{NodeCommand, RecorderOutput};
 use proto::{Key, ObserverId, RenderPath, Role};
 
 use super::process::{Proc, Spawner};
+use super::rss::RssSampler;
 use super::summarise::{RunInfo, summarise};
 use super::supervise::{Duty, Supervisor};
 use super::{RunDone, RunPlace, own_log, stop_all, with_logs};
@@ -43,6 +44,9 @@ pub struct UpOptions {
     pub live: Option<u16>,
     /// Publish the session live as ROS 2 topics on `rmw_zenoh` (the recorder's host).
     pub ros2: Option<Ros2View>,
+    /// Sample this host's processes' resident memory each time sim time crosses a multiple of
+    /// this many seconds, into `DIR/rss.csv`.
+    pub rss_every_s: Option<u32>,
 }
 
 /// The live ROS 2 view: ROS domain and the ROS side's Zenoh router (default `rmw_zenohd`'s).
@@ -193,6 +197,10 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
     );
     let stop = bus::on_stop_signal();
     let result = spawned.and_then(|()| {
+        let rss = opts
+            .rss_every_s
+            .map(|every_s| RssSampler::create(&place.out_dir, every_s, &procs))
+            .transpose()?;
         Supervisor {
             bus: &mut bus,
             procs: &mut procs,
@@ -208,6 +216,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
             } else {
                 Duty::Host
             },
+            rss,
         }
         .run()
     });

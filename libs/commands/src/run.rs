@@ -111,6 +111,11 @@ pub struct LaunchArgs {
     /// `ros2 run rmw_zenoh_cpp rmw_zenohd` listens).
     #[arg(long, value_name = "ENDPOINT", requires = "ros2_domain")]
     pub ros2_router: Option<String>,
+    /// Sample the resident memory (VmRSS) of every process this launcher runs, itself
+    /// included, each time sim time crosses a multiple of N seconds: DIR/rss.csv, a row per
+    /// sample (sim s, then kB per process, by name). A measurement: it changes no other output.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub rss_every_s: Option<u32>,
 }
 
 #[derive(Debug, Args)]
