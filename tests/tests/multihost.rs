@@ -22,6 +22,9 @@
 //!   threads blocked on b's dead links as long as c's lease, and about one run in ten c lost
 //!   the router too. The workspace builds Zenoh with a 1 s linger: see .cargo/config.toml.)
 //!
+//! The soak (`soak/mod.rs`, `--full`): back-to-back `only-a` sessions on these hosts with
+//! kills, throttles and link cuts drawn from a seed, each ending clean.
+//!
 //! Root is required (`ip netns`); every wait is bounded.
 
 use std::collections::BTreeMap;
@@ -35,6 +38,7 @@ use waggle_tests::{bin, succeed, waggle, waggle_with_nodes};
 
 mod golden_runs;
 use golden_runs::{golden_entry, sha256_hex};
+mod soak;
 
 /// One multi-host session at a time: their faults are timed in wall-clock seconds.
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
@@ -216,8 +220,14 @@ enum RouterOn {
     Chain,
 }
 
-/// `waggle compose only-a --modality events` placed on a, b, c, the router on a (or alone).
-fn compose(dir: &Path, router: RouterOn, case: &str, modality: &str) -> PathBuf {
+/// `waggle compose only-a --modality events` placed on a, b, c, the router on a (or alone),
+/// with `extra` arguments (faults) after the placement.
+fn compose(
+    dir: &Path,
+    router: RouterOn,
+    (case, modality): (&str, &str),
+    extra: &[String],
+) -> PathBuf {
     let file = dir.join("session.toml");
     let routers: &[&str] = match router {
         RouterOn::Alone => &["--place", "router=r"],
@@ -245,6 +255,7 @@ fn compose(dir: &Path, router: RouterOn, case: &str, modality: &str) -> PathBuf 
             .args(["--place", "*-O2=c"])
             .args(routers)
             .args(link)
+            .args(extra)
             .arg("--out")
             .arg(&file),
         "waggle compose",
@@ -353,8 +364,13 @@ fn camera_digests(host_dir: &Path) -> Vec<(String, String)> {
     out
 }
 
+/// Where session `name` lives (its compose file, bundles and every host's run directory).
+fn session_dir(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("waggle-multihost-{}-{name}", std::process::id()))
+}
+
 fn fresh_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("waggle-multihost-{}-{name}", std::process::id()));
+    let dir = session_dir(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("create the test directory");
     dir
@@ -372,13 +388,24 @@ fn run_session(
 
 /// [`run_session`] of `(case, modality)`.
 fn run_case_session(
-    (case, modality): (&str, &str),
+    case: (&str, &str),
+    name: &str,
+    router: RouterOn,
+    faults: impl FnOnce(&Hosts, Instant),
+) -> (Hosts, Vec<(String, Ended, PathBuf)>) {
+    run_session_with(case, &[], name, router, faults)
+}
+
+/// [`run_case_session`] with `extra` arguments to `waggle compose` (faults of the session).
+fn run_session_with(
+    case: (&str, &str),
+    extra: &[String],
     name: &str,
     router: RouterOn,
     faults: impl FnOnce(&Hosts, Instant),
 ) -> (Hosts, Vec<(String, Ended, PathBuf)>) {
     let dir = fresh_dir(name);
-    let file = compose(&dir, router, case, modality);
+    let file = compose(&dir, router, case, extra);
     let router_host = match router {
         RouterOn::Alone => "r",
         RouterOn::SupervisorHost | RouterOn::Chain => "a",
