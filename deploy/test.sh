@@ -12,7 +12,10 @@
 #                             study in shards killed and resumed, and a study as a job array on a
 #                             real Slurm (tests/tests/slurm.rs: installs slurm-wlm and munge once,
 #                             starts its own slurmctld, slurmd and munged from a generated
-#                             configuration in a temporary directory, removes it after) (≈ 1 h)
+#                             configuration in a temporary directory, removes it after), the
+#                             long-hour case's memory over 3 900 s of sim time (≈ 9 min) and the
+#                             soak of 50 faulted `only-a` runs on namespace hosts (≈ 17 min;
+#                             WAGGLE_SOAK_RUNS, WAGGLE_SOAK_SEED) (≈ 1.5 h)
 #   deploy/test.sh ARGS…      any other arguments go to `cargo test --release` instead of
 #                             `--workspace` (e.g. `-p proto`, or `-p waggle-tests --test run`)
 #
