@@ -2,7 +2,8 @@
 //!
 //! Round trip: `waggle link --events-raw` writes each observer's events as Prophesee EVT 3.0;
 //! decoding the file from the same viewpoint gives exactly the live link's tokens, frames and
-//! payloads (a viewpoint and payload no other test uses). Bad input is refused naming it.
+//! payloads (a viewpoint and payload no other test uses), with the frame check it was flown
+//! with. Bad input is refused naming it.
 
 mod common;
 use common::{link, payloads};
@@ -18,7 +19,7 @@ fn decode(args: &[&str]) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).expect("JSON output")
 }
 
-fn round_trip(extra: &[&str]) {
+fn round_trip(check: &str, extra: &[&str]) {
     let dir = std::env::temp_dir().join(format!(
         "waggle-decode-{}-{}",
         std::process::id(),
@@ -35,12 +36,21 @@ fn round_trip(extra: &[&str]) {
         "110010",
         "--events-raw",
         &dir_s,
+        "--frame-check",
+        check,
     ];
     args.extend_from_slice(extra);
     let live = link(&args);
     let file = dir.join("O1.raw");
-    let decoded = decode(&["--events", file.to_str().unwrap(), viewpoint]);
+    let file_s = file.to_str().unwrap();
+    let decoded = decode(&["--events", file_s, viewpoint, "--frame-check", check]);
+    // Read as the paper's frame, a checked frame's first check bit stands where END should.
+    let unchecked = (check != "none").then(|| decode(&["--events", file_s, viewpoint]));
     let _ = std::fs::remove_dir_all(&dir);
+    if let Some(u) = unchecked {
+        assert_eq!(u["decoded"]["payloads"], serde_json::json!([]), "{u}");
+        assert_eq!(u["decoded"]["tokens"], decoded["decoded"]["tokens"]);
+    }
     assert_eq!(payloads(&live, "O1"), ["110010"], "{live}");
     assert_eq!(
         decoded["decoded"]["payloads"],
@@ -58,14 +68,14 @@ fn round_trip(extra: &[&str]) {
 }
 
 #[test]
-fn a_written_recording_decodes_exactly_as_the_live_link() {
-    round_trip(&[]);
+fn a_written_checked_recording_decodes_exactly_as_the_live_link() {
+    round_trip("crc3", &[]);
 }
 
 #[test]
 #[ignore = "long: a noisy sensor (≈ 25 s); runs with deploy/test.sh --full"]
 fn a_noisy_written_recording_decodes_exactly_as_the_live_link() {
-    round_trip(&["--sensor-preset", "v2e-default", "--seed", "3"]);
+    round_trip("none", &["--sensor-preset", "v2e-default", "--seed", "3"]);
 }
 
 /// `waggle decode --events FILE --observer OBSERVER`'s error output; the command must fail.

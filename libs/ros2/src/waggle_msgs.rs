@@ -107,8 +107,14 @@ impl FrameMsg {
     pub fn from_wire(f: &FrameEvent) -> Result<Self, Ros2Error> {
         let payload = f.frame.payload;
         let offer = Offer::from_payload(payload).ok();
+        // A checked frame (19 or 23 tokens) keeps the message's 17 slots: its tokens up to b6's
+        // NULL and its closing END NULL; the check bits follow from the payload and the
+        // session's check, which the recorded case holds.
+        let stamps = &f.frame.token_stamps_ns;
+        let (head, tail) = stamps.split_at(stamps.len().min(15));
+        let tail = &tail[tail.len().saturating_sub(2)..];
         let mut token_stamps = [TimeMsg::default(); 17];
-        for (slot, &t) in token_stamps.iter_mut().zip(&f.frame.token_stamps_ns) {
+        for (slot, &t) in token_stamps.iter_mut().zip(head.iter().chain(tail)) {
             *slot = TimeMsg::from_ns(t)?;
         }
         Ok(Self {
@@ -339,6 +345,27 @@ impl RosMessage for BroadcastMsg {
 mod tests {
     use super::*;
     use proto::ObserverId;
+
+    #[test]
+    fn a_checked_frame_keeps_its_payload_tokens_and_its_closing_end_null() {
+        // 23 tokens (CRC-3): stamps 1 s apart, so slot k of the message says which was kept.
+        let frame = |n: u64| FrameEvent {
+            observer: ObserverId::new("O1").unwrap(),
+            seq: 0,
+            round: 1,
+            frame: proto::ReleasedFrame {
+                payload: 0b011010,
+                token_stamps_ns: (1..=n).map(|k| k * 1_000_000_000).collect(),
+            },
+        };
+        let secs = |m: &FrameMsg| m.token_stamps.iter().map(|t| t.sec).collect::<Vec<_>>();
+        let checked = FrameMsg::from_wire(&frame(23)).unwrap();
+        let want: Vec<i32> = (1..=15).chain([22, 23]).collect();
+        assert_eq!(secs(&checked), want);
+        assert_eq!(checked.header.stamp.sec, 23);
+        let paper = FrameMsg::from_wire(&frame(17)).unwrap();
+        assert_eq!(secs(&paper), (1..=17).collect::<Vec<i32>>());
+    }
 
     #[test]
     fn a_throttle_fault_encodes_as_hand_computed() {

@@ -233,7 +233,8 @@ fn bit_of(payload: u8, k: usize) -> bool {
 pub struct ReleasedFrame {
     /// The six bits `b1 … b6` as a number, b1 most significant (so `011010` = 0b011010).
     pub payload: u8,
-    /// Confirmation time of each of the 17 tokens, sim nanoseconds, in frame order.
+    /// Confirmation time of each token (17; 19 or 23 with a frame check), sim nanoseconds, in
+    /// frame order.
     pub token_stamps_ns: Vec<u64>,
 }
 

@@ -54,10 +54,14 @@ impl Feed {
     pub(crate) fn new(
         placement: proto::scene::Placement,
         rectification: proto::Rectification,
+        check: proto::FrameCheck,
         calibration: Option<std::path::PathBuf>,
     ) -> Result<Self> {
+        let mut perception =
+            Perception::for_camera(Modality::Rgb, placement.camera(), rectification)?;
+        perception.set_frame_check(check);
         Ok(Self {
-            perception: Perception::for_camera(Modality::Rgb, placement.camera(), rectification)?,
+            perception,
             remap: None,
             calibration,
             size: None,
@@ -172,7 +176,12 @@ pub(super) fn decode_images(
     topic: Option<&str>,
     fps: u32,
 ) -> Result<DecodeOut> {
-    let mut feed = Feed::new(opts.placement, opts.rectification, opts.calibration.clone())?;
+    let mut feed = Feed::new(
+        opts.placement,
+        opts.rectification,
+        opts.frame_check,
+        opts.calibration.clone(),
+    )?;
     let format = if is_bag(path) {
         let bag = ros2_bag::ingest::read_image_bag(
             path,

@@ -51,6 +51,8 @@ pub struct ObserveOptions {
     /// The camera's placement relative to the performer's hover point.
     pub placement: Placement,
     pub rectification: Rectification,
+    /// The check the performer's frames carry after their payload.
+    pub frame_check: proto::FrameCheck,
     /// The camera's calibration file (ROS `camera_info` or OpenCV YAML), if any.
     pub calibration: Option<std::path::PathBuf>,
     pub tail_s: f64,
@@ -185,10 +187,15 @@ impl Path {
         Ok(match opts.kind {
             LiveKind::Events => Path::Events(Box::new(EventPath {
                 packets: CameraPackets::new(opts.calibration.as_deref()),
-                receiver: DecodingReceiver::new(opts.placement, opts.rectification)?,
+                receiver: DecodingReceiver::new(opts.placement, opts.rectification, opts.frame_check)?,
             })),
             kind => Path::Images(Box::new(ImagePath {
-                feed: Feed::new(opts.placement, opts.rectification, opts.calibration.clone())?,
+                feed: Feed::new(
+                    opts.placement,
+                    opts.rectification,
+                    opts.frame_check,
+                    opts.calibration.clone(),
+                )?,
                 compressed: kind == LiveKind::CompressedImage,
                 tokens_out: 0,
                 frames_out: 0,

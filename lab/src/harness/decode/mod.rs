@@ -48,6 +48,8 @@ pub struct DecodeOptions {
     /// The camera's placement relative to the performer's hover point.
     pub placement: Placement,
     pub rectification: Rectification,
+    /// The check the recorded frames carry after their payload.
+    pub frame_check: proto::FrameCheck,
     /// The camera's calibration file (ROS `camera_info` or OpenCV YAML), if any.
     pub calibration: Option<PathBuf>,
     /// Silence (events) or repeats of the last image (RGB) appended after the recording, s.
@@ -150,7 +152,7 @@ fn decode_events(
     events.sort_by_key(|e| e.t_ns);
     let last_ns = events.last().map_or(0, |e| e.t_ns);
     let end_ns = last_ns + (opts.tail_s * 1e9).round() as u64;
-    let mut receiver = DecodingReceiver::new(opts.placement, opts.rectification)?;
+    let mut receiver = DecodingReceiver::new(opts.placement, opts.rectification, opts.frame_check)?;
     let mut packetizer = Packetizer::new();
     for e in &events {
         packetizer.push(e, |p| {
@@ -188,13 +190,16 @@ pub(crate) struct DecodingReceiver {
 
 impl DecodingReceiver {
     /// The receiver of a camera at `placement`.
-    pub(crate) fn new(placement: Placement, rectification: Rectification) -> Result<Self> {
+    pub(crate) fn new(
+        placement: Placement,
+        rectification: Rectification,
+        check: proto::FrameCheck,
+    ) -> Result<Self> {
+        let mut perception =
+            Perception::for_camera(Modality::Events, placement.camera(), rectification)?;
+        perception.set_frame_check(check);
         Ok(Self {
-            perception: Perception::for_camera(
-                Modality::Events,
-                placement.camera(),
-                rectification,
-            )?,
+            perception,
             tokens: Vec::new(),
             frames: Vec::new(),
             fault: None,
