@@ -56,7 +56,7 @@ pub fn run(args: DecodeArgs) -> Result<()> {
         input,
         placement: placement(&args.camera)?,
         rectification: args.rectify,
-        frame_check: args.frame_check,
+        frame_check: args.check.frame_check,
         calibration: args.calibration.clone(),
         tail_s: args.tail_s,
     })?;

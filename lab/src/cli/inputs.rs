@@ -14,7 +14,7 @@ use std::sync::mpsc::sync_channel;
 use anyhow::{Context, Result, bail};
 use perturb::seed::trial_seed;
 use proto::TruthSymbol;
-use proto::scene::{Formation, MAX_OBSERVERS, observer_name};
+use proto::scene::observer_name;
 use receiver_plugin::ObserverInfo;
 use receiver_plugin::wire;
 use serde_json::{Value, json};
@@ -35,16 +35,7 @@ fn options(args: &InputsArgs) -> Result<TrialsOptions> {
         args.real_noise.as_deref(),
         args.real_noise_static,
     )?;
-    let formation = if args.viewpoints.is_empty() {
-        Formation::standard(args.observers).map_err(|_| {
-            anyhow::anyhow!(
-                "--observers {} is outside 1..={MAX_OBSERVERS}",
-                args.observers
-            )
-        })?
-    } else {
-        Formation::custom(args.viewpoints.clone()).context("--viewpoint")?
-    };
+    let formation = super::trials::formation(args.observers, &args.viewpoints)?;
     let Some(trials) = args.trial.checked_add(1) else {
         bail!("--trial {} is too large", args.trial);
     };

@@ -62,7 +62,7 @@ pub fn run(args: LinkArgs) -> Result<()> {
         viewpoints: args.viewpoints,
         rectification: args.rectify,
         events_raw: args.events_raw,
-        frame_check: args.frame_check,
+        frame_check: args.check.frame_check,
     };
     if opts.events_raw.is_some() && opts.modality != Receiver::Events {
         bail!("--events-raw writes event cameras' events: use --modality events");

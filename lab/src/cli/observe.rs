@@ -22,7 +22,7 @@ pub fn run(args: ObserveArgs) -> Result<()> {
         id,
         placement: super::decode::placement(&args.camera)?,
         rectification: args.rectify,
-        frame_check: args.frame_check,
+        frame_check: args.check.frame_check,
         calibration: args.calibration.clone(),
         tail_s: args.tail_s,
         idle_s: args.idle_s,

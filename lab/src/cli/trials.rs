@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use perturb::Perturbation;
-use proto::scene::{Formation, MAX_OBSERVERS};
+use proto::scene::{Formation, MAX_OBSERVERS, Placement};
 use proto::{Modality, Receiver};
 
 use crate::harness::mission::trials::{
@@ -164,19 +164,20 @@ pub fn run(args: TrialsArgs) -> Result<()> {
     write_results(&args.out, &stop)
 }
 
+/// The observers of a link: `--observers` in the built-in formation, or `--viewpoint`s.
+pub(super) fn formation(observers: usize, viewpoints: &[Placement]) -> Result<Formation> {
+    if viewpoints.is_empty() {
+        Formation::standard(observers)
+            .map_err(|_| anyhow::anyhow!("--observers {observers} is outside 1..={MAX_OBSERVERS}"))
+    } else {
+        Formation::custom(viewpoints.to_vec()).context("--viewpoint")
+    }
+}
+
 /// The options of a link's trials (`--link`) from the command line.
 fn link_options(args: &TrialsArgs, perturbation: Perturbation) -> Result<TrialsOptions> {
     let modality = link_modality(args)?;
-    let formation = if args.viewpoints.is_empty() {
-        Formation::standard(args.observers).map_err(|_| {
-            anyhow::anyhow!(
-                "--observers {} is outside 1..={MAX_OBSERVERS}",
-                args.observers
-            )
-        })?
-    } else {
-        Formation::custom(args.viewpoints.clone()).context("--viewpoint")?
-    };
+    let formation = formation(args.observers, &args.viewpoints)?;
     Ok(TrialsOptions {
         payloads: args.link.clone(),
         formation,

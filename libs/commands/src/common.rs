@@ -6,6 +6,21 @@ use serde::{Deserialize, Serialize};
 
 /// `--flights sequential|concurrent` and `--max-broadcasts N`, overriding a case's own, shared
 /// by the commands that fly a whole case.
+/// The frame check of one observer's broadcast, for the commands that decode without a case
+/// (`link`, `decode`, `observe`).
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct FrameCheckArg {
+    /// The check every frame carries after its six payload bits: `none` (the paper), `parity`
+    /// or `crc3`; a frame that fails it is never released.
+    #[arg(
+        long = "frame-check",
+        value_enum,
+        value_name = "CHECK",
+        default_value_t
+    )]
+    pub frame_check: proto::FrameCheck,
+}
+
 #[derive(Debug, Clone, Copy, clap::Args)]
 pub struct CaseOverrides {
     /// Safety router, overriding the case's `flights`: `sequential` flies one trip at a time

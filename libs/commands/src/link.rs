@@ -1,6 +1,6 @@
 //! `waggle link`: one broadcast flown in one process and decoded by each observer.
 
-use crate::common::{parse_bits6, parse_viewpoint};
+use crate::common::{FrameCheckArg, parse_bits6, parse_viewpoint};
 use clap::Args;
 use proto::scene::Placement;
 use proto::{Receiver, Rectification};
@@ -48,15 +48,8 @@ pub struct LinkArgs {
     /// 3.0, readable by Metavision tools and `waggle decode --events`).
     #[arg(long, value_name = "DIR")]
     pub events_raw: Option<std::path::PathBuf>,
-    /// The check every frame carries after its six payload bits: `none` (the paper), `parity`
-    /// or `crc3`; a frame that fails it is never released.
-    #[arg(
-        long = "frame-check",
-        value_enum,
-        value_name = "CHECK",
-        default_value_t
-    )]
-    pub frame_check: proto::FrameCheck,
+    #[command(flatten)]
+    pub check: FrameCheckArg,
     /// Print machine-readable JSON instead of the table.
     #[arg(long)]
     pub json: bool,

@@ -1,6 +1,6 @@
 //! `waggle observe`: one observer's receiver on a live camera, a ROS 2 topic on `rmw_zenoh`.
 
-use crate::common::CameraPlaceArgs;
+use crate::common::{CameraPlaceArgs, FrameCheckArg};
 use clap::{Args, ValueEnum};
 use proto::Rectification;
 use std::path::PathBuf;
@@ -34,15 +34,8 @@ pub struct ObserveArgs {
     /// Viewpoint rectification of the receiver's trajectory before template matching.
     #[arg(long, value_enum, default_value_t = Rectification::default())]
     pub rectify: Rectification,
-    /// The check the performer's frames carry after their six payload bits: `none` (the
-    /// paper), `parity` or `crc3`; a frame that fails it is never released.
-    #[arg(
-        long = "frame-check",
-        value_enum,
-        value_name = "CHECK",
-        default_value_t
-    )]
-    pub frame_check: proto::FrameCheck,
+    #[command(flatten)]
+    pub check: FrameCheckArg,
     /// Silence (events) or the last image held still (RGB) given to the receiver once the
     /// camera has gone, s (so a final rest is confirmed).
     #[arg(long, default_value_t = 2.0)]

@@ -187,7 +187,11 @@ impl Path {
         Ok(match opts.kind {
             LiveKind::Events => Path::Events(Box::new(EventPath {
                 packets: CameraPackets::new(opts.calibration.as_deref()),
-                receiver: DecodingReceiver::new(opts.placement, opts.rectification, opts.frame_check)?,
+                receiver: DecodingReceiver::new(
+                    opts.placement,
+                    opts.rectification,
+                    opts.frame_check,
+                )?,
             })),
             kind => Path::Images(Box::new(ImagePath {
                 feed: Feed::new(
