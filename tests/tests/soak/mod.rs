@@ -17,7 +17,7 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use super::{
-    Hosts, ONE_AT_A_TIME, RouterOn, assert_golden, run_session_with, session_dir, summary,
+    Hosts, ONE_AT_A_TIME, RouterOn, assert_golden, ip, run_session_with, session_dir, summary,
 };
 
 /// Runs of `deploy/test.sh --full` (≈ 20 s each on 2 cores).
@@ -185,7 +185,20 @@ fn operate(hosts: &Hosts, started: Instant, steps: &[(u64, &'static str, bool, b
         let t = started + Duration::from_secs(at_s);
         std::thread::sleep(t.saturating_duration_since(Instant::now()));
         match (cut, on) {
-            (true, on) => hosts.link(host, !on),
+            (true, true) => hosts.link(host, false),
+            (true, false) => {
+                hosts.link(host, true);
+                // The link's going down took the host's default route with it (the kernel
+                // drops routes through a device that goes down); put it back as an operator
+                // would. b reaches the router on its own subnet; c only through this route.
+                let gateway = if host == "b" {
+                    "10.231.1.1"
+                } else {
+                    "10.231.2.1"
+                };
+                let ns = hosts.ns(host);
+                ip(&["-n", &ns, "route", "replace", "default", "via", gateway]);
+            }
             (false, true) => {
                 hosts.tc(
                     host,
