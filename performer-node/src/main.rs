@@ -133,6 +133,7 @@ fn main() -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proto::paper_broadcast;
     use proto::scene::PERFORMER_HOVER_M;
 
     #[test]
@@ -141,14 +142,7 @@ mod tests {
         assert_eq!(sp.kin.pos_m, PERFORMER_HOVER_M);
         assert_eq!(truth.activity, PerformerActivity::Idle);
         assert_eq!(truth.stamp_ns, 7 * TICK_NS);
-        let s = broadcast(
-            0,
-            &[0b011010],
-            false,
-            &GestureConfig::default(),
-            proto::FrameCheck::None,
-        )
-        .unwrap();
+        let s = paper_broadcast(0, &[0b011010], false).unwrap();
         let moving = (0..20_000u64)
             .map(|k| answer(Some(&s), 1, k))
             .find(|(sp, _)| sp.kin.vel_mps.iter().any(|v| v.abs() > 1e-6))

@@ -49,7 +49,7 @@ pub use sched::{
 };
 pub use schedule::{
     FrameSlot, Schedule, ScheduleBuilder, ScheduleError, ScheduledOffer, TruthSpan, TruthSymbol,
-    broadcast, performer_setpoint,
+    broadcast, paper_broadcast, performer_setpoint,
 };
 pub use segmenter::{
     Interruption, Sample, SegmentToken, Segmenter, SegmenterConfig, SegmenterError, TokenCause,

@@ -660,26 +660,14 @@ fn a_repeated_checked_broadcast_is_recorded_audited_and_replayed() {
     let v = replay_json(&dir.join("session.mcap"));
     assert_eq!(v["all_matched"], true, "{v:#}");
     // Out of range, refused before anything starts, naming the option.
-    let bad = waggle()
-        .args(["run", "only-a", "--max-broadcasts", "9"])
-        .output()
-        .unwrap();
-    assert!(!bad.status.success());
-    assert!(
-        String::from_utf8_lossy(&bad.stderr).contains("--max-broadcasts"),
-        "{}",
-        String::from_utf8_lossy(&bad.stderr)
-    );
-    let bad = waggle()
-        .args(["run", "only-a", "--frame-check", "crc8"])
-        .output()
-        .unwrap();
-    assert!(!bad.status.success());
-    assert!(
-        String::from_utf8_lossy(&bad.stderr).contains("--frame-check"),
-        "{}",
-        String::from_utf8_lossy(&bad.stderr)
-    );
+    for (option, value) in [("--max-broadcasts", "9"), ("--frame-check", "crc8")] {
+        let bad = waggle()
+            .args(["run", "only-a", option, value])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&bad.stderr);
+        assert!(!bad.status.success() && stderr.contains(option), "{stderr}");
+    }
 }
 
 /// Sim time after which memory must be flat: the first rounds (≈ 240 s each) fill every

@@ -16,7 +16,7 @@ use event_camera::picture::{
 use event_camera::{CameraConfig, EventCamera};
 use proto::scene::{IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, ObserverCamera, observer_name};
 use proto::{Action, EventPacket, Polarity, TICK_NS};
-use proto::{GestureConfig, TruthSymbol, broadcast};
+use proto::{TruthSymbol, paper_broadcast};
 use sim::render::CameraRenderer;
 use sim::sensor::EVENT_RENDER_PERIOD_NS;
 use sim::world::World;
@@ -50,14 +50,8 @@ pub fn sensor_comparison(
     observer: usize,
     png_path: &Path,
 ) -> Result<Vec<SensorColumn>> {
-    let schedule = broadcast(
-        BROADCAST_START_NS,
-        &[FIRST_OFFER],
-        true,
-        &GestureConfig::default(),
-        proto::FrameCheck::None,
-    )
-    .context("building the broadcast schedule")?;
+    let schedule = paper_broadcast(BROADCAST_START_NS, &[FIRST_OFFER], true)
+        .context("building the broadcast schedule")?;
     let timeline = schedule.timeline();
     let acquisition = timeline
         .iter()

@@ -6,6 +6,7 @@ use proto::scene::{MAX_OBSERVERS, PERFORMER_HOVER_M};
 use proto::{Action, Token};
 use proto::{
     GestureConfig, NS_PER_MS, NS_PER_S, Schedule, ScheduleBuilder, TruthSymbol, broadcast,
+    paper_broadcast,
 };
 use proto::{Interruption, SegmenterConfig, TokenCause};
 
@@ -120,14 +121,7 @@ fn two_consecutive_offers_release_exactly_those_payloads_in_order() {
 fn every_observer_of_n_releases_both_offers(n: usize) {
     let payloads = [0b011010, 0b100111];
     for acquisition in [false, true] {
-        let s = broadcast(
-            5 * NS_PER_S,
-            &payloads,
-            acquisition,
-            &GestureConfig::default(),
-            proto::FrameCheck::None,
-        )
-        .unwrap();
+        let s = paper_broadcast(5 * NS_PER_S, &payloads, acquisition).unwrap();
         for (name, config) in configs() {
             let r = run(&s, n, config, 0);
             for i in 0..n {
@@ -180,14 +174,7 @@ fn every_observer_of_n_releases_both_offers(n: usize) {
 
 #[test]
 fn offer_start_to_final_null_is_about_the_papers_95_6_s() {
-    let s = broadcast(
-        5 * NS_PER_S,
-        &[0b011010, 0b100111],
-        false,
-        &GestureConfig::default(),
-        proto::FrameCheck::None,
-    )
-    .unwrap();
+    let s = paper_broadcast(5 * NS_PER_S, &[0b011010, 0b100111], false).unwrap();
     let r = run(&s, 3, SegmenterConfig::rgb(), 0);
     for i in 0..3 {
         let o = r.output(i).unwrap();
@@ -209,14 +196,7 @@ fn offer_start_to_final_null_is_about_the_papers_95_6_s() {
 #[test]
 fn an_interruption_mid_frame_prevents_release_of_that_frame_only() {
     let payloads = [0b011010, 0b100111];
-    let s = broadcast(
-        5 * NS_PER_S,
-        &payloads,
-        false,
-        &GestureConfig::default(),
-        proto::FrameCheck::None,
-    )
-    .unwrap();
+    let s = paper_broadcast(5 * NS_PER_S, &payloads, false).unwrap();
     // In the middle of offer 1's bit 3.
     let bit3 = s
         .timeline()
@@ -260,14 +240,7 @@ fn an_interruption_mid_frame_prevents_release_of_that_frame_only() {
 
 #[test]
 fn a_single_missing_camera_frame_mid_frame_prevents_release() {
-    let s = broadcast(
-        5 * NS_PER_S,
-        &[0b010000],
-        false,
-        &GestureConfig::default(),
-        proto::FrameCheck::None,
-    )
-    .unwrap();
+    let s = paper_broadcast(5 * NS_PER_S, &[0b010000], false).unwrap();
     let null5 = s
         .timeline()
         .iter()
@@ -344,14 +317,7 @@ fn event_acquisition_preamble_gives_a_first_null_before_start() {
 
 #[test]
 fn ideal_receiver_is_deterministic() {
-    let s = broadcast(
-        5 * NS_PER_S,
-        &[0b011010, 0b100111],
-        true,
-        &GestureConfig::default(),
-        proto::FrameCheck::None,
-    )
-    .unwrap();
+    let s = paper_broadcast(5 * NS_PER_S, &[0b011010, 0b100111], true).unwrap();
     let a = run(&s, 3, SegmenterConfig::events(), 0);
     let b = run(&s, 3, SegmenterConfig::events(), 0);
     assert_eq!(a.outputs(), b.outputs());

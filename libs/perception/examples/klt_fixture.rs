@@ -25,7 +25,7 @@ use perception::rgb::features::Region;
 use perception::rgb::{RgbReceiverConfig, TargetTracker};
 use proto::Action;
 use proto::scene::observer_name;
-use proto::{GestureConfig, TruthSymbol, broadcast};
+use proto::{TruthSymbol, paper_broadcast};
 use serde::Serialize;
 use sim::control::Reference;
 use sim::render::CameraRenderer;
@@ -121,13 +121,7 @@ fn main() -> Result<()> {
     if frames < 2 {
         bail!("--frames must be at least 2");
     }
-    let schedule = broadcast(
-        LEAD_IN_NS,
-        &[PAYLOAD],
-        false,
-        &GestureConfig::default(),
-        proto::FrameCheck::None,
-    )?;
+    let schedule = paper_broadcast(LEAD_IN_NS, &[PAYLOAD], false)?;
     let start_ns = schedule
         .timeline()
         .iter()

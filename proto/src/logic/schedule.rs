@@ -449,6 +449,21 @@ impl ScheduleBuilder {
     }
 }
 
+/// The paper's broadcast: [`broadcast`] with the default gesture timing and no frame check.
+pub fn paper_broadcast(
+    start_ns: u64,
+    payloads: &[u8],
+    acquisition: bool,
+) -> Result<Schedule, ScheduleError> {
+    broadcast(
+        start_ns,
+        payloads,
+        acquisition,
+        &GestureConfig::default(),
+        crate::frame::FrameCheck::None,
+    )
+}
+
 /// A whole broadcast starting at `start_ns` from the nominal hover point: optionally the event
 /// acquisition sweep, then every payload as back-to-back offers, each frame carrying `check`.
 pub fn broadcast(
@@ -567,14 +582,7 @@ mod tests {
 
     #[test]
     fn setpoints_are_smooth_and_derivatives_consistent() {
-        let s = broadcast(
-            0,
-            &[0b011010],
-            true,
-            &GestureConfig::default(),
-            crate::frame::FrameCheck::None,
-        )
-        .unwrap();
+        let s = paper_broadcast(0, &[0b011010], true).unwrap();
         let dt_ns = 2 * NS_PER_MS;
         let dt = dt_ns as f64 * 1e-9;
         let (v_peak, a_peak) = s.peak_motion(0, s.end_ns());
@@ -679,14 +687,7 @@ mod tests {
 
     #[test]
     fn spans_at_finds_the_covering_spans() {
-        let s = broadcast(
-            NS_PER_S,
-            &[0b011010, 0b100111],
-            true,
-            &GestureConfig::default(),
-            crate::frame::FrameCheck::None,
-        )
-        .unwrap();
+        let s = paper_broadcast(NS_PER_S, &[0b011010, 0b100111], true).unwrap();
         assert_eq!(s.spans_at(0).count(), 0, "idle before the broadcast");
         assert_eq!(s.spans_at(s.end_ns()).count(), 0, "idle after it");
         let first: Vec<_> = s.spans_at(NS_PER_S).collect();
@@ -708,26 +709,12 @@ mod tests {
 
     #[test]
     fn one_offer_lasts_the_documented_98_s() {
-        let s = broadcast(
-            0,
-            &[0b100111],
-            false,
-            &GestureConfig::default(),
-            crate::frame::FrameCheck::None,
-        )
-        .unwrap();
+        let s = paper_broadcast(0, &[0b100111], false).unwrap();
         assert_eq!(s.end_ns(), 98_000 * NS_PER_MS);
         assert_eq!(s.offers()[0].final_null_start_ns, 93_000 * NS_PER_MS);
         // Sweep, then the first offer with its final NULL stretched to the shared 6 s, then the
         // second offer without a lead NULL of its own.
-        let s2 = broadcast(
-            0,
-            &[0b100111, 0b011010],
-            true,
-            &GestureConfig::default(),
-            crate::frame::FrameCheck::None,
-        )
-        .unwrap();
+        let s2 = paper_broadcast(0, &[0b100111, 0b011010], true).unwrap();
         assert_eq!(s2.end_ns(), (4_000 + 99_000 + 92_000) * NS_PER_MS);
     }
 

@@ -160,18 +160,18 @@ fn timeline(faults: &[SoakFault]) -> Vec<(u64, &'static str, bool, bool)> {
                 host,
                 from_s,
                 for_s,
-            } => steps.extend([
-                (*from_s, *host, false, true),
-                (from_s + for_s, *host, false, false),
-            ]),
-            SoakFault::LinkCut {
+            }
+            | SoakFault::LinkCut {
                 host,
                 from_s,
                 for_s,
-            } => steps.extend([
-                (*from_s, *host, true, true),
-                (from_s + for_s, *host, true, false),
-            ]),
+            } => {
+                let cut = matches!(f, SoakFault::LinkCut { .. });
+                steps.extend([
+                    (*from_s, *host, cut, true),
+                    (from_s + for_s, *host, cut, false),
+                ]);
+            }
             SoakFault::Kill { .. } | SoakFault::CameraThrottle { .. } => {}
         }
     }
