@@ -79,9 +79,7 @@ impl ExistingCa {
     /// certificate's.
     pub fn read(cert: &Path, key: &Path) -> Result<Self, BusError> {
         use std::os::unix::fs::PermissionsExt;
-        let bad = |path: &Path, why: String| {
-            BusError::Credentials(format!("the CA {}: {why}", path.display()))
-        };
+        let bad = |path: &Path, why: String| ca_err(path, &why);
         let cert_pem = std::fs::read_to_string(cert).map_err(|e| bad(cert, e.to_string()))?;
         let mode = std::fs::metadata(key)
             .map_err(|e| bad(key, e.to_string()))?
@@ -97,6 +95,22 @@ impl ExistingCa {
             ));
         }
         let key_pem = std::fs::read_to_string(key).map_err(|e| bad(key, e.to_string()))?;
+        let now_unix_s = time::OffsetDateTime::now_utc().unix_timestamp();
+        Self::from_pem(cert_pem, key_pem, (cert, key), now_unix_s)
+    }
+
+    /// The checks of [`ExistingCa::read`] on texts already read, with no file system: the key
+    /// is a private key in PEM, the certificate a PEM X.509 CA certificate whose public key is
+    /// the key's and that is still valid at `now_unix_s`. `paths` (certificate, key) only name
+    /// the files in the errors.
+    pub fn from_pem(
+        cert_pem: String,
+        key_pem: String,
+        paths: (&Path, &Path),
+        now_unix_s: i64,
+    ) -> Result<Self, BusError> {
+        let (cert, key) = paths;
+        let bad = |path: &Path, why: String| ca_err(path, &why);
         let key_pair = KeyPair::from_pem(&key_pem)
             .map_err(|e| bad(key, format!("not a private key in PEM: {e}")))?;
         let (_, pem) = x509_parser::pem::parse_x509_pem(cert_pem.as_bytes())
@@ -117,7 +131,7 @@ impl ExistingCa {
             ));
         }
         let not_after_unix_s = parsed.validity().not_after.timestamp();
-        if not_after_unix_s <= time::OffsetDateTime::now_utc().unix_timestamp() {
+        if not_after_unix_s <= now_unix_s {
             return Err(bad(cert, "expired".into()));
         }
         Ok(Self {
@@ -126,12 +140,27 @@ impl ExistingCa {
             not_after_unix_s,
         })
     }
+
+    /// The CA certificate's PEM text, as read (it becomes a session's `ca.pem`).
+    pub fn cert_pem(&self) -> &str {
+        &self.cert_pem
+    }
+
+    /// The end of the CA certificate's validity, in Unix seconds.
+    pub fn not_after_unix_s(&self) -> i64 {
+        self.not_after_unix_s
+    }
+}
+
+/// A refusal of an existing CA's file `path`.
+fn ca_err(path: &Path, why: &str) -> BusError {
+    BusError::Credentials(format!("the CA {}: {why}", path.display()))
 }
 
 /// Issues a certificate for each of `names` into `dir` through `write` (which writes one
 /// private file), valid from a minute ago for `valid_for` (and never beyond the CA), signed by
 /// `existing` or else by a new session CA whose key is never written.
-pub(crate) fn issue(
+pub fn issue(
     session_label: &str,
     names: &[String],
     valid_for: Duration,
