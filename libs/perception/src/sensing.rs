@@ -168,12 +168,16 @@ impl Perception {
             Modality::Events => {
                 let mut config = EventReceiverConfig::paper();
                 config.segmenter = segmenter(config.segmenter);
-                Ok(Self::Events(Box::new(EventReceiver::new(config)?)))
+                Ok(Self::Events(Box::new(
+                    EventReceiver::new(config)?.without_history(),
+                )))
             }
             Modality::Rgb => {
                 let mut config = RgbReceiverConfig::paper();
                 config.segmenter = segmenter(config.segmenter);
-                Ok(Self::Rgb(Box::new(RgbReceiver::new(config)?)))
+                Ok(Self::Rgb(Box::new(
+                    RgbReceiver::new(config)?.without_history(),
+                )))
             }
         }
     }

@@ -676,3 +676,17 @@ fn rendered_fixture_frames_are_localised_at_the_drone() {
     }
     assert_eq!(located, 3);
 }
+
+#[test]
+fn a_receiver_without_history_reports_the_same_outcomes_and_keeps_none() {
+    let (_, packets) = two_offers();
+    let mut kept = receiver();
+    let mut forgetting = receiver().without_history();
+    for p in packets {
+        assert_eq!(kept.push_packet(p), forgetting.push_packet(p), "packet {}", p.seq);
+    }
+    assert_eq!(payloads(&kept), vec![OFFER_A, OFFER_B]);
+    assert!(forgetting.tokens().is_empty() && forgetting.frames().is_empty());
+    assert!(forgetting.trajectories().is_empty() && forgetting.acquisition_events().is_empty());
+    assert_eq!(kept.status(), forgetting.status());
+}

@@ -230,6 +230,22 @@ fn a_full_synthetic_frame_releases_exactly_its_payload_at_ideal_token_times() {
 }
 
 #[test]
+fn a_receiver_without_history_reports_the_same_outcomes_and_keeps_none() {
+    let scene = Scene::new(Backdrop::Room);
+    let mut flight = Flight::default();
+    flight.offer(0b010011);
+    let mut kept = RgbReceiver::paper();
+    let mut forgetting = RgbReceiver::paper().without_history();
+    for (k, p) in flight.points_px.iter().enumerate() {
+        let f = frame(k as u64, scene.render(Some(*p)));
+        assert_eq!(kept.push_frame(&f), forgetting.push_frame(&f), "frame {k}");
+    }
+    assert_eq!(kept.frames().len(), 1);
+    assert!(forgetting.tokens().is_empty() && forgetting.frames().is_empty());
+    assert!(forgetting.trajectories().is_empty());
+}
+
+#[test]
 fn a_sequence_gap_mid_symbol_invalidates_the_frame_and_the_next_offer_still_decodes() {
     let scene = Scene::new(Backdrop::Wall);
     let (first, second) = (0b011010, 0b100111);

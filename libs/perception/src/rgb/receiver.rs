@@ -173,6 +173,8 @@ pub struct RgbReceiver {
     /// How far the airframe has turned from home now, and at the previous frame.
     ego: Option<proto::EgoRotation>,
     ego_at_last_frame: Option<proto::EgoRotation>,
+    /// Whether tokens, frames and trajectories are kept for the accessors.
+    keeps_history: bool,
 }
 
 impl RgbReceiver {
@@ -195,7 +197,17 @@ impl RgbReceiver {
             frames_seen: 0,
             ego: None,
             ego_at_last_frame: None,
+            keeps_history: true,
         })
+    }
+
+    /// The same receiver keeping no history: [`Self::tokens`], [`Self::frames`] and
+    /// [`Self::trajectories`] stay empty, while each frame's outcome still carries what it
+    /// made (a node's receiver: its memory stays flat however long the session).
+    #[must_use]
+    pub fn without_history(mut self) -> Self {
+        self.keeps_history = false;
+        self
     }
 
     /// The paper's receiver.
@@ -436,6 +448,9 @@ impl RgbReceiver {
                 TokenCause::Classified(_)
                 | TokenCause::Rejected(_)
                 | TokenCause::Overlong { .. } => {
+                    if !self.keeps_history {
+                        continue;
+                    }
                     self.trajectories.push(RgbSymbolTrajectory {
                         token: t.token,
                         cause: t.cause,
@@ -447,8 +462,10 @@ impl RgbReceiver {
                 TokenCause::Interrupted(_) | TokenCause::External => {}
             }
         }
-        self.tokens.extend(step.tokens.iter().copied());
-        self.frames.extend(step.frames.iter().cloned());
+        if self.keeps_history {
+            self.tokens.extend(step.tokens.iter().copied());
+            self.frames.extend(step.frames.iter().cloned());
+        }
         out.step.tokens.extend(step.tokens);
         out.step.frames.extend(step.frames);
     }
