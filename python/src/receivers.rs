@@ -51,6 +51,11 @@ impl Setup {
     }
 }
 
+/// A frame check named as the command line names it.
+fn frame_check(check: &str) -> PyResult<proto::FrameCheck> {
+    check.parse().map_err(|why: String| bad_arg("check", why))
+}
+
 /// Perception built a chain of another modality: a bug here, not the caller's.
 fn wrong_chain(chain: &Perception) -> PyErr {
     pyo3::exceptions::PyRuntimeError::new_err(format!(
@@ -140,6 +145,13 @@ impl PyEventReceiver {
     fn set_ego_rotation(&mut self, rotation: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
         self.receiver
             .set_ego_rotation(camera::ego_rotation(rotation)?);
+        Ok(())
+    }
+
+    /// The check the session's frames carry (`none`, `parity`, `crc3`), from the next packet on:
+    /// a full-length frame is released only when its check agrees.
+    fn set_frame_check(&mut self, check: &str) -> PyResult<()> {
+        self.receiver.set_frame_check(frame_check(check)?);
         Ok(())
     }
 
@@ -300,6 +312,13 @@ impl PyRgbReceiver {
     fn set_ego_rotation(&mut self, rotation: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
         self.receiver
             .set_ego_rotation(camera::ego_rotation(rotation)?);
+        Ok(())
+    }
+
+    /// The check the session's frames carry (`none`, `parity`, `crc3`), from the next frame on:
+    /// a full-length frame is released only when its check agrees.
+    fn set_frame_check(&mut self, check: &str) -> PyResult<()> {
+        self.receiver.set_frame_check(frame_check(check)?);
         Ok(())
     }
 

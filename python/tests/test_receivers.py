@@ -273,6 +273,15 @@ class EventReceiverTest(unittest.TestCase):
         chosen, start, end, seq = next(packets(self.STREAM, 1))
         self.assertIsNone(receiver.push(chosen, start, end, seq).rejected)
 
+    def test_a_frame_check_is_set_by_name_and_a_wrong_name_is_refused(self):
+        for receiver in (EventReceiver(), RgbReceiver()):
+            for name in ("none", "parity", "crc3"):
+                self.assertIsNone(receiver.set_frame_check(name))
+            for bad in ("CRC3", "crc", ""):
+                with self.subTest(receiver=type(receiver).__name__, bad=bad):
+                    with self.assertRaisesRegex(WaggleError, r"^check: frame_check = "):
+                        receiver.set_frame_check(bad)
+
     def test_bad_construction_and_push_arguments_are_named(self):
         cases = [
             ("rectification", lambda: EventReceiver(rectification="sideways")),

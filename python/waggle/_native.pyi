@@ -130,6 +130,10 @@ class EventReceiver:
         """How far the airframe has turned from its home attitude, undone on the target's track
         from the next packet on; ``None``: not turned. Raises :class:`WaggleError` for anything
         but a finite 3×3 rotation."""
+    def set_frame_check(self, check: str) -> None:
+        """The check the session's frames carry (``"none"``, the default, ``"parity"`` or
+        ``"crc3"``), from the next packet on: a full-length frame is released only when its
+        check agrees. Raises :class:`WaggleError` naming ``check`` for any other name."""
     def reset(self) -> None:
         """A new round or reception window: forgets target, partial frame and stream
         continuity."""
@@ -169,6 +173,8 @@ class RgbReceiver:
         incomplete frame."""
     def set_ego_rotation(self, rotation: Optional[_Rotation]) -> None:
         """As :meth:`EventReceiver.set_ego_rotation`, from the next frame on."""
+    def set_frame_check(self, check: str) -> None:
+        """As :meth:`EventReceiver.set_frame_check`, from the next frame on."""
     def reset(self) -> None:
         """A new round or reception window: forgets target, partial frame and stream
         continuity."""
