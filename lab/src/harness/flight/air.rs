@@ -28,22 +28,14 @@ pub fn set_air(world: &mut World, p: &Perturbation, seed: u64) -> Result<bool> {
     Ok(wind.is_some() || cascade.is_some())
 }
 
-/// How closely a drone followed its reference over a flight (true position against the
-/// reference, every physics step).
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
-pub struct Tracking {
-    pub rms_m: f64,
-    pub max_m: f64,
-}
+pub use run_format::trial_record::Tracking;
 
-impl Tracking {
-    /// Drone `i`'s tracking so far.
-    pub fn of(world: &World, i: DroneIndex) -> Self {
-        let t = world.tracking_error(i);
-        Self {
-            rms_m: t.rms_m,
-            max_m: t.max_m,
-        }
+/// Drone `i`'s tracking so far.
+pub fn tracking_of(world: &World, i: DroneIndex) -> Tracking {
+    let t = world.tracking_error(i);
+    Tracking {
+        rms_m: t.rms_m,
+        max_m: t.max_m,
     }
 }
 

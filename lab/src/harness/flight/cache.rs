@@ -33,7 +33,7 @@ use crate::harness::flight::rendered::{
     FlightSpec, RenderTrack, RenderedFlight, Update, fly_rendered,
 };
 use crate::harness::link::ObserverOut;
-use crate::harness::runs::records::Provenance;
+use crate::harness::runs::records::{Provenance, provenance_here};
 
 /// The first bytes of an entry (format version 1).
 const MAGIC: &[u8; 8] = b"WGLRNDR1";
@@ -121,7 +121,7 @@ impl RenderCache {
     ///
     /// When this binary's provenance cannot be computed.
     pub fn key(spec: &FlightSpec) -> Result<String> {
-        let p = Provenance::here(spec.render)?;
+        let p = provenance_here(spec.render)?;
         let mut h = Sha256::new();
         for part in [
             FORMAT,
@@ -250,7 +250,7 @@ fn encode(flight: &RenderedFlight, key: &str) -> Result<Vec<u8>> {
         format: FORMAT.into(),
         key: key.into(),
         spec: format!("{:?}", flight.spec),
-        provenance: Provenance::here(flight.spec.render)?,
+        provenance: provenance_here(flight.spec.render)?,
         ideal: flight.ideal.clone(),
         sim_ns: flight.sim_ns,
         performer_max_tracking_error_m: flight.performer_max_tracking_error_m,

@@ -24,7 +24,7 @@ use rand_distr::{Distribution, Normal};
 use sim::render::CameraRenderer;
 use sim::world::World;
 
-use crate::harness::flight::air::Tracking;
+use crate::harness::flight::air::{Tracking, tracking_of};
 use crate::harness::flight::performer::step_along;
 use crate::harness::link::{IDEAL_PERIOD_NS, ObserverOut, observer_out};
 
@@ -292,7 +292,7 @@ pub fn fly_streamed(
         ideal,
         sim_ns: world.time_ns(),
         performer_max_tracking_error_m: max_err_m,
-        performer_tracking: Tracking::of(&world, PERFORMER),
+        performer_tracking: tracking_of(&world, PERFORMER),
         contact_steps: world.contact_stats().contact_steps,
     }))
 }

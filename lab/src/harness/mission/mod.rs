@@ -38,7 +38,7 @@ use sim::lockstep::{TickReferences, mirror, sim_state};
 use sim::render::CameraRenderer;
 use sim::world::World;
 
-use crate::harness::flight::air::{Tracking, set_air};
+use crate::harness::flight::air::{set_air, tracking_of};
 use crate::harness::mission::metrics::{MissionMetrics, measure};
 use crate::harness::mission::observer::MissionObserver;
 use commands::Policy;
@@ -97,7 +97,7 @@ pub fn fly_case_with(
     };
     let mut metrics = measure(&mission.scheduler, opts.policy, mission.world.time_ns());
     if mission.air {
-        metrics.performer_tracking = Some(Tracking::of(&mission.world, 0));
+        metrics.performer_tracking = Some(tracking_of(&mission.world, 0));
     }
     let summary = mission.summarise(case, modality, end_reason, started);
     let names: Vec<String> = mission.observers.iter().map(|o| o.name.clone()).collect();

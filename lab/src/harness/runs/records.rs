@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use anyhow::{Context, Result, bail};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use sha2::{Digest, Sha256};
 
 use proto::RenderPath;
@@ -27,39 +27,21 @@ pub const RECORDS_DIR: &str = "trials";
 pub const HEADER_FILE: &str = "point.json";
 /// What a run directory is a run of (`waggle study` or `waggle trials`, shard, definition).
 pub const MANIFEST_FILE: &str = "run.json";
-/// The format tag of a record file.
-const RECORD_FORMAT: &str = "waggle-trial-1";
+pub use run_format::trial_record::{Provenance, Recordable};
 
-/// Which binary on which host made a record, with which renderer. MuJoCo's renderer is
-/// llvmpipe on the CPU, whose results may depend on Mesa's version and the CPU's instruction
-/// set; Waggle's renderer is named by its identifier, whose bytes depend on neither; the version
-/// decides everything else.
-#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-pub struct Provenance {
-    /// The package version and the first 16 hex digits of the executable's SHA-256.
-    pub version: String,
-    /// `model name` from /proc/cpuinfo.
-    pub cpu: String,
-    /// The cameras' renderer: Waggle's (`waggle-raster/N`), or MuJoCo's render path on EGL
-    /// through Mesa (its package version and any driver override).
-    pub renderer: String,
-}
-
-impl Provenance {
-    /// This process's provenance for cameras rendered by `render` (the binary's digest is
-    /// computed once: hashing the executable takes ≈ 0.1 s).
-    pub fn here(render: RenderPath) -> Result<Self> {
-        static HERE: OnceLock<std::result::Result<(String, String), String>> = OnceLock::new();
-        let (version, cpu) = HERE
-            .get_or_init(|| Ok((binary_version().map_err(|e| format!("{e:#}"))?, cpu_model())))
-            .as_ref()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        Ok(Self {
-            version: version.clone(),
-            cpu: cpu.clone(),
-            renderer: renderer(render),
-        })
-    }
+/// This process's provenance for cameras rendered by `render` (the binary's digest is computed
+/// once: hashing the executable takes ≈ 0.1 s).
+pub fn provenance_here(render: RenderPath) -> Result<Provenance> {
+    static HERE: OnceLock<std::result::Result<(String, String), String>> = OnceLock::new();
+    let (version, cpu) = HERE
+        .get_or_init(|| Ok((binary_version().map_err(|e| format!("{e:#}"))?, cpu_model())))
+        .as_ref()
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok(Provenance {
+        version: version.clone(),
+        cpu: cpu.clone(),
+        renderer: renderer(render),
+    })
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -127,41 +109,6 @@ fn renderer(render: RenderPath) -> String {
     format!("MuJoCo {render}, {stack}")
 }
 
-/// A trial's outcome as a record holds it: a link trial ([`TrialRecord`]) or a whole mission
-/// ([`crate::harness::mission::trials::MissionTrial`]).
-pub trait Recordable: Serialize + serde::de::DeserializeOwned + Clone {
-    /// Its index in the run.
-    fn record_index(&self) -> u64;
-}
-
-impl Recordable for TrialRecord {
-    fn record_index(&self) -> u64 {
-        self.index
-    }
-}
-
-/// What a record file's checksum covers.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-struct Body<R> {
-    format: String,
-    point: String,
-    index: u64,
-    provenance: Provenance,
-    record: R,
-}
-
-#[derive(Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct StoredTrial<R> {
-    body: Body<R>,
-    sha256: String,
-}
-
-fn checksum<R: Serialize>(body: &Body<R>) -> Result<String> {
-    Ok(hex(&Sha256::digest(serde_json::to_vec(body)?)))
-}
-
 /// `dir/trials/NNNNNN.json`.
 pub fn record_path(point_dir: &Path, index: u64) -> PathBuf {
     point_dir.join(RECORDS_DIR).join(format!("{index:06}.json"))
@@ -212,21 +159,8 @@ pub fn write_record<R: Recordable>(
     render: RenderPath,
     record: &R,
 ) -> Result<()> {
-    let body = Body {
-        format: RECORD_FORMAT.into(),
-        point: point.into(),
-        index: record.record_index(),
-        provenance: Provenance::here(render)?,
-        record: record.clone(),
-    };
-    let stored = StoredTrial {
-        sha256: checksum(&body)?,
-        body,
-    };
-    write_atomic(
-        &record_path(point_dir, record.record_index()),
-        &serde_json::to_vec(&stored)?,
-    )
+    let bytes = run_format::trial_record::encode(point, provenance_here(render)?, record)?;
+    write_atomic(&record_path(point_dir, record.record_index()), &bytes)
 }
 
 /// A point's recorded trials, read and checked.
@@ -254,27 +188,7 @@ fn read_record<R: Recordable>(
     index: u64,
 ) -> Result<(R, Provenance), String> {
     let bytes = std::fs::read(path).map_err(|e| format!("unreadable: {e}"))?;
-    let stored: StoredTrial<R> =
-        serde_json::from_slice(&bytes).map_err(|e| format!("not a trial record: {e}"))?;
-    let sum = checksum(&stored.body).map_err(|e| e.to_string())?;
-    if sum != stored.sha256 {
-        return Err(format!(
-            "checksum mismatch (recorded {}, content {sum})",
-            stored.sha256
-        ));
-    }
-    let b = stored.body;
-    if b.format != RECORD_FORMAT
-        || b.point != point
-        || b.index != index
-        || b.record.record_index() != index
-    {
-        return Err(format!(
-            "holds trial {} of {:?} (format {}), not trial {index} of {point:?}",
-            b.index, b.point, b.format
-        ));
-    }
-    Ok((b.record, b.provenance))
+    run_format::trial_record::parse(&bytes, point, index).map_err(|e| e.to_string())
 }
 
 /// Reads every record of `point` in `point_dir` (trials `0..requested`); anything else in the
@@ -324,7 +238,7 @@ pub fn recorded<R: Recordable>(
         eprintln!("damaged record {}: {why}; running it again", path.display());
         set_aside(path)?;
     }
-    let here = Provenance::here(render)?;
+    let here = provenance_here(render)?;
     if let Some((i, (_, p))) = found
         .records
         .iter()

@@ -5,85 +5,11 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::harness::flight::air::Tracking;
 use crate::harness::trials::pool::{Outcome, Tally};
 
-/// How one observer's token stamps compare with the ideal receiver's on the same flight.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct TokenTiming {
-    /// Ideal tokens matched by a token of the same kind within ±1 s.
-    pub matched: usize,
-    /// Ideal tokens without a match.
-    pub missed: usize,
-    /// Tokens that matched no ideal token.
-    pub extra: usize,
-    pub mean_abs_error_ms: Option<f64>,
-    pub max_abs_error_ms: Option<f64>,
-}
-
-/// One observer in one trial.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct ObserverTrial {
-    /// Released payloads, six-bit strings, in release order.
-    pub released: Vec<String>,
-    pub success: bool,
-    /// Per released frame: when its final NULL was confirmed (plus any link delay), sim s.
-    pub release_s: Vec<f64>,
-    pub tokens: usize,
-    pub token_timing: TokenTiming,
-    /// Per released frame: its release (final NULL confirmed, plus any link delay) after the
-    /// start of that offer's final NULL in the schedule, s.
-    pub latency_s: Vec<f64>,
-    /// Per released frame: its release after the ideal receiver's release of the same offer, s
-    /// (`null` when the ideal receiver did not release it).
-    pub vs_ideal_s: Vec<Option<f64>>,
-    /// Sensor messages (frames or packets) the camera produced, and how many the link lost.
-    pub messages: u64,
-    pub messages_lost: u64,
-    /// Event cameras: events the receiver got, and how many its noise front end removed.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub events_received: Option<u64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub events_removed: Option<u64>,
-    /// Of the events the noise front end kept, how many the ego-motion front end removed
-    /// (absent while the observer's airframe never turned).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub events_removed_ego: Option<u64>,
-}
-
-/// One trial.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct TrialRecord {
-    pub index: u64,
-    pub seed: u64,
-    /// Every observer succeeded and, on a trial's own flight, no drone touched another.
-    pub success: bool,
-    pub observers: BTreeMap<String, ObserverTrial>,
-    /// A trial that flew its own flight (wind, cascade, gusts, placement): how it flew.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub flight: Option<TrialFlight>,
-    /// A plug-in receiver that failed this trial (raised, returned malformed output, died or
-    /// ran past the time limit): then no observer's result counts.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub plugin_failure: Option<PluginFailure>,
-}
-
-/// How a plug-in receiver failed a trial.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct PluginFailure {
-    /// `failed`, or `timed-out` (a wall clock decided it: the run is not reproducible).
-    pub outcome: String,
-    pub reason: String,
-}
-
-/// How a trial's own flight went.
-#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
-pub struct TrialFlight {
-    /// The performer against its reference, every physics step.
-    pub performer_tracking: Tracking,
-    /// Physics steps with a contact between drones (any fails the trial).
-    pub contact_steps: u64,
-}
+pub use run_format::trial_record::{
+    ObserverTrial, PluginFailure, TokenTiming, TrialFlight, TrialRecord,
+};
 
 impl Outcome for TrialRecord {
     fn index(&self) -> u64 {
