@@ -1,6 +1,7 @@
 //! Fuzz targets: one function per parser of bytes that come from outside a Waggle process —
 //! bus messages, event-camera files, recordings, ROS 2 bags and messages, calibration and case
-//! files, a receiver plug-in's replies. Each takes the fuzzer's bytes, hands them to the real
+//! files, a receiver plug-in's replies, an institution's CA certificate and key, the lab's
+//! per-trial records. Each takes the fuzzer's bytes, hands them to the real
 //! parser and checks what it can beyond "no panic": a decoded value re-encodes to the same bytes
 //! or decodes again to the same value, and a refusal is an error, never a panic or an allocation
 //! sized by a length field.
@@ -13,14 +14,18 @@
 pub mod events;
 pub mod recorded;
 pub mod ros2;
+pub mod runs;
 pub mod seeds;
 pub mod text;
+pub mod tls;
 pub mod wire;
 
 pub use events::{aedat4, dat, event_writers, evt2, evt3};
 pub use recorded::recording;
 pub use ros2::{ros2_bag, ros2_cdr};
+pub use runs::trial_record;
 pub use text::{calibration, case_toml, plugin_reply};
+pub use tls::tls_pem;
 pub use wire::{wire_key, wire_message};
 
 /// A fuzz target: the fuzzer's bytes in, a panic on a broken invariant.
@@ -42,4 +47,6 @@ pub const TARGETS: &[(&str, FuzzTarget)] = &[
     ("calibration", calibration),
     ("case_toml", case_toml),
     ("plugin_reply", plugin_reply),
+    ("tls_pem", tls_pem),
+    ("trial_record", trial_record),
 ];

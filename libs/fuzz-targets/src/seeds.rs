@@ -1,6 +1,6 @@
 //! Seed corpora made with Waggle's own writers: every seed is bytes Waggle itself produces (the
-//! wire encoder, the event-file writers, the recorder, the bag writer) or a case file of the
-//! repository, never a third party's data. `examples/write_seeds.rs` writes them to
+//! wire encoder, the event-file writers, the recorder, the bag writer, the session certificate
+//! issuer) or a case file of the repository, never a third party's data. `examples/write_seeds.rs` writes them to
 //! `fuzz/corpus/<target>/`.
 
 use std::collections::BTreeMap;
@@ -31,6 +31,8 @@ pub enum SeedError {
     Bag(#[from] Ros2Error),
     #[error("writing a seed event file: {0}")]
     Events(String),
+    #[error("making a seed certificate: {0}")]
+    Certificate(String),
 }
 
 /// One seed: its target, a file name, its bytes.
@@ -269,6 +271,130 @@ fn text_seeds(out: &mut Vec<SeedFile>, root: &Path) -> Result<(), SeedError> {
     Ok(())
 }
 
+/// `cert`, a NUL byte, `key`: the input of `tls_pem`.
+fn cert_and_key(cert: &str, key: &str) -> Vec<u8> {
+    let mut out = cert.as_bytes().to_vec();
+    out.push(0);
+    out.extend_from_slice(key.as_bytes());
+    out
+}
+
+/// An institution's CA made as `libs/bus`'s tests make one (a self-signed CA certificate and
+/// its key), and a session's certificates issued by Waggle's own issuer: a leaf (no CA) with its
+/// key, and the CA with the leaf's key.
+fn tls_seeds(out: &mut Vec<SeedFile>) -> Result<(), SeedError> {
+    let err = |e: &dyn std::fmt::Display| SeedError::Certificate(e.to_string());
+    let key = rcgen::KeyPair::generate().map_err(|e| err(&e))?;
+    let mut params = rcgen::CertificateParams::new(Vec::<String>::new()).map_err(|e| err(&e))?;
+    params.is_ca = rcgen::IsCa::Ca(rcgen::BasicConstraints::Unconstrained);
+    params
+        .distinguished_name
+        .push(rcgen::DnType::CommonName, "Example University robotics CA");
+    let ca = params.self_signed(&key).map_err(|e| err(&e))?;
+    let pair = cert_and_key(&ca.pem(), &key.serialize_pem());
+    out.push(("tls_pem", "institution-ca".into(), pair));
+    let mut files = BTreeMap::new();
+    bus::tls::issue(
+        "seed",
+        &["sim".to_owned()],
+        std::time::Duration::from_secs(3600),
+        None,
+        |path, text| {
+            files.insert(
+                path.file_name().map(|n| n.to_string_lossy().into_owned()),
+                text.to_owned(),
+            );
+            Ok(())
+        },
+        Path::new("/seed"),
+    )
+    .map_err(|e| err(&e))?;
+    let file = |name: &str| {
+        files
+            .get(&Some(name.to_owned()))
+            .cloned()
+            .unwrap_or_default()
+    };
+    let (leaf, leaf_key) = (file("sim.cert.pem"), file("sim.key.pem"));
+    out.push((
+        "tls_pem",
+        "session-leaf".into(),
+        cert_and_key(&leaf, &leaf_key),
+    ));
+    let other = cert_and_key(&ca.pem(), &leaf_key);
+    out.push(("tls_pem", "ca-with-another-key".into(), other));
+    Ok(())
+}
+
+/// Record files of two link trials, written by the lab's own record encoder: one observer
+/// that released the broadcast, and two on a flight of their own with a plug-in's failure.
+fn trial_record_seeds(out: &mut Vec<SeedFile>) -> Result<(), SeedError> {
+    use run_format::trial_record::{
+        ObserverTrial, PluginFailure, Provenance, TokenTiming, Tracking, TrialFlight, TrialRecord,
+        encode,
+    };
+    let observer = |events: Option<u64>| ObserverTrial {
+        released: vec!["011010".into()],
+        success: true,
+        release_s: vec![12.48],
+        tokens: 14,
+        token_timing: TokenTiming {
+            matched: 14,
+            missed: 0,
+            extra: 1,
+            mean_abs_error_ms: Some(13.5),
+            max_abs_error_ms: Some(40.0),
+        },
+        latency_s: vec![0.52],
+        vs_ideal_s: vec![Some(0.04), None],
+        messages: 312,
+        messages_lost: 3,
+        events_received: events,
+        events_removed: events.map(|n| n / 10),
+        events_removed_ego: None,
+    };
+    let provenance = Provenance {
+        version: "0.1.0 sha256:0123456789abcdef".into(),
+        cpu: "seed CPU".into(),
+        renderer: "waggle-raster/1".into(),
+    };
+    let one = TrialRecord {
+        index: 0,
+        seed: 0x1234_5678_9abc_def0,
+        success: true,
+        observers: [("O1".to_owned(), observer(None))].into(),
+        flight: None,
+        plugin_failure: None,
+    };
+    let two = TrialRecord {
+        index: 7,
+        seed: 7,
+        success: false,
+        observers: [
+            ("O1".to_owned(), observer(Some(41_000))),
+            ("O2".to_owned(), observer(None)),
+        ]
+        .into(),
+        flight: Some(TrialFlight {
+            performer_tracking: Tracking {
+                rms_m: 0.021,
+                max_m: 0.08,
+            },
+            contact_steps: 0,
+        }),
+        plugin_failure: Some(PluginFailure {
+            outcome: "failed".into(),
+            reason: "ValueError: bad frame".into(),
+        }),
+    };
+    for (name, point, record) in [("rgb", "rgb-0.5", one), ("events", "events-wind-0.25", two)] {
+        let bytes = encode(point, provenance.clone(), &record)
+            .map_err(|e| io("trial_record", name, std::io::Error::other(e)))?;
+        out.push(("trial_record", name.into(), bytes));
+    }
+    Ok(())
+}
+
 /// Every target's seeds; `root` is the repository (for its example case file), `scratch` a
 /// directory where the bag writer may create a bag.
 pub fn seeds(root: &Path, scratch: &Path) -> Result<Vec<SeedFile>, SeedError> {
@@ -278,5 +404,7 @@ pub fn seeds(root: &Path, scratch: &Path) -> Result<Vec<SeedFile>, SeedError> {
     recording_seed(&mut out)?;
     ros2_seeds(&mut out, scratch)?;
     text_seeds(&mut out, root)?;
+    tls_seeds(&mut out)?;
+    trial_record_seeds(&mut out)?;
     Ok(out)
 }

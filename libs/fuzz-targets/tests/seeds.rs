@@ -57,6 +57,35 @@ fn every_seed_is_accepted_by_its_parser() {
             "wire_key" => {
                 assert!(proto::Key::parse_rest(std::str::from_utf8(bytes).unwrap()).is_some());
             }
+            "trial_record" => {
+                use run_format::trial_record::{TrialRecord, decode, parse};
+                let stored = decode::<TrialRecord>(bytes).unwrap();
+                let (point, index) = (stored.body.point.clone(), stored.body.index);
+                parse::<TrialRecord>(bytes, &point, index).unwrap();
+            }
+            "tls_pem" => {
+                let at = bytes.iter().position(|&b| b == 0).unwrap();
+                let cert = std::str::from_utf8(&bytes[..at]).unwrap().to_owned();
+                let key = std::str::from_utf8(&bytes[at + 1..]).unwrap().to_owned();
+                let paths = (Path::new("ca.crt"), Path::new("ca.key"));
+                let now = fuzz_targets::tls::NOW_UNIX_S;
+                let got = bus::tls::ExistingCa::from_pem(cert, key, paths, now);
+                match name.as_str() {
+                    "institution-ca" => assert!(got.is_ok(), "{what}: {got:?}"),
+                    "session-leaf" => assert!(
+                        got.unwrap_err()
+                            .to_string()
+                            .contains("not a CA certificate"),
+                        "{what}"
+                    ),
+                    _ => assert!(
+                        got.unwrap_err()
+                            .to_string()
+                            .contains("not the key of the CA"),
+                        "{what}"
+                    ),
+                }
+            }
             _ => {}
         }
     }
