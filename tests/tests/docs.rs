@@ -201,13 +201,13 @@ const FORMATS: &[(&str, &str, &str, &str)] = &[
         "Study file",
         "A link study: `waggle study FILE` (built-in ones in `deploy/studies/`; \
       `waggle study NAME --print` shows one).",
-        "lab/src/harness/study/mod.rs",
+        "libs/run-format/src/study_file.rs",
         "StudyFile",
     ),
     (
         "Study file: `[[vary]]`",
         "One condition and its levels.",
-        "lab/src/harness/study/vary.rs",
+        "libs/run-format/src/study_file.rs",
         "Vary",
     ),
     (

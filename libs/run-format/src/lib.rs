@@ -6,15 +6,19 @@
 //!   observers' records (`observers.json`), the session record (`session.json`), the sweep
 //!   manifest (`sweep.json`), the audit report and the run lock. One set of serde structs is
 //!   shared by the writer (the launcher) and every reader; the JSON layout is the on-disk format.
+//! - [`study_file`]: link study files — their fields, parse and the checks that need neither
+//!   simulator nor file system ([`study`] holds the built-in ones' texts).
 //! - [`trial_record`]: the lab's per-trial record files (`<point>/trials/NNNNNN.json`), their
 //!   checksum and the checks a resumed or merged run makes of them.
 //!
 //! Errors are typed ([`case::CaseError`], [`run_dir::RunDirError`], [`run_dir::lock::LockError`],
-//! [`trial_record::RecordError`]) and name the file or field at fault.
+//! [`study_file::StudyFileError`], [`trial_record::RecordError`]) and name the file or field at
+//! fault.
 
 #![forbid(unsafe_code)]
 
 pub mod case;
 pub mod run_dir;
 pub mod study;
+pub mod study_file;
 pub mod trial_record;

@@ -22,7 +22,7 @@ use crate::harness::runs::records::{write_atomic, write_json};
 use crate::harness::runs::shard::Shard;
 use crate::harness::study::report::{cost_md, figure, marginals, report};
 use crate::harness::study::run::header;
-use crate::harness::study::{Point, PointResult, StudyFile, figure_name};
+use crate::harness::study::{Point, PointResult, StudyFile, StudyPlan, figure_name};
 use crate::harness::trials::{ObserverTrial, TrialRecord, TrialsHeader, TrialsOut};
 
 /// What a merge made.

@@ -100,63 +100,7 @@ impl Study {
     }
 }
 
-/// The only criterion of a link study: every observer releases exactly the broadcast.
-const EXACT_PAYLOADS: &str = "exact-payloads";
-
-/// A study file.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct StudyFile {
-    /// The study's name, as its report gives it.
-    pub name: String,
-    /// The cameras each point runs with: `rgb`, `events`.
-    pub modalities: Vec<Modality>,
-    /// The broadcast payloads, six bits each (`011010`).
-    pub link: Vec<String>,
-    /// Observers in the standard formation (default 1).
-    #[serde(default)]
-    pub observers: Option<usize>,
-    /// One observer placed at `[azimuth°, elevation°, distance m]` instead of the formation.
-    #[serde(default)]
-    pub viewpoint: Option<[f64; 3]>,
-    /// Seeded trials per point.
-    pub trials: u64,
-    /// The study's base seed; each trial's seed derives from it (default 0).
-    #[serde(default)]
-    pub seed: u64,
-    /// What a successful trial is: only `exact-payloads` (every observer releases exactly the
-    /// broadcast).
-    pub criterion: String,
-    /// A named sensor preset (`perturb::preset`) every point starts from, under `fixed`.
-    #[serde(default)]
-    pub sensor_preset: Option<String>,
-    /// Perturbation terms every point holds (`{ "wind.intensity" = 0.25 }`).
-    #[serde(default)]
-    pub fixed: BTreeMap<String, f64>,
-    /// A real recording's background over every point's event sensor (as `waggle trials
-    /// --real-noise`: a path or `PACKAGE/FILE`; RGB points are not affected).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub real_noise: Option<String>,
-    /// Its static stretch, `[start_s, end_s]` from its first event (default: isolated events).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub real_noise_static: Option<[f64; 2]>,
-    /// The receivers' viewpoint rectification: `off`, `pitched` (default) or `frontal`.
-    #[serde(default)]
-    pub rectify: Option<String>,
-    /// Cross the conditions: a point for every combination of their levels (otherwise each is
-    /// varied alone).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub cross: bool,
-    /// The receivers each modality's points run with: `waggle` (Waggle's own, the default) and
-    /// plug-ins `python:MODULE:CLASS`, all on the same flights and seeds.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub receivers: Vec<String>,
-    /// Wall-clock limit of one trial of a plug-in receiver, seconds (default 600).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub plugin_time_limit_s: Option<f64>,
-    /// The conditions: each a term (or viewpoint axis) and its levels.
-    pub vary: Vec<Vary>,
-}
+pub use run_format::study_file::StudyFile;
 
 /// One point: a modality (and receiver) at one level of one condition.
 #[derive(Debug, Clone)]
@@ -224,9 +168,20 @@ const VIEWPOINT_AXES: [&str; 3] = [
     "viewpoint.distance_m",
 ];
 
-impl StudyFile {
+/// What the lab makes of a study file: it loads one, and turns it into points with their
+/// perturbations, formations and receivers (the checks that need the simulator's terms, a
+/// real-noise file or a plug-in's name).
+pub trait StudyPlan: Sized {
     /// Reads a link study from a built-in name or a file path, checking every field.
-    pub fn load(name_or_path: &str) -> Result<Self> {
+    fn load(name_or_path: &str) -> Result<Self>;
+    /// The series of the study's points, in report order: each modality, with each receiver.
+    fn series(&self) -> Vec<String>;
+    /// Every point of the study, checked, in the study's order (condition, level, modality).
+    fn points(&self, render: RenderPath, jobs: usize) -> Result<Vec<Point>>;
+}
+
+impl StudyPlan for StudyFile {
+    fn load(name_or_path: &str) -> Result<Self> {
         let (text, origin) = study_text(name_or_path)?;
         let study: Self =
             toml::from_str(&text).with_context(|| format!("{origin}: not a valid study"))?;
@@ -236,118 +191,16 @@ impl StudyFile {
         Ok(study)
     }
 
-    fn formation(&self, axes: &[(&str, f64)]) -> Result<Formation> {
-        match (self.observers, self.viewpoint) {
-            (Some(_), Some(_)) => bail!("give either observers or viewpoint, not both"),
-            (Some(n), None) => {
-                if let Some((key, _)) = axes.first() {
-                    bail!("vary.key {key} needs viewpoint = [az, el, dist]");
-                }
-                Formation::standard(n)
-                    .map_err(|_| anyhow::anyhow!("observers = {n} is outside 1..=8"))
-            }
-            (None, Some(mut v)) => {
-                for (key, level) in axes {
-                    let k = VIEWPOINT_AXES.iter().position(|a| a == key).unwrap_or(0);
-                    v[k] = *level;
-                }
-                let what = axes.iter().map(|a| a.0).collect::<Vec<_>>().join(", ");
-                let p: Placement = parse_viewpoint(&format!("{},{},{}", v[0], v[1], v[2]))
-                    .map_err(|e| {
-                        anyhow::anyhow!(
-                            "{}: {e}",
-                            if what.is_empty() { "viewpoint" } else { &what }
-                        )
-                    })?;
-                Ok(Formation::custom(vec![p])?)
-            }
-            (None, None) => bail!("give observers = N or viewpoint = [az, el, dist]"),
-        }
-    }
-
-    /// The settings the study runs, each a list of (key, level): one per level of each
-    /// condition, or with `cross`, every combination of the conditions' levels (the first
-    /// condition outermost).
-    fn settings(&self) -> Vec<Vec<(&str, f64)>> {
-        if !self.cross {
-            return self
-                .vary
-                .iter()
-                .flat_map(|v| v.levels.iter().map(|&l| vec![(v.key.as_str(), l)]))
-                .collect();
-        }
-        let mut all: Vec<Vec<(&str, f64)>> = vec![Vec::new()];
-        for v in &self.vary {
-            all = all
-                .into_iter()
-                .flat_map(|prefix| {
-                    v.levels.iter().map(move |&l| {
-                        let mut s = prefix.clone();
-                        s.push((v.key.as_str(), l));
-                        s
-                    })
-                })
-                .collect();
-        }
-        all
-    }
-
-    /// The receivers of each modality's points: `None` is Waggle's own.
-    fn receivers(&self) -> Result<Vec<Option<PluginSpec>>> {
-        if self.receivers.is_empty() {
-            return Ok(vec![None]);
-        }
-        let mut out = Vec::new();
-        for r in &self.receivers {
-            let receiver = match r.as_str() {
-                "waggle" => None,
-                _ => Some(r.parse::<PluginSpec>().context("receivers")?),
-            };
-            if out.contains(&receiver) {
-                bail!("receivers: {r} is listed twice");
-            }
-            out.push(receiver);
-        }
-        Ok(out)
-    }
-
-    /// How long one trial of a plug-in receiver may take.
-    fn trial_limit(&self) -> Result<std::time::Duration> {
-        match self.plugin_time_limit_s {
-            None => Ok(std::time::Duration::from_secs(600)),
-            Some(s) if s.is_finite() && s > 0.0 && s <= 86_400.0 => {
-                Ok(std::time::Duration::from_secs_f64(s))
-            }
-            Some(s) => bail!("plugin_time_limit_s = {s}: give 0 < seconds ≤ 86400"),
-        }
-    }
-
-    /// The series of the study's points, in report order: each modality, with each receiver.
-    pub fn series(&self) -> Vec<String> {
-        let receivers = self.receivers().unwrap_or_default();
+    fn series(&self) -> Vec<String> {
+        let receivers = receivers(self).unwrap_or_default();
         self.modalities
             .iter()
             .flat_map(|&m| receivers.iter().map(move |r| series_label(m, r.as_ref())))
             .collect()
     }
 
-    /// Every point of the study, checked, in the study's order (condition, level, modality).
-    pub fn points(&self, render: RenderPath, jobs: usize) -> Result<Vec<Point>> {
-        if self.criterion != EXACT_PAYLOADS {
-            bail!(
-                "criterion {:?}: the only link criterion is {EXACT_PAYLOADS:?}",
-                self.criterion
-            );
-        }
-        if self.trials == 0 {
-            bail!("trials must be at least 1");
-        }
-        if self.modalities.is_empty()
-            || self.vary.is_empty()
-            || self.vary.iter().any(|v| v.levels.is_empty())
-        {
-            bail!("modalities, vary and every vary.levels must not be empty");
-        }
+    fn points(&self, render: RenderPath, jobs: usize) -> Result<Vec<Point>> {
+        self.check_shape()?;
         let payloads = self
             .link
             .iter()
@@ -373,16 +226,8 @@ impl StudyFile {
                 .map_err(|e| anyhow::anyhow!("rectify {r:?}: {e}"))?,
             None => Rectification::default(),
         };
-        if self.cross
-            && self
-                .vary
-                .iter()
-                .enumerate()
-                .any(|(i, v)| self.vary[..i].iter().any(|w| w.key == v.key))
-        {
-            bail!("cross: every vary.key must be a different condition");
-        }
-        let (receivers, trial_limit) = (self.receivers()?, self.trial_limit()?);
+        self.check_cross()?;
+        let (receivers, trial_limit) = (receivers(self)?, self.trial_limit()?);
         let mut points = Vec::new();
         for setting in self.settings() {
             for (&modality, receiver) in self
@@ -401,7 +246,7 @@ impl StudyFile {
                 }
                 perturbation.check().context("vary")?;
                 perturbation.check_real_noise().context("vary")?;
-                let formation = self.formation(&axes)?;
+                let formation = formation(self, &axes)?;
                 let (key, level) = setting[0];
                 // A plug-in's points sit beside Waggle's, named by its class.
                 let modality_dir = receiver
@@ -456,6 +301,51 @@ impl StudyFile {
         }
         Ok(points)
     }
+}
+
+/// The formation of a point whose viewpoint axes are at `axes`.
+fn formation(study: &StudyFile, axes: &[(&str, f64)]) -> Result<Formation> {
+    match (study.observers, study.viewpoint) {
+        (Some(_), Some(_)) => bail!("give either observers or viewpoint, not both"),
+        (Some(n), None) => {
+            if let Some((key, _)) = axes.first() {
+                bail!("vary.key {key} needs viewpoint = [az, el, dist]");
+            }
+            Formation::standard(n).map_err(|_| anyhow::anyhow!("observers = {n} is outside 1..=8"))
+        }
+        (None, Some(mut v)) => {
+            for (key, level) in axes {
+                let k = VIEWPOINT_AXES.iter().position(|a| a == key).unwrap_or(0);
+                v[k] = *level;
+            }
+            let what = axes.iter().map(|a| a.0).collect::<Vec<_>>().join(", ");
+            let p: Placement =
+                parse_viewpoint(&format!("{},{},{}", v[0], v[1], v[2])).map_err(|e| {
+                    anyhow::anyhow!("{}: {e}", if what.is_empty() { "viewpoint" } else { &what })
+                })?;
+            Ok(Formation::custom(vec![p])?)
+        }
+        (None, None) => bail!("give observers = N or viewpoint = [az, el, dist]"),
+    }
+}
+
+/// The receivers of each modality's points: `None` is Waggle's own.
+fn receivers(study: &StudyFile) -> Result<Vec<Option<PluginSpec>>> {
+    if study.receivers.is_empty() {
+        return Ok(vec![None]);
+    }
+    let mut out = Vec::new();
+    for r in &study.receivers {
+        let receiver = match r.as_str() {
+            "waggle" => None,
+            _ => Some(r.parse::<PluginSpec>().context("receivers")?),
+        };
+        if out.contains(&receiver) {
+            bail!("receivers: {r} is listed twice");
+        }
+        out.push(receiver);
+    }
+    Ok(out)
 }
 
 /// A series' label: the modality, and the plug-in receiver when it is not Waggle's.

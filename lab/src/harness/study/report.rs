@@ -8,7 +8,7 @@ use anyhow::Result;
 use crate::harness::flight::air::PointTracking;
 use crate::harness::runs::files::RunCost;
 use crate::harness::study::figure::{FigurePoint, success_figure};
-use crate::harness::study::{PointResult, StudyFile, Vary, cross_key, figure_name};
+use crate::harness::study::{PointResult, StudyFile, StudyPlan, Vary, cross_key, figure_name};
 
 /// `report.md`: the study's definition and one table per modality.
 #[must_use]

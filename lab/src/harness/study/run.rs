@@ -18,7 +18,7 @@ pub use crate::harness::runs::records::recorded;
 use crate::harness::runs::records::{HEADER_FILE, write_json};
 use crate::harness::runs::records::{read_json, write_record};
 use crate::harness::runs::shard::{Shard, part_of};
-use crate::harness::study::{Point, StudyFile};
+use crate::harness::study::{Point, StudyFile, StudyPlan};
 use crate::harness::trials::{TrialsHeader, TrialsOptions, TrialsRun, run_trials};
 
 /// What a run of a study (or of one shard) did.
