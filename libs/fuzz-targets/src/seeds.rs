@@ -1,6 +1,7 @@
 //! Seed corpora made with Waggle's own writers: every seed is bytes Waggle itself produces (the
 //! wire encoder, the event-file writers, the recorder, the bag writer, the session certificate
-//! issuer) or a case file of the repository, never a third party's data. `examples/write_seeds.rs` writes them to
+//! issuer, the lab's record encoder) or a case or study file of the repository, never a third
+//! party's data. `examples/write_seeds.rs` writes them to
 //! `fuzz/corpus/<target>/`.
 
 use std::collections::BTreeMap;
@@ -252,6 +253,9 @@ fn text_seeds(out: &mut Vec<SeedFile>, root: &Path) -> Result<(), SeedError> {
         let text = run_format::case::case_source(name)
             .map_err(|e| io("case_toml", name, std::io::Error::other(e.to_string())))?;
         out.push(("case_toml", name.into(), text.into_bytes()));
+    }
+    for (name, text) in run_format::study::BUILT_IN {
+        out.push(("study_toml", (*name).into(), text.as_bytes().to_vec()));
     }
     let custom = root.join("examples/custom-case.toml");
     let text = std::fs::read(&custom).map_err(|source| io("case_toml", "custom", source))?;

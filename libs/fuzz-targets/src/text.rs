@@ -1,9 +1,12 @@
-//! Text and framed inputs: camera calibration YAML, case TOML, a receiver plug-in's replies.
+//! Text and framed inputs: camera calibration YAML, case and study TOML, a receiver plug-in's
+//! replies.
 //!
 //! [`calibration`] parses a ROS `camera_info` / OpenCV YAML document; accepted intrinsics must
 //! survive being written as YAML and read again, and the remaps Waggle builds from them (events
 //! and images into the reference camera) must be built. [`case_toml`] checks that a case reads
-//! the same from its TOML as from that TOML printed again. [`plugin_reply`] reads a worker's
+//! the same from its TOML as from that TOML printed again. [`study_toml`] checks the same of a
+//! link study (the lab prints a study into `run.json` and a merge reads it back) and runs the
+//! study file's own checks. [`plugin_reply`] reads a worker's
 //! frame as the plug-in host does and re-frames what it read.
 
 use std::io::Cursor;
@@ -11,6 +14,7 @@ use std::io::Cursor;
 use event_camera::calibration::{EventRemap, ImageRemap, Intrinsics};
 use receiver_plugin::wire::{MAX_REPLY_BYTES, encode, read_reply};
 use run_format::case::Case;
+use run_format::study_file::StudyFile;
 
 /// `i` as a ROS `camera_info` YAML document.
 fn calibration_yaml(i: &Intrinsics) -> String {
@@ -59,6 +63,40 @@ pub fn case_toml(data: &[u8]) {
     let again = Case::from_text(&printed, "printed again")
         .unwrap_or_else(|e| panic!("the case printed again is refused: {e}\n{printed}"));
     assert_eq!(format!("{again:?}"), format!("{case:?}"), "{printed}");
+}
+
+/// The most settings a study's input may ask for before the target stops counting them: a
+/// crossed study's settings are the product of its level counts.
+const MAX_SETTINGS: usize = 4096;
+
+/// A link study file's TOML text.
+pub fn study_toml(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(study) = StudyFile::from_toml(text) else {
+        return;
+    };
+    let printed = study
+        .to_toml()
+        .unwrap_or_else(|e| panic!("a study that parses does not print: {e}\n{study:?}"));
+    let again = StudyFile::from_toml(&printed)
+        .unwrap_or_else(|e| panic!("the study printed again is refused: {e}\n{printed}"));
+    assert_eq!(format!("{again:?}"), format!("{study:?}"), "{printed}");
+    let shape = study.check_shape();
+    let _ = (study.check_cross(), study.trial_limit());
+    let counts = study.vary.iter().map(|v| v.levels.len());
+    let expected = if study.cross {
+        counts.fold(1usize, usize::saturating_mul)
+    } else {
+        counts.fold(0usize, usize::saturating_add)
+    };
+    if shape.is_ok() && expected <= MAX_SETTINGS {
+        let settings = study.settings();
+        assert_eq!(settings.len(), expected);
+        let width = if study.cross { study.vary.len() } else { 1 };
+        assert!(settings.iter().all(|s| s.len() == width));
+    }
 }
 
 /// A worker's reply frame.

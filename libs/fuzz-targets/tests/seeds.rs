@@ -57,6 +57,15 @@ fn every_seed_is_accepted_by_its_parser() {
             "wire_key" => {
                 assert!(proto::Key::parse_rest(std::str::from_utf8(bytes).unwrap()).is_some());
             }
+            "study_toml" => {
+                let text = std::str::from_utf8(bytes).unwrap();
+                let study = run_format::study_file::StudyFile::from_toml(text);
+                if text.contains("\narms = ") {
+                    assert!(study.is_err(), "{what}: a mission study is no link study");
+                } else {
+                    study.unwrap().check_shape().unwrap();
+                }
+            }
             "trial_record" => {
                 use run_format::trial_record::{TrialRecord, decode, parse};
                 let stored = decode::<TrialRecord>(bytes).unwrap();
