@@ -12,8 +12,8 @@
 //!   checksum and the checks a resumed or merged run makes of them.
 //!
 //! Errors are typed ([`case::CaseError`], [`run_dir::RunDirError`], [`run_dir::lock::LockError`],
-//! [`study_file::StudyFileError`], [`trial_record::RecordError`]) and name the file or field at
-//! fault.
+//! [`study_file::StudyFileError`], [`trial_record::TrialRecordError`]) and name the file or
+//! field at fault.
 
 #![forbid(unsafe_code)]
 

@@ -148,7 +148,7 @@ pub struct StoredTrial<R> {
 /// Why a record's bytes are not trial `index` of a point; the texts are those the lab reports
 /// beside a damaged record's path.
 #[derive(Debug, thiserror::Error)]
-pub enum RecordError {
+pub enum TrialRecordError {
     /// Not JSON of a record's shape (serde names the field at fault).
     #[error("not a trial record: {0}")]
     NotARecord(serde_json::Error),
@@ -199,8 +199,8 @@ pub fn encode<R: Recordable>(
 }
 
 /// A record file's bytes, parsed but not checked.
-pub fn decode<R: Recordable>(bytes: &[u8]) -> Result<StoredTrial<R>, RecordError> {
-    serde_json::from_slice(bytes).map_err(RecordError::NotARecord)
+pub fn decode<R: Recordable>(bytes: &[u8]) -> Result<StoredTrial<R>, TrialRecordError> {
+    serde_json::from_slice(bytes).map_err(TrialRecordError::NotARecord)
 }
 
 /// Checks a parsed record against its digest and against the point and index its file name
@@ -209,10 +209,10 @@ pub fn check<R: Recordable>(
     stored: StoredTrial<R>,
     point: &str,
     index: u64,
-) -> Result<(R, Provenance), RecordError> {
-    let sum = checksum(&stored.body).map_err(RecordError::Encode)?;
+) -> Result<(R, Provenance), TrialRecordError> {
+    let sum = checksum(&stored.body).map_err(TrialRecordError::Encode)?;
     if sum != stored.sha256 {
-        return Err(RecordError::Checksum {
+        return Err(TrialRecordError::Checksum {
             recorded: stored.sha256,
             content: sum,
         });
@@ -223,7 +223,7 @@ pub fn check<R: Recordable>(
         || b.index != index
         || b.record.record_index() != index
     {
-        return Err(RecordError::Elsewhere {
+        return Err(TrialRecordError::Elsewhere {
             index: b.index,
             point: b.point,
             format: b.format,
@@ -239,6 +239,6 @@ pub fn parse<R: Recordable>(
     bytes: &[u8],
     point: &str,
     index: u64,
-) -> Result<(R, Provenance), RecordError> {
+) -> Result<(R, Provenance), TrialRecordError> {
     check(decode(bytes)?, point, index)
 }
