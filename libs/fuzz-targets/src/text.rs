@@ -84,13 +84,17 @@ pub fn study_toml(data: &[u8]) {
         .unwrap_or_else(|e| panic!("the study printed again is refused: {e}\n{printed}"));
     assert_eq!(format!("{again:?}"), format!("{study:?}"), "{printed}");
     let shape = study.check_shape();
-    let _ = (study.check_cross(), study.trial_limit());
+    let cross = study.check_cross();
+    let _ = study.trial_limit();
     let counts = study.vary.iter().map(|v| v.levels.len());
     let expected = if study.cross {
         counts.fold(1usize, usize::saturating_mul)
     } else {
         counts.fold(0usize, usize::saturating_add)
     };
+    if study.cross && expected > run_format::study_file::MAX_CROSSED_SETTINGS {
+        assert!(cross.is_err(), "{expected} crossed settings accepted");
+    }
     if shape.is_ok() && expected <= MAX_SETTINGS {
         let settings = study.settings();
         assert_eq!(settings.len(), expected);

@@ -683,7 +683,12 @@ fn a_receiver_without_history_reports_the_same_outcomes_and_keeps_none() {
     let mut kept = receiver();
     let mut forgetting = receiver().without_history();
     for p in packets {
-        assert_eq!(kept.push_packet(p), forgetting.push_packet(p), "packet {}", p.seq);
+        assert_eq!(
+            kept.push_packet(p),
+            forgetting.push_packet(p),
+            "packet {}",
+            p.seq
+        );
     }
     assert_eq!(payloads(&kept), vec![OFFER_A, OFFER_B]);
     assert!(forgetting.tokens().is_empty() && forgetting.frames().is_empty());

@@ -13,6 +13,10 @@ use serde::{Deserialize, Serialize};
 /// The only criterion of a link study: every observer releases exactly the broadcast.
 pub const EXACT_PAYLOADS: &str = "exact-payloads";
 
+/// The most settings a crossed study may combine its conditions into (each is a point per
+/// modality, each point its trials): far beyond any study run, well within memory.
+pub const MAX_CROSSED_SETTINGS: usize = 100_000;
+
 /// Why a study file is refused by the checks of this module (each names its field).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum StudyFileError {
@@ -24,6 +28,11 @@ pub enum StudyFileError {
     Empty,
     #[error("cross: every vary.key must be a different condition")]
     CrossRepeats,
+    #[error(
+        "cross: the conditions' levels combine into {settings} settings; at most \
+         {MAX_CROSSED_SETTINGS} (split the study)"
+    )]
+    CrossTooLarge { settings: u128 },
     #[error("plugin_time_limit_s = {0}: give 0 < seconds ≤ 86400")]
     TrialLimit(f64),
 }
@@ -134,6 +143,18 @@ impl StudyFile {
         {
             return Err(StudyFileError::CrossRepeats);
         }
+        if self.cross {
+            // The product is formed before `settings` would allocate it: a few lines of TOML
+            // can ask for more combinations than any machine holds.
+            let settings = self
+                .vary
+                .iter()
+                .map(|v| v.levels.len() as u128)
+                .fold(1u128, u128::saturating_mul);
+            if settings > MAX_CROSSED_SETTINGS as u128 {
+                return Err(StudyFileError::CrossTooLarge { settings });
+            }
+        }
         Ok(())
     }
 
@@ -173,5 +194,42 @@ impl StudyFile {
                 .collect();
         }
         all
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn crossed(levels_per_condition: &[usize]) -> String {
+        let mut text = String::from(
+            "name = \"x\"\nmodalities = [\"events\"]\nlink = [\"011010\"]\nobservers = 1\n\
+             trials = 1\nseed = 1\ncriterion = \"exact-payloads\"\ncross = true\n",
+        );
+        for (i, &n) in levels_per_condition.iter().enumerate() {
+            let levels: Vec<String> = (0..n).map(|l| format!("{l}.0")).collect();
+            text += &format!(
+                "[[vary]]\nkey = \"k{i}\"\nlevels = [{}]\n",
+                levels.join(", ")
+            );
+        }
+        text
+    }
+
+    #[test]
+    fn a_crossed_study_too_large_to_hold_is_refused_before_its_settings_are_made() {
+        let fits = StudyFile::from_toml(&crossed(&[10, 100, 100])).unwrap();
+        assert_eq!(fits.check_cross(), Ok(()));
+        assert_eq!(fits.settings().len(), MAX_CROSSED_SETTINGS);
+        // Eight conditions of 100 levels: 10¹⁶ combinations from under 3 kB of TOML.
+        let huge = StudyFile::from_toml(&crossed(&[100; 8])).unwrap();
+        let refused = huge.check_cross().unwrap_err();
+        assert_eq!(
+            refused,
+            StudyFileError::CrossTooLarge {
+                settings: 10u128.pow(16)
+            }
+        );
+        assert!(refused.to_string().starts_with("cross: "), "{refused}");
     }
 }
