@@ -20,7 +20,7 @@
 pub mod cli;
 pub mod compose;
 pub mod eval;
-pub mod fault;
 pub mod launch;
 
+pub use compose_file::fault;
 pub use run_format::{case, run_dir};

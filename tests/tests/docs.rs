@@ -220,31 +220,31 @@ const FORMATS: &[(&str, &str, &str, &str)] = &[
     (
         "Compose file",
         "A session placed on hosts: written by `waggle compose`, run by `waggle up`.",
-        "deploy/src/compose/mod.rs",
+        "libs/compose-file/src/lib.rs",
         "Compose",
     ),
     (
         "Compose file: `[router]`",
         "The session's Zenoh router.",
-        "deploy/src/compose/mod.rs",
+        "libs/compose-file/src/lib.rs",
         "Router",
     ),
     (
         "Compose file: `[[site]]`",
         "A site's own router.",
-        "deploy/src/compose/mod.rs",
+        "libs/compose-file/src/lib.rs",
         "SiteRouter",
     ),
     (
         "Compose file: `[faults]`",
         "Faults beyond the case's, written as on the command line.",
-        "deploy/src/fault.rs",
+        "libs/compose-file/src/fault.rs",
         "ExtraFaults",
     ),
     (
         "Compose file: `[[node]]`",
         "One node process.",
-        "deploy/src/compose/mod.rs",
+        "libs/compose-file/src/lib.rs",
         "Node",
     ),
 ];

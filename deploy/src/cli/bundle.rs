@@ -4,11 +4,10 @@
 
 use anyhow::{Context, Result, bail};
 
-use crate::compose::Compose;
 use commands::bundle::BundleArgs;
 
 pub fn run(args: BundleArgs) -> Result<()> {
-    let compose = Compose::load(&args.file)?;
+    let compose = crate::compose::load(&args.file)?;
     let name = args
         .file
         .file_name()

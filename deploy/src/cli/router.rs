@@ -3,7 +3,6 @@
 
 use anyhow::{Result, bail};
 
-use crate::compose::Compose;
 use crate::launch::router;
 use commands::router::RouterArgs;
 
@@ -12,7 +11,7 @@ pub fn run(args: RouterArgs) -> Result<()> {
     let stop = bus::on_stop_signal();
     let (session, config, listen) = match &args.compose {
         Some(file) => {
-            let mut c = Compose::load(file)?;
+            let mut c = crate::compose::load(file)?;
             if args.no_auth && c.auth {
                 bail!("--no-auth: {} is an authenticated session", file.display());
             }

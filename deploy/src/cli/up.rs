@@ -34,7 +34,7 @@ pub fn open_secrets(
 }
 
 pub fn run(args: UpArgs) -> Result<()> {
-    let compose = Compose::load(&args.file)?;
+    let compose = crate::compose::load(&args.file)?;
     let secrets = open_secrets(&compose, &args.file, args.host.as_deref())?;
     let json = args.launch.json;
     let ros2 = super::run::ros2_view(&args.launch);

@@ -1,7 +1,9 @@
 use super::build::{ComposeOptions, compose};
 use super::place::HostPlacement;
 use super::*;
-use crate::fault::KillSpec;
+use crate::case::Case;
+use crate::fault::{ExtraFaults, KillSpec};
+use proto::{Modality, Role};
 
 fn options(case: &str, placements: &[&str], router: &[&str]) -> (Case, ComposeOptions) {
     let case_value = Case::load(case).unwrap();
@@ -84,14 +86,14 @@ fn the_router_host_dials_loopback_and_a_free_port_is_resolved() {
     c.auth = true;
     assert_eq!(c.dial_from("local"), ["tcp/127.0.0.1:0"]);
     let mut one = composed("one-observer", &[], &[]);
-    one.resolve_free_ports().unwrap();
+    resolve_free_ports(&mut one).unwrap();
     let port = one.router.listen[0].rsplit_once(':').unwrap().1;
     assert_ne!(port.parse::<u16>().unwrap(), 0);
-    assert!(c.resolve_free_ports().is_ok());
+    assert!(resolve_free_ports(&mut c).is_ok());
 }
 
 fn check_err(c: &Compose) -> String {
-    format!("{:#}", c.check().unwrap_err())
+    format!("{:#}", anyhow::Error::from(c.check().unwrap_err()))
 }
 
 #[test]

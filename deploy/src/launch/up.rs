@@ -133,7 +133,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
     let share = Share::of(compose, opts.host.as_deref())?;
     let mut compose = compose.clone();
     if share.hosts.len() == compose.hosts().len() {
-        compose.resolve_free_ports()?;
+        crate::compose::resolve_free_ports(&mut compose)?;
     }
     let case = compose.case()?;
     let injected = compose.injected(&case)?;

@@ -1,11 +1,12 @@
 //! Faults the launcher injects: the case's `[[faults]]` plus the command line's `--black O2`,
-//! `--kill O2@35` and `--throttle O1@0:250:0`, each parsed by [`FromStr`](std::str::FromStr) (so clap rejects a
-//! bad one naming it) and checked against the case's observers.
+//! `--kill O2@35` and `--throttle O1@0:250:0` (or a compose file's `[faults]`), each parsed by
+//! [`FromStr`](std::str::FromStr) (so clap rejects a bad one naming it) and checked against the
+//! case's observers. Checking a compose file needs them, so they live beside it; `deploy`
+//! injects them.
 
 use proto::scene::observer_name;
-use proto::{Fault, FaultKind, ObserverId};
-
-use crate::case::{Case, CaseFaultKind as CaseFault};
+use proto::{Fault, FaultKind, KeyError, ObserverId};
+use run_format::case::{Case, CaseFaultKind as CaseFault};
 
 pub use commands::fault::{BlackSpec, FaultSpecError, KillSpec, ThrottleSpec};
 
@@ -15,6 +16,17 @@ pub use commands::fault::{BlackSpec, FaultSpecError, KillSpec, ThrottleSpec};
 pub struct UnknownObserver {
     pub observer: ObserverId,
     pub have: String,
+}
+
+/// Why a case's and a file's faults cannot be injected.
+#[derive(Debug, thiserror::Error)]
+pub enum FaultError {
+    /// A case's fault names no valid observer id.
+    #[error(transparent)]
+    Observer(#[from] KeyError),
+    /// A fault names an observer the case does not have.
+    #[error(transparent)]
+    Unknown(#[from] UnknownObserver),
 }
 
 /// Faults injected beyond the case's own: the command line's `--black`, `--kill` and
@@ -161,7 +173,11 @@ fn throttle(observer: ObserverId, from_s: f64, drop_per_mille: u16, delay_ms: u3
 }
 
 /// The case's faults then the extra ones, each checked against the case's observers.
-pub fn injected_faults(case: &Case, extra: &ExtraFaults) -> anyhow::Result<Vec<Injected>> {
+///
+/// # Errors
+///
+/// When a fault names an observer that is not a valid id or that the case does not have.
+pub fn injected_faults(case: &Case, extra: &ExtraFaults) -> Result<Vec<Injected>, FaultError> {
     let mut out = Vec::new();
     for f in &case.faults {
         let observer = ObserverId::new(f.observer.as_str())?;
