@@ -10,14 +10,17 @@
 //!   simulator nor file system ([`study`] holds the built-in ones' texts).
 //! - [`trial_record`]: the lab's per-trial record files (`<point>/trials/NNNNNN.json`), their
 //!   checksum and the checks a resumed or merged run makes of them.
+//! - [`render_cache`]: the lab's render cache entries (`<key>.renders`) as bytes, encoded and
+//!   decoded with every check, lengths checked before anything is allocated.
 //!
 //! Errors are typed ([`case::CaseError`], [`run_dir::RunDirError`], [`run_dir::lock::LockError`],
-//! [`study_file::StudyFileError`], [`trial_record::TrialRecordError`]) and name the file or
-//! field at fault.
+//! [`study_file::StudyFileError`], [`trial_record::TrialRecordError`],
+//! [`render_cache::RenderCacheError`]) and name the file or field at fault.
 
 #![forbid(unsafe_code)]
 
 pub mod case;
+pub mod render_cache;
 pub mod run_dir;
 pub mod study;
 pub mod study_file;

@@ -24,22 +24,19 @@ use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail, ensure};
-use proto::{FrameChange, Modality};
-use serde::{Deserialize, Serialize};
+use anyhow::{Context, Result, ensure};
+use proto::Modality;
+use run_format::render_cache::{self, EntryFor, FORMAT, Meta, TrackMeta};
 use sha2::{Digest, Sha256};
 
 use crate::harness::flight::rendered::{
     FlightSpec, RenderTrack, RenderedFlight, Update, fly_rendered,
 };
 use crate::harness::link::ObserverOut;
-use crate::harness::runs::records::{Provenance, provenance_here};
+use crate::harness::runs::records::provenance_here;
 
-/// The first bytes of an entry (format version 1).
-const MAGIC: &[u8; 8] = b"WGLRNDR1";
-/// The format tag inside an entry's metadata and its key.
-const FORMAT: &str = "waggle-renders-1";
-const DIGEST_LEN: usize = 32;
+/// The ideal receivers' output a cache entry holds.
+type Ideal = BTreeMap<Modality, Vec<ObserverOut>>;
 
 /// A render cache directory.
 #[derive(Debug, Clone)]
@@ -58,40 +55,15 @@ pub enum Fetched {
     Replaced(String),
 }
 
-/// An entry's metadata (JSON): what the pixel section holds, and the flight's results.
-#[derive(Debug, Serialize, Deserialize)]
-struct Meta {
-    format: String,
-    key: String,
-    /// The flight's specification as this binary prints it (for a reader of the cache).
-    spec: String,
-    provenance: Provenance,
-    ideal: BTreeMap<Modality, Vec<ObserverOut>>,
-    sim_ns: u64,
-    performer_max_tracking_error_m: f64,
-    contact_steps: u64,
-    tracks: Vec<TrackMeta>,
-}
-
-#[derive(Debug, Serialize, Deserialize)]
-struct TrackMeta {
-    frame_len: usize,
-    width: usize,
-    /// (stamp, change, bytes of its pixels in the pixel section).
-    updates: Vec<(u64, FrameChange, usize)>,
-}
-
-impl TrackMeta {
-    fn of(t: &RenderTrack) -> Self {
-        Self {
-            frame_len: t.frame_len,
-            width: t.width,
-            updates: t
-                .updates
-                .iter()
-                .map(|u| (u.stamp_ns, u.change, u.pixels.len()))
-                .collect(),
-        }
+fn track_meta(t: &RenderTrack) -> TrackMeta {
+    TrackMeta {
+        frame_len: t.frame_len,
+        width: t.width,
+        updates: t
+            .updates
+            .iter()
+            .map(|u| (u.stamp_ns, u.change, u.pixels.len()))
+            .collect(),
     }
 }
 
@@ -243,34 +215,25 @@ fn write_synced(path: &Path, bytes: &[u8]) -> Result<()> {
         .with_context(|| format!("writing {}", path.display()))
 }
 
-/// An entry: magic, metadata length (u64 LE), metadata (JSON), the pixel section, SHA-256 of
-/// all before it.
+/// An entry's bytes ([`render_cache::encode`]).
 fn encode(flight: &RenderedFlight, key: &str) -> Result<Vec<u8>> {
     let meta = Meta {
         format: FORMAT.into(),
         key: key.into(),
         spec: format!("{:?}", flight.spec),
         provenance: provenance_here(flight.spec.render)?,
-        ideal: flight.ideal.clone(),
+        ideal: &flight.ideal,
         sim_ns: flight.sim_ns,
         performer_max_tracking_error_m: flight.performer_max_tracking_error_m,
         contact_steps: flight.contact_steps,
-        tracks: flight.tracks.iter().map(TrackMeta::of).collect(),
+        tracks: flight.tracks.iter().map(track_meta).collect(),
     };
-    let meta = serde_json::to_vec(&meta).context("writing a render cache entry's metadata")?;
-    let pixels: usize = flight.stored_bytes();
-    let mut out = Vec::with_capacity(MAGIC.len() + 8 + meta.len() + pixels + DIGEST_LEN);
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&(meta.len() as u64).to_le_bytes());
-    out.extend_from_slice(&meta);
-    for t in &flight.tracks {
-        for u in &t.updates {
-            out.extend_from_slice(&u.pixels);
-        }
-    }
-    let digest = Sha256::digest(&out);
-    out.extend_from_slice(&digest);
-    Ok(out)
+    let pixels = flight
+        .tracks
+        .iter()
+        .flat_map(|t| &t.updates)
+        .map(|u| u.pixels.as_slice());
+    Ok(render_cache::encode(&meta, pixels)?)
 }
 
 /// Reads and checks the entry at `path` for `key`; the flight's `spec` is the caller's (the key
@@ -281,66 +244,32 @@ fn read_entry(path: &Path, key: &str, spec: &FlightSpec) -> Result<RenderedFligh
 }
 
 fn decode(bytes: &[u8], key: &str, spec: &FlightSpec) -> Result<RenderedFlight> {
-    let head = MAGIC.len() + 8;
-    ensure!(
-        bytes.len() >= head + DIGEST_LEN,
-        "{} bytes: shorter than an entry's header",
-        bytes.len()
-    );
-    ensure!(&bytes[..MAGIC.len()] == MAGIC, "not a render cache entry");
-    let (body, digest) = bytes.split_at(bytes.len() - DIGEST_LEN);
-    ensure!(
-        Sha256::digest(body).as_slice() == digest,
-        "its SHA-256 does not match its content"
-    );
-    let meta_len = u64::from_le_bytes(bytes[MAGIC.len()..head].try_into()?);
-    let meta_end = usize::try_from(meta_len)
-        .ok()
-        .and_then(|n| head.checked_add(n))
-        .filter(|&end| end <= body.len())
-        .context("its metadata length runs past its end")?;
-    let meta: Meta = serde_json::from_slice(&body[head..meta_end]).context("its metadata")?;
-    ensure!(
-        meta.format == FORMAT,
-        "format {} is not {FORMAT}",
-        meta.format
-    );
-    ensure!(meta.key == key, "it holds entry {}", meta.key);
-    ensure!(
-        meta.tracks.len() == spec.formation.len(),
-        "{} tracks for {} observers",
-        meta.tracks.len(),
-        spec.formation.len()
-    );
-    let mut at = meta_end;
-    let mut tracks = Vec::with_capacity(meta.tracks.len());
-    for (i, t) in meta.tracks.iter().enumerate() {
-        let mut track = RenderTrack {
+    let expected = EntryFor {
+        key,
+        observers: spec.formation.len(),
+    };
+    let entry = render_cache::decode::<Ideal>(bytes, Some(expected))?;
+    let meta = entry.meta;
+    let tracks = meta
+        .tracks
+        .into_iter()
+        .zip(entry.pixels)
+        .map(|(t, pixels)| RenderTrack {
             frame_len: t.frame_len,
             width: t.width,
-            updates: Vec::with_capacity(t.updates.len()),
-        };
-        for (k, &(stamp_ns, change, len)) in t.updates.iter().enumerate() {
-            check_update(t, k, change, len).with_context(|| format!("track {i}, render {k}"))?;
-            let end = at
-                .checked_add(len)
-                .filter(|&e| e <= body.len())
-                .with_context(|| format!("track {i}, render {k}: pixels run past the end"))?;
-            track.updates.push(Update {
-                stamp_ns,
-                change,
-                pixels: body[at..end].to_vec(),
-                ego: None,
-            });
-            at = end;
-        }
-        tracks.push(track);
-    }
-    ensure!(
-        at == body.len(),
-        "{} bytes after the last render",
-        body.len() - at
-    );
+            updates: t
+                .updates
+                .into_iter()
+                .zip(pixels)
+                .map(|((stamp_ns, change, _), pixels)| Update {
+                    stamp_ns,
+                    change,
+                    pixels,
+                    ego: None,
+                })
+                .collect(),
+        })
+        .collect();
     Ok(RenderedFlight {
         spec: spec.clone(),
         tracks,
@@ -349,38 +278,6 @@ fn decode(bytes: &[u8], key: &str, spec: &FlightSpec) -> Result<RenderedFlight> 
         performer_max_tracking_error_m: meta.performer_max_tracking_error_m,
         contact_steps: meta.contact_steps,
     })
-}
-
-/// A render's pixels must fit its frame, so that replaying it cannot index outside the frame.
-fn check_update(t: &TrackMeta, k: usize, change: FrameChange, len: usize) -> Result<()> {
-    if t.width == 0 || !t.frame_len.is_multiple_of(3 * t.width) {
-        bail!(
-            "frame of {} bytes is not rows {} pixels wide",
-            t.frame_len,
-            t.width
-        );
-    }
-    let height = t.frame_len / (3 * t.width);
-    let want = match change {
-        FrameChange::Nothing => 0,
-        FrameChange::All => t.frame_len,
-        FrameChange::Within(r) => {
-            let (x, y) = (usize::from(r.x), usize::from(r.y));
-            let (w, h) = (usize::from(r.width), usize::from(r.height));
-            ensure!(
-                x + w <= t.width && y + h <= height,
-                "rectangle {r:?} outside a {}×{height} frame",
-                t.width
-            );
-            3 * w * h
-        }
-    };
-    ensure!(
-        k > 0 || change == FrameChange::All,
-        "the first render is not whole"
-    );
-    ensure!(len == want, "{len} bytes of pixels where {want} are due");
-    Ok(())
 }
 
 #[cfg(test)]
@@ -503,7 +400,7 @@ mod tests {
 
         let path = cache.entry(&key);
         let good = std::fs::read(&path).unwrap();
-        let flip_pixel = good.len() - DIGEST_LEN - 5;
+        let flip_pixel = good.len() - render_cache::DIGEST_LEN - 5;
         type Damage = Box<dyn Fn(&mut Vec<u8>)>;
         let damages: [(&str, Damage); 4] = [
             ("a pixel", Box::new(move |b| b[flip_pixel] ^= 0x10)),
@@ -547,64 +444,5 @@ mod tests {
             same(&results[0].0, f);
         }
         assert_eq!(entries(dir.path(), ".renders"), 1);
-    }
-
-    fn track(frame: &[u8], width: usize, changes: &[(FrameChange, Vec<u8>)]) -> RenderTrack {
-        RenderTrack {
-            frame_len: frame.len(),
-            width,
-            updates: changes
-                .iter()
-                .enumerate()
-                .map(|(k, (c, p))| Update {
-                    stamp_ns: k as u64 * 10,
-                    change: *c,
-                    pixels: p.clone(),
-                    ego: None,
-                })
-                .collect(),
-        }
-    }
-
-    #[test]
-    fn renders_that_do_not_fit_their_frame_are_refused() {
-        let rect = |x, y, width, height| proto::PixelRect {
-            x,
-            y,
-            width,
-            height,
-        };
-        let frame = vec![0u8; 3 * 4 * 2];
-        let good = track(
-            &frame,
-            4,
-            &[
-                (FrameChange::All, frame.clone()),
-                (FrameChange::Nothing, vec![]),
-                (FrameChange::Within(rect(1, 1, 3, 1)), vec![7; 9]),
-            ],
-        );
-        let m = TrackMeta::of(&good);
-        for (k, &(_, c, len)) in m.updates.iter().enumerate() {
-            check_update(&m, k, c, len).unwrap();
-        }
-        let cases = [
-            (1, FrameChange::Within(rect(2, 0, 3, 1)), 9, "outside"),
-            (1, FrameChange::Within(rect(0, 1, 1, 2)), 6, "outside"),
-            (1, FrameChange::Within(rect(0, 0, 1, 1)), 4, "are due"),
-            (1, FrameChange::All, 3, "are due"),
-            (1, FrameChange::Nothing, 1, "are due"),
-            (0, FrameChange::Nothing, 0, "not whole"),
-        ];
-        for (k, change, len, says) in cases {
-            let err = check_update(&m, k, change, len).unwrap_err().to_string();
-            assert!(err.contains(says), "{change:?} {len}: {err}");
-        }
-        let crooked = TrackMeta {
-            frame_len: 10,
-            width: 4,
-            updates: vec![],
-        };
-        assert!(check_update(&crooked, 0, FrameChange::All, 10).is_err());
     }
 }
