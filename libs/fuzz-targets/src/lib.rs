@@ -1,7 +1,7 @@
 //! Fuzz targets: one function per parser of bytes that come from outside a Waggle process —
 //! bus messages, event-camera files, recordings, ROS 2 bags and messages, calibration and case
-//! files, link study files, a receiver plug-in's replies, an institution's CA certificate and
-//! key, the lab's per-trial records. Each takes the fuzzer's bytes, hands them to the real
+//! files, link study files, compose files, a receiver plug-in's replies, an institution's CA
+//! certificate and key, the lab's per-trial records and render cache entries. Each takes the fuzzer's bytes, hands them to the real
 //! parser and checks what it can beyond "no panic": a decoded value re-encodes to the same bytes
 //! or decodes again to the same value, and a refusal is an error, never a panic or an allocation
 //! sized by a length field.
@@ -23,8 +23,8 @@ pub mod wire;
 pub use events::{aedat4, dat, event_writers, evt2, evt3};
 pub use recorded::recording;
 pub use ros2::{ros2_bag, ros2_cdr};
-pub use runs::trial_record;
-pub use text::{calibration, case_toml, plugin_reply, study_toml};
+pub use runs::{render_cache, trial_record};
+pub use text::{calibration, case_toml, compose_toml, plugin_reply, study_toml};
 pub use tls::tls_pem;
 pub use wire::{wire_key, wire_message};
 
@@ -50,4 +50,6 @@ pub const TARGETS: &[(&str, FuzzTarget)] = &[
     ("plugin_reply", plugin_reply),
     ("tls_pem", tls_pem),
     ("trial_record", trial_record),
+    ("compose_toml", compose_toml),
+    ("render_cache", render_cache),
 ];

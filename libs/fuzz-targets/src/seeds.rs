@@ -1,7 +1,7 @@
 //! Seed corpora made with Waggle's own writers: every seed is bytes Waggle itself produces (the
 //! wire encoder, the event-file writers, the recorder, the bag writer, the session certificate
-//! issuer, the lab's record encoder) or a case or study file of the repository, never a third
-//! party's data. `examples/write_seeds.rs` writes them to
+//! issuer, the lab's record and render cache encoders, the compose file printer) or a case or
+//! study file of the repository, never a third party's data. `examples/write_seeds.rs` writes them to
 //! `fuzz/corpus/<target>/`.
 
 use std::collections::BTreeMap;
@@ -15,6 +15,9 @@ use ros2_bag::messages::{EventPacketMsg, HeaderMsg, ImageMsg};
 use ros2_bag::{BagWriter, QosProfile, Ros2Error, RosMessage};
 
 use crate::wire::KEYS;
+
+mod runs;
+use runs::{compose_seeds, render_cache_seed, trial_record_seeds};
 
 /// Why the seeds could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -330,75 +333,6 @@ fn tls_seeds(out: &mut Vec<SeedFile>) -> Result<(), SeedError> {
     Ok(())
 }
 
-/// Record files of two link trials, written by the lab's own record encoder: one observer
-/// that released the broadcast, and two on a flight of their own with a plug-in's failure.
-fn trial_record_seeds(out: &mut Vec<SeedFile>) -> Result<(), SeedError> {
-    use run_format::trial_record::{
-        ObserverTrial, PluginFailure, Provenance, TokenTiming, Tracking, TrialFlight, TrialRecord,
-        encode,
-    };
-    let observer = |events: Option<u64>| ObserverTrial {
-        released: vec!["011010".into()],
-        success: true,
-        release_s: vec![12.48],
-        tokens: 14,
-        token_timing: TokenTiming {
-            matched: 14,
-            missed: 0,
-            extra: 1,
-            mean_abs_error_ms: Some(13.5),
-            max_abs_error_ms: Some(40.0),
-        },
-        latency_s: vec![0.52],
-        vs_ideal_s: vec![Some(0.04), None],
-        messages: 312,
-        messages_lost: 3,
-        events_received: events,
-        events_removed: events.map(|n| n / 10),
-        events_removed_ego: None,
-    };
-    let provenance = Provenance {
-        version: "0.1.0 sha256:0123456789abcdef".into(),
-        cpu: "seed CPU".into(),
-        renderer: "waggle-raster/1".into(),
-    };
-    let one = TrialRecord {
-        index: 0,
-        seed: 0x1234_5678_9abc_def0,
-        success: true,
-        observers: [("O1".to_owned(), observer(None))].into(),
-        flight: None,
-        plugin_failure: None,
-    };
-    let two = TrialRecord {
-        index: 7,
-        seed: 7,
-        success: false,
-        observers: [
-            ("O1".to_owned(), observer(Some(41_000))),
-            ("O2".to_owned(), observer(None)),
-        ]
-        .into(),
-        flight: Some(TrialFlight {
-            performer_tracking: Tracking {
-                rms_m: 0.021,
-                max_m: 0.08,
-            },
-            contact_steps: 0,
-        }),
-        plugin_failure: Some(PluginFailure {
-            outcome: "failed".into(),
-            reason: "ValueError: bad frame".into(),
-        }),
-    };
-    for (name, point, record) in [("rgb", "rgb-0.5", one), ("events", "events-wind-0.25", two)] {
-        let bytes = encode(point, provenance.clone(), &record)
-            .map_err(|e| io("trial_record", name, std::io::Error::other(e)))?;
-        out.push(("trial_record", name.into(), bytes));
-    }
-    Ok(())
-}
-
 /// Every target's seeds; `root` is the repository (for its example case file), `scratch` a
 /// directory where the bag writer may create a bag.
 pub fn seeds(root: &Path, scratch: &Path) -> Result<Vec<SeedFile>, SeedError> {
@@ -410,5 +344,7 @@ pub fn seeds(root: &Path, scratch: &Path) -> Result<Vec<SeedFile>, SeedError> {
     text_seeds(&mut out, root)?;
     tls_seeds(&mut out)?;
     trial_record_seeds(&mut out)?;
+    compose_seeds(&mut out)?;
+    render_cache_seed(&mut out)?;
     Ok(out)
 }

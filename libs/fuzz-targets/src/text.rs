@@ -1,16 +1,18 @@
-//! Text and framed inputs: camera calibration YAML, case and study TOML, a receiver plug-in's
-//! replies.
+//! Text and framed inputs: camera calibration YAML, case, study and compose TOML, a receiver
+//! plug-in's replies.
 //!
 //! [`calibration`] parses a ROS `camera_info` / OpenCV YAML document; accepted intrinsics must
 //! survive being written as YAML and read again, and the remaps Waggle builds from them (events
 //! and images into the reference camera) must be built. [`case_toml`] checks that a case reads
 //! the same from its TOML as from that TOML printed again. [`study_toml`] checks the same of a
 //! link study (the lab prints a study into `run.json` and a merge reads it back) and runs the
-//! study file's own checks. [`plugin_reply`] reads a worker's
+//! study file's own checks. [`compose_toml`] checks that a compose file prints and parses back
+//! equal, with the same verdict of its checks. [`plugin_reply`] reads a worker's
 //! frame as the plug-in host does and re-frames what it read.
 
 use std::io::Cursor;
 
+use compose_file::Compose;
 use event_camera::calibration::{EventRemap, ImageRemap, Intrinsics};
 use receiver_plugin::wire::{MAX_REPLY_BYTES, encode, read_reply};
 use run_format::case::Case;
@@ -101,6 +103,40 @@ pub fn study_toml(data: &[u8]) {
         let width = if study.cross { study.vary.len() } else { 1 };
         assert!(settings.iter().all(|s| s.len() == width));
     }
+}
+
+/// A compose file's TOML text (`waggle up`, `waggle run`, `waggle bundle`).
+pub fn compose_toml(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(compose) = Compose::parse(text) else {
+        return;
+    };
+    let checked = compose.check().map_err(|e| chain(&e));
+    let printed = compose
+        .to_toml()
+        .unwrap_or_else(|e| panic!("a compose file that parses does not print: {e}\n{compose:?}"));
+    let again = Compose::parse(&printed)
+        .unwrap_or_else(|e| panic!("the compose file printed again is refused: {e}\n{printed}"));
+    assert_eq!(again, compose, "{printed}");
+    assert_eq!(again.check().map_err(|e| chain(&e)), checked, "{printed}");
+    assert_eq!(Compose::from_toml(text).is_ok(), checked.is_ok());
+    if checked.is_ok() {
+        // What a checked file's launcher asks of it must answer, not panic.
+        let _ = compose.sensor().expect("a checked file's cameras agree");
+        for host in compose.hosts() {
+            let _ = (compose.dial_from(&host), compose.users_on(&host));
+        }
+    }
+}
+
+/// An error and its sources, as `anyhow` prints them with `{:#}`.
+fn chain(e: &dyn std::error::Error) -> String {
+    std::iter::successors(Some(e), |e| e.source())
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ")
 }
 
 /// A worker's reply frame.

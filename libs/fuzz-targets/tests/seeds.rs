@@ -95,6 +95,24 @@ fn every_seed_is_accepted_by_its_parser() {
                     ),
                 }
             }
+            "compose_toml" => {
+                let text = std::str::from_utf8(bytes).unwrap();
+                let compose = compose_file::Compose::from_toml(text).unwrap();
+                assert_eq!(compose.to_toml().unwrap(), text, "{what}");
+            }
+            "render_cache" => {
+                use run_format::render_cache::{CacheEntry, decode};
+                assert!(bytes.len() < 64 << 10, "{what}: {} bytes", bytes.len());
+                type Ideal =
+                    std::collections::BTreeMap<proto::Modality, Vec<fuzz_targets::runs::IdealOut>>;
+                let entry: CacheEntry<Ideal> = decode(bytes, None).unwrap();
+                assert_eq!(entry.pixels.len(), 2, "{what}");
+                assert_eq!(
+                    &entry.encode().unwrap(),
+                    bytes,
+                    "{what}: encodes differently"
+                );
+            }
             _ => {}
         }
     }
