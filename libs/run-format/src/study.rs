@@ -37,4 +37,8 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         "wind-links",
         include_str!("../../../deploy/studies/wind-links.toml"),
     ),
+    (
+        "event-margin",
+        include_str!("../../../deploy/studies/event-margin.toml"),
+    ),
 ];
