@@ -54,6 +54,19 @@ pub struct TokenTiming {
     pub extra: usize,
     pub mean_abs_error_ms: Option<f64>,
     pub max_abs_error_ms: Option<f64>,
+    /// The ideal tokens without a match, in order: which symbols this observer lost.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub missed_at: Vec<TokenAt>,
+    /// The tokens that matched no ideal token, in order: what it read instead.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub extra_at: Vec<TokenAt>,
+}
+
+/// One token and when it was confirmed, sim s (a lost or an unmatched one).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TokenAt {
+    pub token: String,
+    pub t_s: f64,
 }
 
 /// One observer in one trial.

@@ -16,7 +16,7 @@ pub mod pool;
 pub mod tap;
 
 pub use crate::harness::trials::out::{
-    ObserverTrial, PlacementOut, PluginFailure, RealNoiseOut, TokenTiming, TrialFlight,
+    ObserverTrial, PlacementOut, PluginFailure, RealNoiseOut, TokenAt, TokenTiming, TrialFlight,
     TrialRecord, TrialsCost, TrialsHeader, TrialsOut, TrialsSummary,
 };
 use std::collections::BTreeMap;
@@ -34,7 +34,7 @@ use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
 use crate::harness::flight::cache::{Fetched, RenderCache, fly_through};
 use crate::harness::flight::rendered::{FlightSpec, Gusts, RenderedFlight};
-use crate::harness::link::{ObserverOut, bits6, broadcast_schedule};
+use crate::harness::link::{ObserverOut, TokenOut, bits6, broadcast_schedule};
 use crate::harness::trials::observer::{Observed, Sensing, observe_cached, observe_flying};
 use crate::harness::trials::pool::run_pool_on;
 
@@ -197,11 +197,14 @@ fn jittered(formation: &Formation, p: &Perturbation, seed: u64) -> Result<Format
         .context("a jittered formation is not flyable (lower geometry.position_sigma_m)")
 }
 
-/// Pairs each ideal token with the nearest unused token of the same kind within ±1 s.
+/// Pairs each ideal token with the nearest unused token of the same kind within ±1 s; the
+/// tokens left on either side are kept by name and stamp, so a lost trial says which symbol it
+/// lost and what was read in its place.
 fn token_timing(ideal: &ObserverOut, got: &ObserverOut) -> TokenTiming {
     const WINDOW_S: f64 = 1.0;
     let mut used = vec![false; got.tokens.len()];
     let mut errors_ms = Vec::new();
+    let mut missed_at = Vec::new();
     for t in &ideal.tokens {
         let best = got
             .tokens
@@ -215,8 +218,17 @@ fn token_timing(ideal: &ObserverOut, got: &ObserverOut) -> TokenTiming {
         if let Some((k, g)) = best {
             used[k] = true;
             errors_ms.push((g.t_s - t.t_s) * 1e3);
+        } else {
+            missed_at.push(token_at(t));
         }
     }
+    let extra_at = got
+        .tokens
+        .iter()
+        .zip(&used)
+        .filter(|(_, used)| !**used)
+        .map(|(g, _)| token_at(g))
+        .collect();
     let matched = errors_ms.len();
     let abs: Vec<f64> = errors_ms.iter().map(|e| e.abs()).collect();
     TokenTiming {
@@ -225,6 +237,15 @@ fn token_timing(ideal: &ObserverOut, got: &ObserverOut) -> TokenTiming {
         extra: got.tokens.len() - matched,
         mean_abs_error_ms: (matched > 0).then(|| abs.iter().sum::<f64>() / matched as f64),
         max_abs_error_ms: abs.iter().copied().reduce(f64::max),
+        missed_at,
+        extra_at,
+    }
+}
+
+fn token_at(t: &TokenOut) -> TokenAt {
+    TokenAt {
+        token: t.token.clone(),
+        t_s: t.t_s,
     }
 }
 
@@ -620,5 +641,35 @@ mod tests {
             );
             assert_eq!(flown.sim_ns, cache.sim_ns);
         }
+    }
+
+    /// A substitution is named on both sides: the ideal token lost and the token read in its
+    /// place, each with its stamp; a token within a second of its ideal twin is matched.
+    #[test]
+    fn token_timing_names_what_was_lost_and_what_was_read_instead() {
+        use super::{ObserverOut, TokenAt, TokenOut, token_timing};
+        let out = |tokens: &[(&str, f64)]| ObserverOut {
+            payloads: Vec::new(),
+            frames: Vec::new(),
+            tokens: tokens
+                .iter()
+                .map(|&(token, t_s)| TokenOut {
+                    token: token.into(),
+                    t_s,
+                })
+                .collect(),
+        };
+        let ideal = out(&[("NULL", 1.0), ("BIT0", 2.0), ("NULL", 3.0)]);
+        let got = out(&[("NULL", 1.04), ("BIT1", 2.08), ("NULL", 3.9)]);
+        let timing = token_timing(&ideal, &got);
+        assert_eq!((timing.matched, timing.missed, timing.extra), (2, 1, 1));
+        let at = |token: &str, t_s| TokenAt {
+            token: token.into(),
+            t_s,
+        };
+        assert_eq!(timing.missed_at, vec![at("BIT0", 2.0)]);
+        assert_eq!(timing.extra_at, vec![at("BIT1", 2.08)]);
+        let same = token_timing(&ideal, &ideal);
+        assert!(same.missed_at.is_empty() && same.extra_at.is_empty());
     }
 }

@@ -9,8 +9,8 @@ use super::{SeedError, SeedFile, io};
 /// that released the broadcast, and two on a flight of their own with a plug-in's failure.
 pub(super) fn trial_record_seeds(out: &mut Vec<SeedFile>) -> Result<(), SeedError> {
     use run_format::trial_record::{
-        ObserverTrial, PluginFailure, Provenance, TokenTiming, Tracking, TrialFlight, TrialRecord,
-        encode,
+        ObserverTrial, PluginFailure, Provenance, TokenAt, TokenTiming, Tracking, TrialFlight,
+        TrialRecord, encode,
     };
     let observer = |events: Option<u64>| ObserverTrial {
         released: vec!["011010".into()],
@@ -23,6 +23,11 @@ pub(super) fn trial_record_seeds(out: &mut Vec<SeedFile>) -> Result<(), SeedErro
             extra: 1,
             mean_abs_error_ms: Some(13.5),
             max_abs_error_ms: Some(40.0),
+            missed_at: Vec::new(),
+            extra_at: vec![TokenAt {
+                token: "BIT1".into(),
+                t_s: 9.52,
+            }],
         },
         latency_s: vec![0.52],
         vs_ideal_s: vec![Some(0.04), None],
