@@ -701,16 +701,14 @@ fn rss_growth(csv: &std::path::Path) -> Vec<(String, u64, u64, f64, f64)> {
 }
 
 /// The most a process may grow after the first rounds: 10 % of its size then, the target
-/// every process but three meets. Those three keep a record that grows with the mission, and
-/// are bounded in kB per sim minute at about twice what an hour measured
+/// every process but two meets. Those two keep a record that grows with the mission, and are
+/// bounded in kB per sim minute at about twice what an hour measured
 /// (docs/decisions/long-runs.md): the launcher (every token, frame, decision and track sample
-/// until it writes observers.json; 116 kB/min), the recorder (92 kB/min) and each observer
-/// (its receiver keeps every token, frame and symbol trajectory; 38 kB/min).
+/// until it writes observers.json; 112 kB/min) and the recorder (88 kB/min).
 fn growth_limit(name: &str) -> GrowthLimit {
     match name {
         "launcher" => GrowthLimit::KbPerSimMinute(240.0),
         "recorder" => GrowthLimit::KbPerSimMinute(180.0),
-        n if n.starts_with("observer-") => GrowthLimit::KbPerSimMinute(80.0),
         _ => GrowthLimit::Percent(10.0),
     }
 }
