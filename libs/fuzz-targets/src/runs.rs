@@ -15,11 +15,11 @@
 use std::collections::BTreeMap;
 
 use proto::Modality;
+use run_format::link_out::ObserverOut;
 use run_format::render_cache::{self, CacheEntry, DIGEST_LEN, EntryFor, RenderCacheError};
 use run_format::trial_record::{
     RECORD_FORMAT, StoredTrial, TrialRecord, check, checksum, decode, encode, parse,
 };
-use serde::{Deserialize, Serialize};
 
 /// A per-trial record file's bytes.
 pub fn trial_record(data: &[u8]) {
@@ -45,32 +45,8 @@ pub fn trial_record(data: &[u8]) {
     assert_eq!(provenance, body.provenance);
 }
 
-/// The ideal receivers' output per modality and observer, as the lab's `ObserverOut` (which a
-/// library cannot reach) writes it: the same fields in the same order, so that an entry the lab
-/// wrote re-encodes to its own bytes.
-type Ideal = BTreeMap<Modality, Vec<IdealOut>>;
-
-/// One observer's ideal decodes (the lab's `ObserverOut`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct IdealOut {
-    pub payloads: Vec<String>,
-    pub frames: Vec<IdealFrame>,
-    pub tokens: Vec<IdealToken>,
-}
-
-/// A released frame (the lab's `FrameOut`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct IdealFrame {
-    pub payload: String,
-    pub final_null_s: f64,
-}
-
-/// A confirmed token (the lab's `TokenOut`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct IdealToken {
-    pub token: String,
-    pub t_s: f64,
-}
+/// The ideal receivers' output per modality and observer, as the lab keeps it.
+type Ideal = BTreeMap<Modality, Vec<ObserverOut>>;
 
 /// A render cache entry's bytes.
 pub fn render_cache(data: &[u8]) {

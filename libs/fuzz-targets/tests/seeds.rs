@@ -103,8 +103,10 @@ fn every_seed_is_accepted_by_its_parser() {
             "render_cache" => {
                 use run_format::render_cache::{CacheEntry, decode};
                 assert!(bytes.len() < 64 << 10, "{what}: {} bytes", bytes.len());
-                type Ideal =
-                    std::collections::BTreeMap<proto::Modality, Vec<fuzz_targets::runs::IdealOut>>;
+                type Ideal = std::collections::BTreeMap<
+                    proto::Modality,
+                    Vec<run_format::link_out::ObserverOut>,
+                >;
                 let entry: CacheEntry<Ideal> = decode(bytes, None).unwrap();
                 assert_eq!(entry.pixels.len(), 2, "{what}");
                 assert_eq!(

@@ -20,6 +20,7 @@
 #![forbid(unsafe_code)]
 
 pub mod case;
+pub mod link_out;
 pub mod render_cache;
 pub mod run_dir;
 pub mod study;

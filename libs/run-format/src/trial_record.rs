@@ -8,6 +8,8 @@
 use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
+
+use crate::link_out::TokenOut;
 use sha2::{Digest, Sha256};
 
 /// The format tag of a record file.
@@ -56,17 +58,10 @@ pub struct TokenTiming {
     pub max_abs_error_ms: Option<f64>,
     /// The ideal tokens without a match, in order: which symbols this observer lost.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub missed_at: Vec<TokenAt>,
+    pub missed_at: Vec<TokenOut>,
     /// The tokens that matched no ideal token, in order: what it read instead.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub extra_at: Vec<TokenAt>,
-}
-
-/// One token and when it was confirmed, sim s (a lost or an unmatched one).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct TokenAt {
-    pub token: String,
-    pub t_s: f64,
+    pub extra_at: Vec<TokenOut>,
 }
 
 /// One observer in one trial.

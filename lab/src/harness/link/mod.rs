@@ -18,7 +18,7 @@ use proto::ReleasedFrame;
 use proto::scene::{Formation, MAX_OBSERVERS, Placement, distance_m, observer_name};
 use proto::{GestureConfig, Receiver, Rectification, RenderPath, Schedule, broadcast};
 use proto::{SegmentToken, SegmenterConfig};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use sim::render::CameraRenderer;
 use sim::sensor::{ObserverSensor, SensorOutput};
 use sim::world::World;
@@ -113,27 +113,7 @@ pub(crate) const LEAD_IN_NS: u64 = 1_000_000_000;
 /// The ideal receiver samples at the RGB rate.
 pub(crate) const IDEAL_PERIOD_NS: u64 = 40_000_000;
 
-/// One confirmed token of `waggle link --json`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct TokenOut {
-    pub token: String,
-    pub t_s: f64,
-}
-
-/// One released frame of `waggle link --json`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct FrameOut {
-    pub payload: String,
-    pub final_null_s: f64,
-}
-
-/// One observer's decodes.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct ObserverOut {
-    pub payloads: Vec<String>,
-    pub frames: Vec<FrameOut>,
-    pub tokens: Vec<TokenOut>,
-}
+pub use run_format::link_out::{FrameOut, ObserverOut, TokenOut};
 
 /// What `waggle link --json` prints.
 #[derive(Debug, Serialize)]

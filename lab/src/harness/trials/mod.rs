@@ -16,7 +16,7 @@ pub mod pool;
 pub mod tap;
 
 pub use crate::harness::trials::out::{
-    ObserverTrial, PlacementOut, PluginFailure, RealNoiseOut, TokenAt, TokenTiming, TrialFlight,
+    ObserverTrial, PlacementOut, PluginFailure, RealNoiseOut, TokenTiming, TrialFlight,
     TrialRecord, TrialsCost, TrialsHeader, TrialsOut, TrialsSummary,
 };
 use std::collections::BTreeMap;
@@ -34,7 +34,7 @@ use sim::sensor::{EVENT_RENDER_PERIOD_NS, RGB_PERIOD_NS};
 
 use crate::harness::flight::cache::{Fetched, RenderCache, fly_through};
 use crate::harness::flight::rendered::{FlightSpec, Gusts, RenderedFlight};
-use crate::harness::link::{ObserverOut, TokenOut, bits6, broadcast_schedule};
+use crate::harness::link::{ObserverOut, bits6, broadcast_schedule};
 use crate::harness::trials::observer::{Observed, Sensing, observe_cached, observe_flying};
 use crate::harness::trials::pool::run_pool_on;
 
@@ -219,7 +219,7 @@ fn token_timing(ideal: &ObserverOut, got: &ObserverOut) -> TokenTiming {
             used[k] = true;
             errors_ms.push((g.t_s - t.t_s) * 1e3);
         } else {
-            missed_at.push(token_at(t));
+            missed_at.push(t.clone());
         }
     }
     let extra_at = got
@@ -227,7 +227,7 @@ fn token_timing(ideal: &ObserverOut, got: &ObserverOut) -> TokenTiming {
         .iter()
         .zip(&used)
         .filter(|(_, used)| !**used)
-        .map(|(g, _)| token_at(g))
+        .map(|(g, _)| g.clone())
         .collect();
     let matched = errors_ms.len();
     let abs: Vec<f64> = errors_ms.iter().map(|e| e.abs()).collect();
@@ -239,13 +239,6 @@ fn token_timing(ideal: &ObserverOut, got: &ObserverOut) -> TokenTiming {
         max_abs_error_ms: abs.iter().copied().reduce(f64::max),
         missed_at,
         extra_at,
-    }
-}
-
-fn token_at(t: &TokenOut) -> TokenAt {
-    TokenAt {
-        token: t.token.clone(),
-        t_s: t.t_s,
     }
 }
 
@@ -647,7 +640,8 @@ mod tests {
     /// place, each with its stamp; a token within a second of its ideal twin is matched.
     #[test]
     fn token_timing_names_what_was_lost_and_what_was_read_instead() {
-        use super::{ObserverOut, TokenAt, TokenOut, token_timing};
+        use super::{ObserverOut, token_timing};
+        use crate::harness::link::TokenOut;
         let out = |tokens: &[(&str, f64)]| ObserverOut {
             payloads: Vec::new(),
             frames: Vec::new(),
@@ -663,7 +657,7 @@ mod tests {
         let got = out(&[("NULL", 1.04), ("BIT1", 2.08), ("NULL", 3.9)]);
         let timing = token_timing(&ideal, &got);
         assert_eq!((timing.matched, timing.missed, timing.extra), (2, 1, 1));
-        let at = |token: &str, t_s| TokenAt {
+        let at = |token: &str, t_s| TokenOut {
             token: token.into(),
             t_s,
         };

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::harness::trials::pool::{Outcome, Tally};
 
 pub use run_format::trial_record::{
-    ObserverTrial, PluginFailure, TokenAt, TokenTiming, TrialFlight, TrialRecord,
+    ObserverTrial, PluginFailure, TokenTiming, TrialFlight, TrialRecord,
 };
 
 impl Outcome for TrialRecord {

@@ -9,8 +9,8 @@ use super::{SeedError, SeedFile, io};
 /// that released the broadcast, and two on a flight of their own with a plug-in's failure.
 pub(super) fn trial_record_seeds(out: &mut Vec<SeedFile>) -> Result<(), SeedError> {
     use run_format::trial_record::{
-        ObserverTrial, PluginFailure, Provenance, TokenAt, TokenTiming, Tracking, TrialFlight,
-        TrialRecord, encode,
+        ObserverTrial, PluginFailure, Provenance, TokenTiming, Tracking, TrialFlight, TrialRecord,
+        encode,
     };
     let observer = |events: Option<u64>| ObserverTrial {
         released: vec!["011010".into()],
@@ -24,7 +24,7 @@ pub(super) fn trial_record_seeds(out: &mut Vec<SeedFile>) -> Result<(), SeedErro
             mean_abs_error_ms: Some(13.5),
             max_abs_error_ms: Some(40.0),
             missed_at: Vec::new(),
-            extra_at: vec![TokenAt {
+            extra_at: vec![run_format::link_out::TokenOut {
                 token: "BIT1".into(),
                 t_s: 9.52,
             }],
@@ -207,8 +207,8 @@ pub(super) fn compose_seeds(out: &mut Vec<SeedFile>) -> Result<(), SeedError> {
 /// whole first frame, then an unchanged render and a changed rectangle; the ideal receivers'
 /// output as the lab writes it (per modality, per observer: payloads, frames, tokens).
 pub(super) fn render_cache_seed(out: &mut Vec<SeedFile>) -> Result<(), SeedError> {
-    use crate::runs::{IdealFrame, IdealOut, IdealToken};
     use proto::{FrameChange, PixelRect};
+    use run_format::link_out::{FrameOut, ObserverOut, TokenOut};
     use run_format::render_cache::{CacheEntry, FORMAT, Meta, TrackMeta};
     let (width, height) = (8usize, 6usize);
     let frame_len = 3 * width * height;
@@ -240,18 +240,18 @@ pub(super) fn render_cache_seed(out: &mut Vec<SeedFile>) -> Result<(), SeedError
         });
         pixels.push(renders.into_iter().map(|(_, p)| p).collect());
     }
-    let observer = IdealOut {
+    let observer = ObserverOut {
         payloads: vec!["011010".into()],
-        frames: vec![IdealFrame {
+        frames: vec![FrameOut {
             payload: "011010".into(),
             final_null_s: 12.44,
         }],
         tokens: vec![
-            IdealToken {
+            TokenOut {
                 token: "s1".into(),
                 t_s: 0.52,
             },
-            IdealToken {
+            TokenOut {
                 token: "n".into(),
                 t_s: 0.96,
             },
