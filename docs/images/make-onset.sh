@@ -40,9 +40,11 @@ for render in raster damage; do
     2>"$tmp/$render.err" || { cat "$tmp/$render.err" >&2; die "waggle link ($render) failed"; }
   "$symbols" "$tmp/$render/O1.raw" --packets "$tmp/$render.packets.csv" >"$tmp/$render.tokens"
 done
-# The packets around the first interruption on Waggle's renderer, and their raw events.
-end_ns="$(awk -F, '$7 == "OneSidedPolarity" { print $1; exit }' "$tmp/raster.packets.csv")"
-[ -n "$end_ns" ] || die "no one-sided interruption on the raster renderer: nothing to draw"
+# The packets around the first one-sided window on Waggle's renderer (the track put in doubt,
+# or interrupted), and their raw events.
+end_ns="$(awk -F, 'NR > 1 && ($7 == "OneSidedPolarity" || $NF != "") { print $1; exit }' \
+  "$tmp/raster.packets.csv")"
+[ -n "$end_ns" ] || die "no one-sided window on the raster renderer: nothing to draw"
 from_ns=$((end_ns - 120000000))
 to_ns=$((end_ns + 40000000))
 for render in raster damage; do

@@ -6,7 +6,8 @@ saw there after the noise front end (ON and OFF counts) and what it decided.
 
 DIR holds, per renderer (`raster`, `damage`), `RENDER.packets.csv` (the `event_symbols`
 example's per-packet verdicts) and `RENDER.events.csv` (`t_ns,x,y,on` of the raw events).
-END_NS is the end of the packet where Waggle's renderer's track was interrupted. Run by
+END_NS is the end of the packet where Waggle's renderer's track was put in doubt (or
+interrupted) by a one-sided window. Run by
 make-onset.sh, which fixes the seed and sensor terms.
 """
 
@@ -48,6 +49,9 @@ def verdict(row):
             share = float(fault.split("majority_fraction: ")[1].split(",")[0])
             return f"interrupted: the confirming window {share:.1%} one polarity"
         return f"interrupted: {row['interruption']}"
+    if row.get("doubt_share"):
+        share = float(row["doubt_share"])
+        return f"doubted: the confirming window {share:.1%} one polarity; held"
     if row["window_on"] == "":
         return "no estimate"
     on, off = int(row["window_on"]), int(row["window_off"])

@@ -9,7 +9,8 @@
 //! (default 0/1), which sets the receiver's rectification as `waggle link` does. The token list
 //! is JSON lines on stdout; `--trajectories` writes `symbol,token,stamp_ns,x_px,y_px,supported`
 //! per sample; `--packets` writes, per packet, its end, its events, the estimate, the ON and
-//! OFF events in the tracker's window, and any interruption, tracker fault or rejection;
+//! OFF events in the tracker's window, any interruption, tracker fault or rejection, the NULL
+//! gate, and the majority share of a confirming window that put the track in doubt;
 //! `--events` writes the recording's events with `FROM_NS < t_ns <= TO_NS` as `t_ns,x,y,on`.
 
 use std::io::Write;
@@ -17,6 +18,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use event_camera::packets::Packetizer;
+use perception::events::tracker::TrackFault;
 use perception::events::{EventReceiver, EventReceiverConfig};
 use proto::scene::Formation;
 use proto::{EventPacket, Rectification};
@@ -79,7 +81,7 @@ fn main() -> Result<()> {
         .rectified(placement.camera(), Rectification::Pitched);
     let mut receiver = EventReceiver::new(config)?;
     let mut packet_rows = String::from(
-        "end_ns,events,x_px,y_px,window_on,window_off,interruption,fault,rejected,null_allowed\n",
+        "end_ns,events,x_px,y_px,window_on,window_off,interruption,fault,rejected,null_allowed,doubt_share\n",
     );
     let mut take = |p: EventPacket, receiver: &mut EventReceiver| {
         let out = receiver.push_packet(&p);
@@ -89,7 +91,7 @@ fn main() -> Result<()> {
                 (format!("{x:.3}"), format!("{y:.3}"))
             });
         packet_rows.push_str(&format!(
-            "{},{},{x},{y},{},{},{},\"{}\",{},{}\n",
+            "{},{},{x},{y},{},{},{},\"{}\",{},{},{}\n",
             p.end_ns,
             p.len(),
             out.window_on_off
@@ -99,7 +101,13 @@ fn main() -> Result<()> {
             out.interruption.map_or(String::new(), |c| format!("{c:?}")),
             out.track_fault.map_or(String::new(), |f| format!("{f:?}")),
             out.rejected.map_or(String::new(), |r| format!("{r:?}")),
-            out.null_allowed
+            out.null_allowed,
+            match out.track_doubt {
+                Some(TrackFault::OneSidedPolarity {
+                    majority_fraction, ..
+                }) => format!("{majority_fraction:.4}"),
+                _ => String::new(),
+            }
         ));
     };
     let mut packetizer = Packetizer::new();

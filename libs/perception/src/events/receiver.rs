@@ -5,8 +5,9 @@
 //!    missing, invalid or non-continuous packets interrupt.
 //! 2. [`NoiseFilter`] — the noise front end: events without correlated neighbours (shot noise,
 //!    leak, hot pixels) are removed; always on.
-//! 3. [`SupportTracker`] — broad activity and supported one-sided polarity interrupt; otherwise
-//!    the estimate is located from this packet's support or held (quiet, sparse tails).
+//! 3. [`SupportTracker`] — broad activity interrupts; a supported one-sided window holds the
+//!    track in doubt (dropped unless located again); otherwise the estimate is located from
+//!    this packet's support or held (quiet, sparse tails).
 //! 4. [`Acquisition`] — the NULL gate: a closed moving path observed, and event-supported
 //!    tracking no older than the 20 s lease.
 //! 5. [`Decoder`] — the shared segmenter (20 px anchor, 3 s NULL, event match settings) and the
@@ -164,6 +165,10 @@ pub struct PacketOutcome {
     /// The tracker's fault behind that interruption, with its figures (e.g. the confirming
     /// window's majority polarity share).
     pub track_fault: Option<TrackFault>,
+    /// Set at the packet whose confirming window turned out one-sided: the track is held in
+    /// doubt from here, and dropped as that fault unless it is located again
+    /// ([`crate::events::tracker`]).
+    pub track_doubt: Option<TrackFault>,
     /// ON and OFF events the tracker saw in its window (after the front end), when it looked.
     pub window_on_off: Option<[u64; 2]>,
     /// Acquisition or lease change at this packet.
@@ -395,7 +400,11 @@ impl EventReceiver {
         } else {
             &self.filtered
         };
+        let doubted = self.tracker.polarity_doubted();
         let observation = self.tracker.observe(seen);
+        if !doubted {
+            out.track_doubt = self.tracker.doubted_by();
+        }
         if let Observation::Located { evidence, .. }
         | Observation::Held { evidence, .. }
         | Observation::NoTarget { evidence } = &observation

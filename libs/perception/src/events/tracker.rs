@@ -23,7 +23,16 @@
 //! same in reverse. A flash or a disappearance stays one-sided. So a supported one-sided packet
 //! only suspends the estimate (it holds); the balance of the local events of the
 //! [`EventTrackerConfig::polarity_context_packets`] packets before it, itself and the packet after it
-//! decides: still one-sided → interruption (one packet late), otherwise tracking goes on.
+//! decides: balanced → tracking goes on.
+//!
+//! **A one-sided window is a doubt, not a verdict.** A target that stops fires its trailing
+//! edge alone too (the last packets of a stroke under shot noise can be > 90 % one polarity),
+//! and a stopped target is silent until it moves again. What tells a stop from a disappearance is
+//! what follows: a target that stopped is located again near where it was held, one that left is
+//! not. So a confirmed one-sided window holds the track and takes back its confirmation: it must
+//! be located twice again within [`EventTrackerConfig::unconfirmed_hold_packets`], as a new track
+//! must (M-of-N confirmation), or it is dropped then as a one-sided interruption with the
+//! window's figures.
 
 use std::collections::VecDeque;
 
@@ -62,7 +71,8 @@ pub struct EventTrackerConfig {
     /// This many active cells anywhere on the sensor is broad scene activity.
     pub broad_active_cells: usize,
     /// A track located by one packet only is a blip, not a target, once this many packets
-    /// after it have not located it again: it is dropped, not held (0: every track is held).
+    /// after it have not located it again: it is dropped, not held (0: every track is held,
+    /// even one a one-sided window doubted).
     pub unconfirmed_hold_packets: u32,
 }
 
@@ -236,6 +246,9 @@ pub struct SupportTracker {
     context: VecDeque<Counts>,
     /// A supported one-sided packet awaiting confirmation: counts of its context and itself.
     pending: Option<Counts>,
+    /// The confirmed one-sided window that doubted the current track, reported if the track is
+    /// dropped before it is confirmed again.
+    doubted_by: Option<TrackFault>,
     /// Packets that located the current track (saturating) and packets since the last one.
     located_packets: u32,
     held_packets: u32,
@@ -266,6 +279,7 @@ impl SupportTracker {
             estimate_px: None,
             context: VecDeque::with_capacity(config.polarity_context_packets + 1),
             pending: None,
+            doubted_by: None,
             located_packets: 0,
             held_packets: 0,
             centre: Centre::PercentileMidpoint,
@@ -310,8 +324,20 @@ impl SupportTracker {
         self.estimate_px = None;
         self.context.clear();
         self.pending = None;
+        self.doubted_by = None;
         self.located_packets = 0;
         self.held_packets = 0;
+    }
+
+    /// True while a confirmed one-sided window has doubted the track and it has not been
+    /// confirmed again.
+    pub fn polarity_doubted(&self) -> bool {
+        self.doubted_by.is_some()
+    }
+
+    /// The confirmed one-sided window that doubted the track, while the doubt lasts.
+    pub fn doubted_by(&self) -> Option<TrackFault> {
+        self.doubted_by
     }
 
     /// Takes back the track's confirmation (it is kept, but it is dropped as a blip unless
@@ -350,12 +376,17 @@ impl SupportTracker {
             let window = [pending[0] + counts[0], pending[1] + counts[1]];
             let events = window[0] + window[1];
             let majority_fraction = window[0].max(window[1]) as f64 / events as f64;
-            if majority_fraction >= self.config.one_sided_fraction {
-                self.lose();
-                return Observation::Interrupted(TrackFault::OneSidedPolarity {
-                    majority_fraction,
-                    events,
-                });
+            if majority_fraction >= self.config.one_sided_fraction && self.estimate_px.is_some() {
+                // A second window while still in doubt restarts the count of locations, not
+                // the hold: a scene that stays one-sided cannot keep a track alive.
+                self.located_packets = 0;
+                if self.doubted_by.is_none() {
+                    self.held_packets = 0;
+                    self.doubted_by = Some(TrackFault::OneSidedPolarity {
+                        majority_fraction,
+                        events,
+                    });
+                }
             }
         }
         let observation = match support_first(&evidence, &self.config) {
@@ -371,6 +402,9 @@ impl SupportTracker {
                 self.estimate_px = Some(point_px);
                 self.located_packets = self.located_packets.saturating_add(1);
                 self.held_packets = 0;
+                if self.located_packets >= 2 {
+                    self.doubted_by = None;
+                }
                 Observation::Located {
                     point_px,
                     centre_px,
@@ -389,9 +423,11 @@ impl SupportTracker {
                 let blip = self.estimate_px.is_some() && self.unconfirmed();
                 match self.estimate_px {
                     Some(_) if blip => {
-                        let held_packets = self.held_packets;
+                        let fault = self.doubted_by.unwrap_or(TrackFault::Unconfirmed {
+                            held_packets: self.held_packets,
+                        });
                         self.lose();
-                        return Observation::Interrupted(TrackFault::Unconfirmed { held_packets });
+                        return Observation::Interrupted(fault);
                     }
                     Some(point_px) => Observation::Held { point_px, evidence },
                     None => Observation::NoTarget { evidence },
@@ -581,9 +617,9 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn supported_one_sided_evidence_interrupts_once_the_next_packet_confirms_it() {
-        let mut t = tracker();
+    /// A target located twice (confirmed), then its whole footprint changing one way.
+    fn confirmed_then_one_sided(t: &mut SupportTracker) -> [f64; 2] {
+        t.observe(&packet(&moving_bar(316, 240)));
         t.observe(&packet(&moving_bar(320, 240)));
         let held_at = t.estimate_px().unwrap();
         // The target vanishing in place: its footprint brightens. The estimate holds...
@@ -593,7 +629,22 @@ mod tests {
             "{obs:?}"
         );
         assert!(t.polarity_pending());
-        // ...and the silence after it confirms the one-sided change.
+        // ...and the silence after it confirms the one-sided change: a doubt, still held.
+        let obs = t.observe(&packet(&[]));
+        assert!(matches!(obs, Observation::Held { .. }), "{obs:?}");
+        assert!(t.polarity_doubted());
+        held_at
+    }
+
+    #[test]
+    fn a_confirmed_one_sided_window_drops_the_track_unless_it_is_located_again() {
+        let limit = EventTrackerConfig::paper().unconfirmed_hold_packets;
+        let mut t = tracker();
+        confirmed_then_one_sided(&mut t);
+        // Nothing where it was: dropped when the hold runs out, named by the window.
+        for _ in 2..limit {
+            assert!(matches!(t.observe(&packet(&[])), Observation::Held { .. }));
+        }
         let obs = t.observe(&packet(&[]));
         let Observation::Interrupted(TrackFault::OneSidedPolarity {
             majority_fraction,
@@ -603,10 +654,52 @@ mod tests {
             panic!("{obs:?}")
         };
         assert!(
-            majority_fraction > 0.9 && events > 576,
+            majority_fraction >= 0.9 && events > 576,
             "{majority_fraction} {events}"
         );
         assert_eq!(t.estimate_px(), None, "searching again");
+    }
+
+    #[test]
+    fn a_target_that_stopped_is_located_again_and_keeps_its_track() {
+        let limit = EventTrackerConfig::paper().unconfirmed_hold_packets;
+        let mut t = tracker();
+        let held_at = confirmed_then_one_sided(&mut t);
+        for _ in 0..3 {
+            assert!(matches!(t.observe(&packet(&[])), Observation::Held { .. }));
+        }
+        // It moves again a few pixels from where it was held: located twice, confirmed.
+        t.observe(&packet(&moving_bar(322, 241)));
+        t.observe(&packet(&moving_bar(325, 241)));
+        assert!(!t.polarity_doubted());
+        for _ in 0..3 * limit {
+            assert!(matches!(t.observe(&packet(&[])), Observation::Held { .. }));
+        }
+        let p = t.estimate_px().unwrap();
+        assert!((p[0] - held_at[0]).abs() < 8.0, "{p:?} {held_at:?}");
+    }
+
+    #[test]
+    fn a_scene_that_stays_one_sided_cannot_keep_a_doubted_track() {
+        let limit = EventTrackerConfig::paper().unconfirmed_hold_packets;
+        let mut t = tracker();
+        confirmed_then_one_sided(&mut t);
+        // The footprint keeps brightening: every window one-sided, every packet held...
+        let mut dropped_after = None;
+        for k in 0..2 * limit {
+            if let Observation::Interrupted(fault) =
+                t.observe(&packet(&footprint(320, 240, Polarity::On)))
+            {
+                assert!(
+                    matches!(fault, TrackFault::OneSidedPolarity { .. }),
+                    "{fault:?}"
+                );
+                dropped_after = Some(k);
+                break;
+            }
+        }
+        // ...until the first window's hold runs out.
+        assert_eq!(dropped_after, Some(limit - 2));
     }
 
     #[test]
