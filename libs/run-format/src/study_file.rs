@@ -13,6 +13,24 @@ use serde::{Deserialize, Serialize};
 /// The only criterion of a link study: every observer releases exactly the broadcast.
 pub const EXACT_PAYLOADS: &str = "exact-payloads";
 
+/// The condition whose levels are broadcast payloads: each level is a six-bit payload's value
+/// (`26` is `011010`), and the point broadcasts that one payload instead of the study's `link`.
+pub const LINK_PAYLOAD: &str = "link.payload";
+
+/// The payload a `link.payload` level names, if it is one (an integer 0–63).
+pub fn payload_level(level: f64) -> Option<u8> {
+    (level.fract() == 0.0 && (0.0..=63.0).contains(&level)).then_some(level as u8)
+}
+
+/// A level as reports and directory names show it: a payload as its six bits, any other level
+/// as its number.
+pub fn level_text(key: &str, level: f64) -> String {
+    match payload_level(level) {
+        Some(p) if key == LINK_PAYLOAD => format!("{p:06b}"),
+        _ => format!("{level}"),
+    }
+}
+
 /// The most settings a crossed study may combine its conditions into (each is a point per
 /// modality, each point its trials): far beyond any study run, well within memory.
 pub const MAX_CROSSED_SETTINGS: usize = 100_000;

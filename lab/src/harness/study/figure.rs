@@ -4,6 +4,7 @@
 use anyhow::Result;
 
 use crate::harness::study::vary::Vary;
+use run_format::study_file::level_text;
 
 /// One measured point of a series.
 #[derive(Debug, Clone, PartialEq)]
@@ -50,7 +51,7 @@ pub fn success_figure(
                 levels
                     .get(k as usize)
                     .filter(|_| (x - k).abs() < 1e-6 && k >= 0.0)
-                    .map_or(String::new(), |l| format!("{l}"))
+                    .map_or(String::new(), |l| level_text(&vary.key, *l))
             })
             .x_desc(vary.key.as_str())
             .y_desc("P(success)")

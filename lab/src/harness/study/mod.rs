@@ -17,7 +17,8 @@
 //! receivers = ["waggle", "python:numpy_tracker:CentroidTracker"]   # optional: default waggle
 //! [[vary]]                                # one table per condition; several allowed
 //! key = "events.shot_noise_hz"            # a perturbation term, or viewpoint.azimuth_deg /
-//! levels = [0.0, 0.1, 0.2, 0.5, 1.0]      # viewpoint.elevation_deg / viewpoint.distance_m
+//! levels = [0.0, 0.1, 0.2, 0.5, 1.0]      # viewpoint.elevation_deg / viewpoint.distance_m,
+//!                                         # or link.payload (levels: payload values, 26 = 011010)
 //! ```
 //! With `cross = true` the conditions are crossed (a point for every combination of their
 //! levels, e.g. light × wind × viewpoint) and the report is laid out per factor: the success
@@ -101,6 +102,7 @@ impl Study {
 }
 
 pub use run_format::study_file::StudyFile;
+use run_format::study_file::{LINK_PAYLOAD, level_text, payload_level};
 
 /// One point: a modality (and receiver) at one level of one condition.
 #[derive(Debug, Clone)]
@@ -237,9 +239,17 @@ impl StudyPlan for StudyFile {
             {
                 let mut perturbation = base.clone();
                 let mut axes = Vec::new();
+                let mut point_payloads = payloads.clone();
                 for &(key, level) in &setting {
                     if VIEWPOINT_AXES.contains(&key) {
                         axes.push((key, level));
+                    } else if key == LINK_PAYLOAD {
+                        point_payloads = vec![payload_level(level).with_context(|| {
+                            format!(
+                                "vary {LINK_PAYLOAD}: level {level} is not a six-bit payload's \
+                                 value (an integer 0-63; 26 is 011010)"
+                            )
+                        })?];
                     } else {
                         perturbation.set(key, level).context("vary")?;
                     }
@@ -255,13 +265,13 @@ impl StudyPlan for StudyFile {
                 let dir = if self.cross {
                     let parts: Vec<String> = setting
                         .iter()
-                        .map(|(k, l)| format!("{k}-{}", level_label(*l)))
+                        .map(|(k, l)| format!("{k}-{}", level_label(k, *l)))
                         .collect();
                     format!("{modality_dir}-{}", parts.join("-"))
                 } else if self.vary.len() == 1 {
-                    format!("{modality_dir}-{}", level_label(level))
+                    format!("{modality_dir}-{}", level_label(key, level))
                 } else {
-                    format!("{modality_dir}-{key}-{}", level_label(level))
+                    format!("{modality_dir}-{key}-{}", level_label(key, level))
                 };
                 points.push(Point {
                     key: if self.cross {
@@ -279,7 +289,7 @@ impl StudyPlan for StudyFile {
                     },
                     dir,
                     options: TrialsOptions {
-                        payloads: payloads.clone(),
+                        payloads: point_payloads,
                         formation,
                         modality,
                         trials: self.trials,
@@ -356,10 +366,10 @@ fn series_label(modality: Modality, receiver: Option<&PluginSpec>) -> String {
     }
 }
 
-/// A level as a directory-name fragment (`0.5` → `0.5`, `-20` → `m20`).
-fn level_label(level: f64) -> String {
-    let s = format!("{level}");
-    s.replace('-', "m")
+/// A level as a directory-name fragment (`0.5` → `0.5`, `-20` → `m20`, payload `26` →
+/// `011010`).
+fn level_label(key: &str, level: f64) -> String {
+    level_text(key, level).replace('-', "m")
 }
 
 /// The figure of condition `key`: `success-<key>.svg`.
@@ -445,6 +455,39 @@ levels = [0.0, 0.5]
         assert!(back.cross);
         let twice = text.replace("link.drop_rate", "events.shot_noise_hz");
         assert!(format!("{:#}", parse(&twice).unwrap_err()).contains("different condition"));
+    }
+
+    #[test]
+    fn a_payload_condition_gives_each_point_its_own_broadcast() {
+        let text = GOOD
+            .replace("observers = 2", "viewpoint = [0.0, 0.0, 1.5]")
+            .replace("events.shot_noise_hz\"", "link.payload\"")
+            .replace("[0.0, 0.5]", "[26.0, 39.0]")
+            + "[[vary]]\nkey = \"viewpoint.azimuth_deg\"\nlevels = [0.0, 20.0]\n";
+        let text = text.replace("criterion", "cross = true\ncriterion");
+        let pts = parse(&text)
+            .unwrap()
+            .points(RenderPath::default(), 1)
+            .unwrap();
+        assert_eq!(pts.len(), 2 * 2 * 2);
+        let events: Vec<_> = pts
+            .iter()
+            .filter(|p| p.modality == Modality::Events)
+            .collect();
+        assert_eq!(events[0].options.payloads, vec![0b011010]);
+        assert_eq!(events[3].options.payloads, vec![0b100111]);
+        assert_eq!(
+            events[3].dir,
+            "events-link.payload-100111-viewpoint.azimuth_deg-20"
+        );
+        // Not a six-bit value: refused, naming the condition and the level.
+        for bad in ["[26.0, 64.0]", "[26.5]", "[-1.0]"] {
+            let e = format!(
+                "{:#}",
+                parse(&text.replace("[26.0, 39.0]", bad)).unwrap_err()
+            );
+            assert!(e.contains("link.payload") && e.contains("six-bit"), "{e}");
+        }
     }
 
     #[test]

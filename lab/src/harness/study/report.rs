@@ -9,6 +9,7 @@ use crate::harness::flight::air::PointTracking;
 use crate::harness::runs::files::RunCost;
 use crate::harness::study::figure::{FigurePoint, success_figure};
 use crate::harness::study::{PointResult, StudyFile, StudyPlan, Vary, cross_key, figure_name};
+use run_format::study_file::level_text;
 
 /// `report.md`: the study's definition and one table per modality.
 #[must_use]
@@ -78,7 +79,9 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
                 };
                 s.push_str(&format!(
                     "| {} | {} / {} | {p} | {ci} |{tracking}\n",
-                    r.level, r.successes, r.trials
+                    level_text(key, r.level),
+                    r.successes,
+                    r.trials
                 ));
             }
             if study.cross {
@@ -160,11 +163,11 @@ fn combinations(study: &StudyFile, key: &str, m: &str, results: &[PointResult]) 
         let (p, ci) = r.rate_cells();
         let cells: Vec<String> = others
             .iter()
-            .map(|k| format!("{}", r.factors.get(*k).copied().unwrap_or_default()))
+            .map(|k| level_text(k, r.factors.get(*k).copied().unwrap_or_default()))
             .collect();
         s.push_str(&format!(
             "| {} | {} | {} / {} | {p} | {ci} |\n",
-            r.factors.get(key).copied().unwrap_or_default(),
+            level_text(key, r.factors.get(key).copied().unwrap_or_default()),
             cells.join(" | "),
             r.successes,
             r.trials
@@ -221,9 +224,13 @@ fn cost_table(key: &str, results: &[PointResult], costs: &RunCost) -> String {
             }
         };
         let at = if r.factors.is_empty() {
-            format!("{}", r.level)
+            level_text(key, r.level)
         } else {
-            let f: Vec<String> = r.factors.iter().map(|(k, v)| format!("{k}={v}")).collect();
+            let f: Vec<String> = r
+                .factors
+                .iter()
+                .map(|(k, v)| format!("{k}={}", level_text(k, *v)))
+                .collect();
             f.join(", ")
         };
         s.push_str(&format!(
