@@ -2,7 +2,7 @@
 //! `waggle audit` (from a recording): per-observer messages, payloads, decisions and services,
 //! the provenance audit, the check against the case's expected outcome and the printed table.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use proto::{Decision, ObserverId};
 use serde::Serialize;
@@ -234,8 +234,8 @@ pub fn false_releases<'a>(
     out
 }
 
-/// What became of each flown offer at each of `observers` (by name): received in its round, or
-/// lost; with the observer's false releases (`false_releases`' output) counted apart. Only
+/// What became of each offer flown to each of `observers` (by name): received in its round, or
+/// lost (an offer flown again by a repeated broadcast counts once); with the observer's false releases (`false_releases`' output) counted apart. Only
 /// rounds whose broadcast is known count.
 pub fn offer_receptions<'a>(
     observers: &[String],
@@ -256,7 +256,10 @@ pub fn offer_receptions<'a>(
             let mut r = OfferReception::default();
             for (round, payloads) in flown {
                 let got = released.get(&(o.clone(), *round));
-                for p in payloads {
+                // A repeated broadcast flies the round's offers again: each offer counts once,
+                // received if any of its flyings was released.
+                let offers: BTreeSet<&u8> = payloads.iter().collect();
+                for p in offers {
                     r.flown += 1;
                     if got.is_some_and(|g| g.contains(p)) {
                         r.received += 1;
@@ -334,6 +337,24 @@ mod tests {
                 token_stamps_ns: vec![0; 17],
             },
         }
+    }
+
+    #[test]
+    fn an_offer_flown_again_counts_once() {
+        let (pa, pb) = (0b010000, 0b100111);
+        // Round 2 flown twice (a repeat): O1 released each offer once, O2 only `pa`, twice.
+        let flown = BTreeMap::from([(2, vec![pa, pb, pa, pb])]);
+        let frames = [
+            frame("O1", 1, 2, pa),
+            frame("O1", 2, 2, pb),
+            frame("O2", 1, 2, pa),
+            frame("O2", 2, 2, pa),
+        ];
+        let observers = ["O1".to_owned(), "O2".to_owned()];
+        let got = offer_receptions(&observers, &frames, &flown, &[]);
+        let counts = |o: &str| (got[o].flown, got[o].received, got[o].lost);
+        assert_eq!(counts("O1"), (2, 2, 0));
+        assert_eq!(counts("O2"), (2, 1, 1));
     }
 
     #[test]
