@@ -465,10 +465,13 @@ levels = [0.0, 0.5]
             .replace("[0.0, 0.5]", "[26.0, 39.0]")
             + "[[vary]]\nkey = \"viewpoint.azimuth_deg\"\nlevels = [0.0, 20.0]\n";
         let text = text.replace("criterion", "cross = true\ncriterion");
-        let pts = parse(&text)
-            .unwrap()
-            .points(RenderPath::default(), 1)
-            .unwrap();
+        let study = parse(&text).unwrap();
+        let header = report::report(&study, &[]);
+        assert!(
+            header.contains("Broadcast each point's `link.payload`"),
+            "{header}"
+        );
+        let pts = study.points(RenderPath::default(), 1).unwrap();
         assert_eq!(pts.len(), 2 * 2 * 2);
         let events: Vec<_> = pts
             .iter()

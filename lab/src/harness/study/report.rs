@@ -9,7 +9,7 @@ use crate::harness::flight::air::PointTracking;
 use crate::harness::runs::files::RunCost;
 use crate::harness::study::figure::{FigurePoint, success_figure};
 use crate::harness::study::{PointResult, StudyFile, StudyPlan, Vary, cross_key, figure_name};
-use run_format::study_file::level_text;
+use run_format::study_file::{LINK_PAYLOAD, level_text};
 
 /// `report.md`: the study's definition and one table per modality.
 #[must_use]
@@ -20,7 +20,11 @@ pub fn report(study: &StudyFile, results: &[PointResult]) -> String {
     s.push_str(&format!(
         "Broadcast {}; {}; {} trials per point, seed {}; criterion: every observer releases \
          exactly the broadcast payloads, in order (`{}`); rectification `{}`. {}: {}.",
-        study.link.join(", "),
+        if study.vary.iter().any(|v| v.key == LINK_PAYLOAD) {
+            format!("each point's `{LINK_PAYLOAD}`")
+        } else {
+            study.link.join(", ")
+        },
         match (study.observers, study.viewpoint) {
             (Some(n), _) => format!("{n} observers in the built-in formation"),
             (_, Some(v)) => format!(
