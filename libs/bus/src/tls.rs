@@ -134,6 +134,8 @@ impl ExistingCa {
         if not_after_unix_s <= now_unix_s {
             return Err(bad(cert, "expired".into()));
         }
+        names_itself_as_issuer(&cert_pem, key_pair, parsed.subject().as_raw())
+            .map_err(|why| bad(cert, why))?;
         Ok(Self {
             cert_pem,
             key_pem,
@@ -150,6 +152,31 @@ impl ExistingCa {
     pub fn not_after_unix_s(&self) -> i64 {
         self.not_after_unix_s
     }
+}
+
+/// Checks that a certificate issued under the CA names the CA's subject, byte for byte, as its
+/// issuer. rcgen rebuilds the issuer's name from the parsed subject, so a subject it cannot
+/// rebuild as read (bytes outside its attributes, an attribute it drops) would make every
+/// session certificate name another issuer, and peers would refuse the chain only at the
+/// handshake, far from the file at fault. One throwaway certificate is signed to see.
+fn names_itself_as_issuer(cert_pem: &str, key: KeyPair, subject_der: &[u8]) -> Result<(), String> {
+    let issuer = Issuer::from_ca_cert_pem(cert_pem, key)
+        .map_err(|e| format!("cannot issue under it: {e}"))?;
+    let probe_key = KeyPair::generate().map_err(|e| format!("cannot issue under it: {e}"))?;
+    let probe = CertificateParams::new(vec!["probe".to_owned()])
+        .and_then(|p| p.signed_by(&probe_key, &issuer))
+        .map_err(|e| format!("cannot issue under it: {e}"))?;
+    let (_, probe) = x509_parser::parse_x509_certificate(probe.der())
+        .map_err(|e| format!("a certificate issued under it does not parse: {e}"))?;
+    if probe.issuer().as_raw() != subject_der {
+        return Err(
+            "its subject name does not encode as read (bytes outside its attributes, \
+                    or an attribute that cannot be rebuilt): certificates issued under it \
+                    would name another issuer"
+                .into(),
+        );
+    }
+    Ok(())
 }
 
 /// A refusal of an existing CA's file `path`.

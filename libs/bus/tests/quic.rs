@@ -2,7 +2,7 @@
 //! certificate from the session's CA (mutual TLS), with per-process passwords and the session's
 //! access lists as well. A client holding another session's certificate is refused.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use bus::handshake::Process;
@@ -300,4 +300,27 @@ fn an_institutions_ca_issues_a_sessions_certificates() {
         .to_string();
     assert!(e.contains("not a CA certificate"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_ca_whose_subject_cannot_be_rebuilt_as_read_is_refused_naming_it() {
+    // The fuzzer's finding: a CA certificate whose subject name holds a byte outside its one
+    // attribute (its lengths one longer than the attribute). Parsers accept it; every
+    // certificate issued under it named another issuer. Certificate, NUL, key.
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../fuzz/regressions/tls_pem/ca-subject-not-rebuilt-86c8a7c2cbebc3a39e72f83db47856147b358859"
+    );
+    let bytes = std::fs::read(path).unwrap();
+    let nul = bytes.iter().position(|&b| b == 0).unwrap();
+    let cert = String::from_utf8(bytes[..nul].to_vec()).unwrap();
+    let key = String::from_utf8(bytes[nul + 1..].to_vec()).unwrap();
+    let paths = (Path::new("inst.crt"), Path::new("inst.key"));
+    let e = ExistingCa::from_pem(cert, key, paths, 1_767_225_600)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("inst.crt") && e.contains("subject name does not encode as read"),
+        "{e}"
+    );
 }
