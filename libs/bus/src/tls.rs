@@ -134,6 +134,7 @@ impl ExistingCa {
         if not_after_unix_s <= now_unix_s {
             return Err(bad(cert, "expired".into()));
         }
+        encodable_name(parsed.subject()).map_err(|why| bad(cert, why))?;
         names_itself_as_issuer(&cert_pem, key_pair, parsed.subject().as_raw())
             .map_err(|why| bad(cert, why))?;
         Ok(Self {
@@ -152,6 +153,31 @@ impl ExistingCa {
     pub fn not_after_unix_s(&self) -> i64 {
         self.not_after_unix_s
     }
+}
+
+/// Checks that every attribute type of `name` is an object identifier DER can encode (first
+/// arc 0–2, second below 40 under 0 and 1, and 80 plus the second within 64 bits): rcgen writes the CA's subject into each certificate
+/// it issues, and its encoder panics on one it cannot encode. A parser reads such an identifier
+/// from a first byte of 120 or more split naively (205 as 5.5).
+fn encodable_name(name: &x509_parser::x509::X509Name<'_>) -> Result<(), String> {
+    for attr in name.iter_attributes() {
+        let oid = attr.attr_type();
+        let arcs: Option<Vec<u64>> = oid.iter().map(|arcs| arcs.take(2).collect());
+        let encodable = match arcs.as_deref() {
+            Some(&[first, second]) => match first {
+                0 | 1 => second < 40,
+                2 => second <= u64::MAX - 81, // 80 + second must fit the encoder's u64
+                _ => false,
+            },
+            _ => false,
+        };
+        if !encodable {
+            return Err(format!(
+                "its subject name has an attribute type that cannot be encoded again ({oid})"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Checks that a certificate issued under the CA names the CA's subject, byte for byte, as its

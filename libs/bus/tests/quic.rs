@@ -324,3 +324,25 @@ fn a_ca_whose_subject_cannot_be_rebuilt_as_read_is_refused_naming_it() {
         "{e}"
     );
 }
+
+#[test]
+fn a_ca_whose_subject_has_an_attribute_type_der_cannot_encode_is_refused() {
+    // The fuzzer's second finding: a subject attribute type read as 5.5 (a first byte of 205
+    // split naively). rcgen's encoder panicked writing it into an issued certificate.
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../fuzz/regressions/tls_pem/ca-subject-oid-not-encodable-d8e4b2893c320674557969dee4bc8d3a0b522ca1"
+    );
+    let bytes = std::fs::read(path).unwrap();
+    let nul = bytes.iter().position(|&b| b == 0).unwrap();
+    let cert = String::from_utf8(bytes[..nul].to_vec()).unwrap();
+    let key = String::from_utf8(bytes[nul + 1..].to_vec()).unwrap();
+    let paths = (Path::new("inst.crt"), Path::new("inst.key"));
+    let e = ExistingCa::from_pem(cert, key, paths, 1_767_225_600)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("inst.crt") && e.contains("cannot be encoded again"),
+        "{e}"
+    );
+}
