@@ -302,23 +302,28 @@ fn an_institutions_ca_issues_a_sessions_certificates() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-#[test]
-fn a_ca_whose_subject_cannot_be_rebuilt_as_read_is_refused_naming_it() {
-    // The fuzzer's finding: a CA certificate whose subject name holds a byte outside its one
-    // attribute (its lengths one longer than the attribute). Parsers accept it; every
-    // certificate issued under it named another issuer. Certificate, NUL, key.
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../fuzz/regressions/tls_pem/ca-subject-not-rebuilt-86c8a7c2cbebc3a39e72f83db47856147b358859"
-    );
-    let bytes = std::fs::read(path).unwrap();
+/// `ExistingCa`'s refusal of the CA in a `tls_pem` fuzzing regression (certificate, NUL, key),
+/// read as if from `inst.crt` and `inst.key`.
+fn refusal_of_regression(name: &str) -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../fuzz/regressions/tls_pem")
+        .join(name);
+    let bytes = std::fs::read(&path).unwrap();
     let nul = bytes.iter().position(|&b| b == 0).unwrap();
     let cert = String::from_utf8(bytes[..nul].to_vec()).unwrap();
     let key = String::from_utf8(bytes[nul + 1..].to_vec()).unwrap();
     let paths = (Path::new("inst.crt"), Path::new("inst.key"));
-    let e = ExistingCa::from_pem(cert, key, paths, 1_767_225_600)
-        .unwrap_err()
-        .to_string();
+    let e = ExistingCa::from_pem(cert, key, paths, 1_767_225_600).unwrap_err();
+    e.to_string()
+}
+
+#[test]
+fn a_ca_whose_subject_cannot_be_rebuilt_as_read_is_refused_naming_it() {
+    // The fuzzer's finding: a CA certificate whose subject name holds a byte outside its one
+    // attribute (its lengths one longer than the attribute). Parsers accept it; every
+    // certificate issued under it named another issuer.
+    let e =
+        refusal_of_regression("ca-subject-not-rebuilt-86c8a7c2cbebc3a39e72f83db47856147b358859");
     assert!(
         e.contains("inst.crt") && e.contains("subject name does not encode as read"),
         "{e}"
@@ -329,18 +334,9 @@ fn a_ca_whose_subject_cannot_be_rebuilt_as_read_is_refused_naming_it() {
 fn a_ca_whose_subject_has_an_attribute_type_der_cannot_encode_is_refused() {
     // The fuzzer's second finding: a subject attribute type read as 5.5 (a first byte of 205
     // split naively). rcgen's encoder panicked writing it into an issued certificate.
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../fuzz/regressions/tls_pem/ca-subject-oid-not-encodable-d8e4b2893c320674557969dee4bc8d3a0b522ca1"
+    let e = refusal_of_regression(
+        "ca-subject-oid-not-encodable-d8e4b2893c320674557969dee4bc8d3a0b522ca1",
     );
-    let bytes = std::fs::read(path).unwrap();
-    let nul = bytes.iter().position(|&b| b == 0).unwrap();
-    let cert = String::from_utf8(bytes[..nul].to_vec()).unwrap();
-    let key = String::from_utf8(bytes[nul + 1..].to_vec()).unwrap();
-    let paths = (Path::new("inst.crt"), Path::new("inst.key"));
-    let e = ExistingCa::from_pem(cert, key, paths, 1_767_225_600)
-        .unwrap_err()
-        .to_string();
     assert!(
         e.contains("inst.crt") && e.contains("cannot be encoded again"),
         "{e}"
