@@ -54,8 +54,9 @@ class Tick(SensorInput):
 
     observer: str = ""
     performer_px: Optional[Tuple[float, float]] = None
-    """The performer's centre projected into the camera at its latest render (the ideal
-    receiver's sample); ``None`` when it is outside the image."""
+    """The performer's centre projected into the image of the observer's latest render (its
+    camera turned and moved as the airframe was: the label of the pixels this input shows);
+    ``None`` when it is outside the image."""
 
 
 def _frames(stream: IO[bytes]) -> Iterator[Tuple[dict, memoryview]]:

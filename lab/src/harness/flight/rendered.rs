@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 
 use anyhow::{Context, Result};
 use evaluation::IdealReceiver;
-use proto::scene::{Formation, distance_m};
+use proto::scene::{Formation, ObserverCamera, distance_m};
 use proto::{
     EgoRotation, FrameChange, Modality, PixelRect, Rectification, RenderPath, Schedule,
     SegmenterConfig,
@@ -185,8 +185,8 @@ pub struct Flown {
 pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
     let width = usize::from(proto::scene::IMAGE_WIDTH_PX);
     let mut tracks = vec![RenderTrack::default(); spec.formation.len()];
-    let flown = fly_streamed(&spec, |i, t, rgb, change, ego, _| {
-        tracks[i].push(t, rgb, change, width, ego);
+    let flown = fly_streamed(&spec, |i, t, rgb, change, pose| {
+        tracks[i].push(t, rgb, change, width, pose.ego);
         Ok(true)
     })?
     .context("a render cache never stops its flight")?;
@@ -200,20 +200,50 @@ pub fn fly_rendered(spec: FlightSpec) -> Result<RenderedFlight> {
     })
 }
 
+/// Where things were when a camera rendered: the truth beside each render.
+#[derive(Debug, Clone, Copy)]
+pub struct RenderPose {
+    /// How far the airframe had turned from home (`None`: not turned, to the last bit).
+    pub ego: Option<EgoRotation>,
+    /// How far the airframe had moved from home, m (world axes).
+    pub shift_m: [f64; 3],
+    /// The performer's centre, m (world axes).
+    pub performer_m: [f64; 3],
+}
+
+impl RenderPose {
+    /// Where the performer's centre appears in the image `home`'s camera made at this pose:
+    /// turned by the airframe's turn and moved with it (the camera's 4 cm lever arm is not
+    /// turned: 0.35 mm at a 0.5° lean). `None` behind the camera or outside the image.
+    pub fn performer_px(&self, home: &ObserverCamera) -> Option<[f64; 2]> {
+        let mut camera = *home;
+        for (c, s) in camera.world_pos_m.iter_mut().zip(self.shift_m) {
+            *c += s;
+        }
+        let p = match &self.ego {
+            Some(ego) => proto::stabilise::turned_px(&camera, ego, self.performer_m)?,
+            None => camera.project_px(self.performer_m)?,
+        };
+        let inside = (0.0..f64::from(proto::scene::IMAGE_WIDTH_PX)).contains(&p[0])
+            && (0.0..f64::from(proto::scene::IMAGE_HEIGHT_PX)).contains(&p[1]);
+        inside.then_some(p)
+    }
+}
+
 /// Flies `spec` once, rendering every observer's camera at `render_period_ns` and handing each
 /// render to `visit(observer, stamp_ns, whole frame, change since that camera's previous
-/// render, how far its airframe has turned from home, where the performer is)` as it is made, observers in order at
-/// each instant — what [`RenderTrack::replay`] gives for the same flight (a camera's first
-/// render is `All`). The turn is the attitude the render was drawn at (`None`: not turned, to
-/// the last bit). Nothing is kept. `None` when `visit` returns `false` (the flight stops there).
+/// render, pose)` as it is made, observers in order at each instant — what
+/// [`RenderTrack::replay`] gives for the same flight (a camera's first render is `All`). The
+/// pose's turn is the attitude the render was drawn at. Nothing is kept. `None` when `visit`
+/// returns `false` (the flight stops there).
 pub fn fly_streamed(
     spec: &FlightSpec,
-    mut visit: impl FnMut(usize, u64, &[u8], FrameChange, Option<EgoRotation>, [f64; 3]) -> Result<bool>,
+    mut visit: impl FnMut(usize, u64, &[u8], FrameChange, RenderPose) -> Result<bool>,
 ) -> Result<Option<Flown>> {
     let mut world = World::with_formation(&spec.formation).context("building the scene")?;
     // Observer i is drone i + 1; its home attitude is the one the scene was built with.
-    let home_attitudes: Vec<[f64; 4]> = (0..spec.formation.len())
-        .map(|i| world.body_pose(i + 1).1)
+    let homes: Vec<([f64; 3], [f64; 4])> = (0..spec.formation.len())
+        .map(|i| world.body_pose(i + 1))
         .collect();
     if let Some((p, seed)) = &spec.air {
         crate::harness::flight::air::set_air(&mut world, p, *seed)?;
@@ -264,7 +294,12 @@ pub fn fly_streamed(
         }
         let performer_m = world.position_m(PERFORMER);
         for (i, seen) in seen.iter_mut().enumerate() {
-            let ego = EgoRotation::between(home_attitudes[i], world.body_pose(i + 1).1);
+            let (position_m, attitude) = world.body_pose(i + 1);
+            let pose = RenderPose {
+                ego: EgoRotation::between(homes[i].1, attitude),
+                shift_m: std::array::from_fn(|k| position_m[k] - homes[i].0[k]),
+                performer_m,
+            };
             let frame = renderer.render_change(&mut world, i)?;
             let change = if *seen {
                 frame.change
@@ -272,7 +307,7 @@ pub fn fly_streamed(
                 FrameChange::All
             };
             *seen = true;
-            if !visit(i, t, frame.rgb, change, ego, performer_m)? {
+            if !visit(i, t, frame.rgb, change, pose)? {
                 return Ok(None);
             }
         }
@@ -301,5 +336,56 @@ impl RenderedFlight {
     /// Bytes held by every track.
     pub fn stored_bytes(&self) -> usize {
         self.tracks.iter().map(RenderTrack::stored_bytes).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RenderPose;
+    use proto::scene::Placement;
+    use proto::stabilise::{EgoRotation, about, product, turned_px};
+
+    /// The label is where the performer is in the image the camera made: unturned and unmoved
+    /// it is the home camera's projection; turned, the turned camera's; moved, the moved one's.
+    #[test]
+    fn the_performer_is_placed_in_the_image_the_turned_and_moved_camera_made() {
+        let placement = Placement::viewpoint(20.0, 0.0, 1.5);
+        let home = placement.camera();
+        let performer_m = proto::scene::PERFORMER_HOVER_M;
+        let still = RenderPose {
+            ego: None,
+            shift_m: [0.0; 3],
+            performer_m,
+        };
+        assert_eq!(still.performer_px(&home), home.project_px(performer_m));
+
+        let home_q = about([0.0, 0.0, 1.0], placement.yaw_rad);
+        let ego = EgoRotation::between(home_q, product(about([0.3, 1.0, 0.1], 0.05), home_q));
+        let turned = RenderPose { ego, ..still };
+        let expected = turned_px(&home, ego.as_ref().unwrap(), performer_m).unwrap();
+        assert_eq!(turned.performer_px(&home), Some(expected));
+        let moved_by_px = {
+            let p = turned.performer_px(&home).unwrap();
+            let q = still.performer_px(&home).unwrap();
+            (p[0] - q[0]).hypot(p[1] - q[1])
+        };
+        // 0.05 rad, mostly across the optical axis.
+        assert!(
+            moved_by_px > 0.5 * 0.05 * proto::scene::focal_px(),
+            "{moved_by_px}"
+        );
+
+        // Moving the camera 5 cm towards the performer's right moves its image left.
+        let right = [-placement.yaw_rad.sin(), placement.yaw_rad.cos(), 0.0];
+        let moved = RenderPose {
+            shift_m: [0.05 * -right[0], 0.05 * -right[1], 0.0],
+            ..still
+        };
+        let (p, q) = (
+            moved.performer_px(&home).unwrap(),
+            still.performer_px(&home).unwrap(),
+        );
+        assert!((p[0] - q[0]).abs() > 10.0, "{p:?} against {q:?}");
+        assert!((p[1] - q[1]).abs() < 1.0, "{p:?} against {q:?}");
     }
 }

@@ -31,7 +31,9 @@ use rand_chacha::ChaCha8Rng;
 use receiver_plugin::{ObserverInfo, PluginCounts, PluginReceiver, Worker, WorkerPool};
 use sim::sensor::RGB_PERIOD_NS;
 
-use crate::harness::flight::rendered::{FlightSpec, Flown, RenderedFlight, fly_streamed};
+use crate::harness::flight::rendered::{
+    FlightSpec, Flown, RenderPose, RenderedFlight, fly_streamed,
+};
 use crate::harness::link::{ObserverOut, observer_out};
 
 /// How a trial's observers sense: their modality, their receivers' rectification, the
@@ -57,8 +59,8 @@ pub struct Tapped {
     pub input: TappedInput,
     /// How far the airframe has turned from home at this input (`None`: not turned).
     pub ego: Option<EgoRotation>,
-    /// The performer's centre projected into the observer's camera at its latest render (the
-    /// ideal receiver's sample), `None` outside the image.
+    /// The performer's centre projected into the image of the observer's latest render (its
+    /// camera turned and moved as the airframe was), `None` outside the image.
     pub performer_px: Option<[f64; 2]>,
 }
 
@@ -106,11 +108,10 @@ impl TrialReceiver {
         }
     }
 
-    /// Where the performer is at the render about to be made (only a tap hands it out).
-    fn set_performer(&mut self, stamp_ns: u64, performer_m: [f64; 3]) {
+    /// Where the performer is in the render about to be made (only a tap hands it out).
+    fn set_performer(&mut self, pose: &RenderPose) {
         if let Self::Tap(t) = self {
-            t.performer_px =
-                evaluation::ideal_receiver::ideal_sample(&t.camera, stamp_ns, performer_m).point_px;
+            t.performer_px = pose.performer_px(&t.camera);
         }
     }
 
@@ -424,13 +425,13 @@ pub fn observe_flying(
         .enumerate()
         .map(|(i, placement)| Observer::new(placement, i, opts, seed, worker.as_ref()))
         .collect::<Result<Vec<_>>>()?;
-    let flown = fly_streamed(spec, |i, t, rgb, change, ego, performer_m| {
+    let flown = fly_streamed(spec, |i, t, rgb, change, pose| {
         if stop.load(Ordering::Relaxed) {
             return Ok(false);
         }
-        observers[i].perception.set_performer(t, performer_m);
+        observers[i].perception.set_performer(&pose);
         // The observer's attitude estimate: its receiver undoes the airframe's turn.
-        let ego = estimated(observers[i].attitude.as_mut(), t, ego);
+        let ego = estimated(observers[i].attitude.as_mut(), t, pose.ego);
         observers[i].perception.set_ego_rotation(ego);
         observers[i].render(t, rgb, change)?;
         Ok(true)

@@ -30,6 +30,7 @@ use crate::events::support::{Centre, Window};
 use crate::events::tracker::{EventTrackerConfig, Observation, SupportTracker, TrackFault};
 use proto::decoder::{DecodeStep, Decoder};
 use proto::segmenter::{Sample, SegmentToken, SegmenterConfig, TokenCause};
+use proto::stabilise::predicted_px;
 
 /// Everything an event receiver is configured with.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -205,6 +206,9 @@ pub struct EventReceiver {
     /// The ego-motion front end and the packet after it (reused).
     ego_motion: EgoMotionFilter,
     moving: EventPacket,
+    /// The airframe's turn now, and when the tracker last saw a packet.
+    ego: Option<proto::EgoRotation>,
+    ego_at_last_packet: Option<proto::EgoRotation>,
     tracker: SupportTracker,
     acquisition: Acquisition,
     decoder: Decoder,
@@ -234,6 +238,8 @@ impl EventReceiver {
                 config.height,
             ),
             moving: EventPacket::from_events(0, (0, 0), (config.width, config.height), &[]),
+            ego: None,
+            ego_at_last_packet: None,
             tracker: SupportTracker::new(config.tracker, config.width, config.height)?,
             acquisition: Acquisition::new(config.acquisition)?,
             decoder: Decoder::new(config.segmenter)?,
@@ -395,11 +401,13 @@ impl EventReceiver {
             // What the front end keeps is whole cells: the support's median, not its
             // percentile bounds, tells where the target is in them (`support::Centre`).
             self.tracker.set_centre(Centre::Median);
+            self.turn_estimate();
             self.ego_motion.filter(&self.filtered, &mut self.moving);
             &self.moving
         } else {
             &self.filtered
         };
+        self.ego_at_last_packet = self.ego;
         let doubted = self.tracker.polarity_doubted();
         let observation = self.tracker.observe(seen);
         if !doubted {
@@ -440,8 +448,24 @@ impl EventReceiver {
     /// estimate), undone on the target's track from the next sample on
     /// ([`proto::stabilise`]).
     pub fn set_ego_rotation(&mut self, ego: Option<proto::EgoRotation>) {
+        self.ego = ego;
         self.ego_motion.set_ego_rotation(ego);
         self.decoder.set_ego_rotation(ego);
+    }
+
+    /// Moves the tracker's estimate by the image motion the airframe's turn since the last
+    /// packet explains, as the RGB receiver starts each feature's search (an inertial-aided
+    /// prediction): a target that makes no events (hovering, or its cell learnt by the
+    /// ego-motion front end) is held where the turn put it, not where the image was.
+    fn turn_estimate(&mut self) {
+        let (from, to) = (self.ego_at_last_packet, self.ego);
+        if from == to {
+            return;
+        }
+        if let Some(home) = &self.config.segmenter.home_camera {
+            self.tracker
+                .turn_estimate(|p| predicted_px(home, from.as_ref(), to.as_ref(), p));
+        }
     }
 
     /// The check the session's frames carry ([`Decoder::set_frame_check`]).

@@ -296,6 +296,16 @@ impl SupportTracker {
         self.estimate_px
     }
 
+    /// The camera turned since the last packet: the estimate moves to where `turn` takes it
+    /// (the image of a point the turn alone moved), so that a held track stays on the target
+    /// while the airframe swings, and a located one is smoothed from there. Kept where `turn`
+    /// cannot map it.
+    pub fn turn_estimate(&mut self, turn: impl FnOnce([f64; 2]) -> Option<[f64; 2]>) {
+        if let Some(moved) = self.estimate_px.and_then(turn) {
+            self.estimate_px = Some(moved);
+        }
+    }
+
     /// True while a one-sided packet awaits confirmation by the next one.
     pub fn polarity_pending(&self) -> bool {
         self.pending.is_some()
