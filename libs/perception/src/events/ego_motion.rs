@@ -22,8 +22,12 @@
 //!   the flow has kept one direction);
 //! * a cell whose count the model explains, `n ≤ (1 + κ)·μ + z·√μ + m`, has its events removed;
 //!   a cell above that keeps *all* its events (both edges of a moving object, both polarities);
-//! * the model learns from the count clipped to that bound, so a drone passing through teaches
-//!   the place little, while a drone that comes to rest there is learnt within a few seconds.
+//! * the model learns from the count clipped to what its prediction explains as a Poisson count
+//!   (`(1 + κ)·μ + z·√μ + m`, without the spread the place has shown), so a drone passing
+//!   through or coming back to where it rested teaches the place little, while a drone that
+//!   comes to rest there is learnt within a few seconds. (Clipped at the bound with the spread,
+//!   a place a swaying drone had left kept a bound of ≈ 1 000 events a packet for seconds, and
+//!   the drone's return there was removed.)
 //!   (A resting drone then gives no events, as it gives none to a still camera.)
 //!
 //! This is the scene-fixed counterpart of IMU-aided ego-motion compensation for moving-object
@@ -96,7 +100,7 @@ const VACATED_PACKETS: u8 = 10;
 /// … and its model forgets with this extra factor per such packet (≈ 0.2 s at 25 Hz).
 const VACATED_FORGET: f64 = 0.8;
 
-/// The count a model learns from is clipped at this multiple of its bound.
+/// The count a model learns from is clipped at this multiple of its Poisson bound.
 const LEARN_CLIP: f64 = 1.0;
 
 /// Ridge of the normal equations, in packets' worth of a unit regressor.
@@ -150,6 +154,14 @@ impl CellModel {
         let mu = self.predict(x, polarity);
         let variance = self.residual_sq[polarity] / self.weight.max(1.0);
         (1.0 + KAPPA) * mu + Z * mu.max(variance).sqrt() + MARGIN_EVENTS
+    }
+
+    /// The largest count of `polarity` a Poisson count of the prediction at `x` explains, without
+    /// the spread the place has shown: what a count teaches the model is clipped here, so that
+    /// a drone passing through or arriving teaches it little however unsettled the place was.
+    fn count_bound(&self, x: &[f64; REGRESSORS], polarity: usize) -> f64 {
+        let mu = self.predict(x, polarity);
+        (1.0 + KAPPA) * mu + Z * mu.sqrt() + MARGIN_EVENTS
     }
 
     fn learn(&mut self, x: &[f64; REGRESSORS], n: [f64; 2], forget: f64) {
@@ -404,7 +416,7 @@ impl EgoMotionFilter {
             self.excess[c] =
                 model.packets >= WARM_UP_PACKETS && (n[0] > bound[0] || n[1] > bound[1]);
             self.keep_cell[c] = false;
-            let clip = |p: usize| n[p].min(LEARN_CLIP * bound[p]);
+            let teach = [0, 1].map(|p| n[p].min(LEARN_CLIP * model.count_bound(&x, p)));
             // A place something has left (a drone that rested there) gives far fewer events
             // than it did, packet after packet: forget faster, or the drone's return there is
             // taken for the scene. (A resting drone's jitter pauses for a packet or two too.)
@@ -419,7 +431,7 @@ impl EgoMotionFilter {
             } else {
                 forget
             };
-            model.learn(&x, [clip(0), clip(1)], forget);
+            model.learn(&x, teach, forget);
             self.flow[c] = [0.0; 2];
         }
         // A moving object keeps firing in or next to a cell for packet after packet; the
