@@ -16,6 +16,10 @@
 //! Once acquired, the gate stays open while the age of the last **event-supported** estimate is
 //! at most [`AcquisitionConfig::lease_ns`]. When the lease runs out the acquisition is dropped:
 //! quiet cannot renew it, and neither can an open motion — only a new closed path.
+//!
+//! Points are in whatever image the receiver hands over; the event receiver hands over the
+//! track as its unturned camera would have seen it (`proto::stabilise`), the image the
+//! segmenter reads symbols in, so a leaning observer's sweep still closes and its rests stay put.
 
 use proto::MatchSettings;
 

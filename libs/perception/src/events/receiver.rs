@@ -8,8 +8,8 @@
 //! 3. [`SupportTracker`] — broad activity interrupts; a supported one-sided window holds the
 //!    track in doubt (dropped unless located again); otherwise the estimate is located from
 //!    this packet's support or held (quiet, sparse tails).
-//! 4. [`Acquisition`] — the NULL gate: a closed moving path observed, and event-supported
-//!    tracking no older than the 20 s lease.
+//! 4. [`Acquisition`] — the NULL gate: a closed moving path observed (in the image the unturned
+//!    camera would have made), and event-supported tracking no older than the 20 s lease.
 //! 5. [`Decoder`] — the shared segmenter (20 px anchor, 3 s NULL, event match settings) and the
 //!    17-token frame parser.
 //!
@@ -30,7 +30,7 @@ use crate::events::support::{Centre, Window};
 use crate::events::tracker::{EventTrackerConfig, Observation, SupportTracker, TrackFault};
 use proto::decoder::{DecodeStep, Decoder};
 use proto::segmenter::{Sample, SegmentToken, SegmenterConfig, TokenCause};
-use proto::stabilise::predicted_px;
+use proto::stabilise::{predicted_px, stabilised_px};
 
 /// Everything an event receiver is configured with.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -495,7 +495,14 @@ impl EventReceiver {
         supported: bool,
         out: &mut PacketOutcome,
     ) {
-        if let Some(event) = self.acquisition.observe(stamp_ns, point_px, supported) {
+        // Closure and rest are judged where the segmenter judges symbols: in the image the
+        // unturned camera would have made. In the raw image a leaning observer's sweep does not
+        // come back to where it started, and its rests wander by the lean.
+        let steady_px = match (&self.ego, &self.config.segmenter.home_camera) {
+            (Some(ego), Some(home)) => stabilised_px(home, ego, point_px).unwrap_or(point_px),
+            _ => point_px,
+        };
+        if let Some(event) = self.acquisition.observe(stamp_ns, steady_px, supported) {
             if self.keeps_history {
                 self.acquisition_events.push(event);
             }
