@@ -6,12 +6,18 @@
 use std::collections::BTreeSet;
 
 use perception::events::ego_motion::EgoMotionFilter;
+use perception::events::{EventReceiver, EventReceiverConfig};
 use proto::scene::{ObserverCamera, PERFORMER_HOVER_M, Placement};
 use proto::stabilise::{EgoRotation, about, product, turned_px};
-use proto::{EventPacket, Polarity};
+use proto::{EventPacket, Polarity, Rectification};
 
 const RENDER_NS: u64 = 10_000_000;
 const RENDERS_PER_PACKET: u64 = 4;
+
+/// No turn.
+const IDENTITY: EgoRotation = EgoRotation {
+    world_from_home: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+};
 
 /// What a stream's events were: the scene's, or the object's.
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug)]
@@ -28,6 +34,8 @@ struct Stream {
     scene_px: Vec<Option<(u16, u16)>>,
     object_px: Vec<Option<(u16, u16)>>,
     lean_deg: f64,
+    /// Events of the packet in progress.
+    pending: Vec<(u16, u16, bool, Source)>,
 }
 
 impl Stream {
@@ -48,6 +56,7 @@ impl Stream {
             scene,
             object_px: vec![None; 96],
             lean_deg,
+            pending: Vec::new(),
         }
     }
 
@@ -93,6 +102,44 @@ impl Stream {
         self.scene = scene;
     }
 
+    /// Render `r` at the turn `ego`: the scene's and `object`'s events join the packet in
+    /// progress; a render that ends a packet returns its distinct events, stamped at its end (so
+    /// a kept event identifies its source), and the packet.
+    fn render(
+        &mut self,
+        r: u64,
+        ego: Option<&EgoRotation>,
+        object: &[[f64; 3]],
+    ) -> Option<(BTreeSet<Event>, EventPacket)> {
+        let mut pending = std::mem::take(&mut self.pending);
+        self.scene_events(ego, &mut pending);
+        Self::events_of(
+            &self.home,
+            ego,
+            object,
+            &mut self.object_px,
+            Source::Object,
+            &mut pending,
+        );
+        self.pending = pending;
+        if !r.is_multiple_of(RENDERS_PER_PACKET) {
+            return None;
+        }
+        let t_ns = r * RENDER_NS;
+        let unique: BTreeSet<Event> = self.pending.drain(..).map(|e| (t_ns, e)).collect();
+        let packet = packet_of(&unique, r, t_ns);
+        Some((unique, packet))
+    }
+
+    /// An event receiver with the paper's settings that knows this stream's home camera.
+    fn receiver(&self) -> EventReceiver {
+        let mut config = EventReceiverConfig::paper();
+        config.segmenter = config
+            .segmenter
+            .rectified(self.home, Rectification::Pitched);
+        EventReceiver::new(config).unwrap()
+    }
+
     fn events_of(
         home: &ObserverCamera,
         ego: Option<&EgoRotation>,
@@ -101,11 +148,8 @@ impl Stream {
         source: Source,
         out: &mut Vec<(u16, u16, bool, Source)>,
     ) {
-        let identity = EgoRotation {
-            world_from_home: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        };
         for (p, last) in points.iter().zip(last) {
-            let px = turned_px(home, ego.unwrap_or(&identity), *p)
+            let px = turned_px(home, ego.unwrap_or(&IDENTITY), *p)
                 .filter(|q| q[0] >= 0.0 && q[1] >= 0.0 && q[0] < 640.0 && q[1] < 480.0)
                 .map(|q| (q[0] as u16, q[1] as u16));
             if px != *last {
@@ -242,31 +286,16 @@ fn a_rocking_camera_loses_the_scene_and_keeps_a_slowly_moving_object() {
 /// alone is removed before it reaches the tracker, so no target is ever localised in it.
 #[test]
 fn the_event_receiver_filters_a_rocking_scene_only_once_given_turns() {
-    use perception::events::{EventReceiver, EventReceiverConfig};
-    use proto::Rectification;
-
     let mut stream = Stream::new(1.0);
-    let mut config = EventReceiverConfig::paper();
-    config.segmenter = config
-        .segmenter
-        .rectified(stream.home, Rectification::Pitched);
-    let (mut turned, mut still) = (
-        EventReceiver::new(config).unwrap(),
-        EventReceiver::new(config).unwrap(),
-    );
-    let mut pending = Vec::new();
+    let (mut turned, mut still) = (stream.receiver(), stream.receiver());
     let (mut located, mut located_still) = (0, 0);
     for r in 1..=600u64 {
-        let t_ns = r * RENDER_NS;
-        let ego = stream.turn(t_ns as f64 * 1e-9);
+        let ego = stream.turn((r * RENDER_NS) as f64 * 1e-9);
         turned.set_ego_rotation(ego);
         still.set_ego_rotation(None);
-        stream.scene_events(ego.as_ref(), &mut pending);
-        if r % RENDERS_PER_PACKET != 0 {
+        let Some((_, packet)) = stream.render(r, ego.as_ref(), &[]) else {
             continue;
-        }
-        let unique: BTreeSet<_> = pending.drain(..).map(|e| (t_ns, e)).collect();
-        let packet = packet_of(&unique, r, t_ns);
+        };
         located += usize::from(turned.push_packet(&packet).point_px.is_some() && r > 200);
         located_still += usize::from(still.push_packet(&packet).point_px.is_some() && r > 200);
     }
@@ -288,19 +317,8 @@ fn the_event_receiver_filters_a_rocking_scene_only_once_given_turns() {
 /// not make.
 #[test]
 fn a_held_target_is_carried_by_the_cameras_turn() {
-    use perception::events::{EventReceiver, EventReceiverConfig};
-    use proto::Rectification;
-
     let mut stream = Stream::new(1.0);
-    let mut config = EventReceiverConfig::paper();
-    config.segmenter = config
-        .segmenter
-        .rectified(stream.home, Rectification::Pitched);
-    let mut receiver = EventReceiver::new(config).unwrap();
-    let mut pending = Vec::new();
-    let identity = EgoRotation {
-        world_from_home: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-    };
+    let mut receiver = stream.receiver();
     // The object moves from 5 s to 9 s, then rests where it got to.
     let object_at = |t_s: f64| Stream::object(t_s.min(9.0), 0.06);
     let (mut errors_px, mut largest_swing_px) = (Vec::new(), 0.0_f64);
@@ -309,21 +327,11 @@ fn a_held_target_is_carried_by_the_cameras_turn() {
         let t_s = t_ns as f64 * 1e-9;
         let ego = stream.turn(t_s);
         receiver.set_ego_rotation(ego);
-        stream.scene_events(ego.as_ref(), &mut pending);
         let object = object_at(t_s);
-        Stream::events_of(
-            &stream.home,
-            ego.as_ref(),
-            &object,
-            &mut stream.object_px,
-            Source::Object,
-            &mut pending,
-        );
-        if r % RENDERS_PER_PACKET != 0 {
+        let Some((_, packet)) = stream.render(r, ego.as_ref(), &object) else {
             continue;
-        }
-        let unique: BTreeSet<_> = pending.drain(..).map(|e| (t_ns, e)).collect();
-        let out = receiver.push_packet(&packet_of(&unique, r, t_ns));
+        };
+        let out = receiver.push_packet(&packet);
         if t_s < 10.0 {
             continue;
         }
@@ -331,8 +339,8 @@ fn a_held_target_is_carried_by_the_cameras_turn() {
         let centre = object.iter().fold([0.0; 3], |c, p| {
             [c[0] + p[0] / 96.0, c[1] + p[1] / 96.0, c[2] + p[2] / 96.0]
         });
-        let seen = turned_px(&stream.home, ego.as_ref().unwrap_or(&identity), centre).unwrap();
-        let home = turned_px(&stream.home, &identity, centre).unwrap();
+        let seen = turned_px(&stream.home, ego.as_ref().unwrap_or(&IDENTITY), centre).unwrap();
+        let home = turned_px(&stream.home, &IDENTITY, centre).unwrap();
         largest_swing_px = largest_swing_px.max((seen[0] - home[0]).hypot(seen[1] - home[1]));
         let point = out.point_px.expect("the resting object's track is held");
         errors_px.push((point[0] - seen[0]).hypot(point[1] - seen[1]));
@@ -368,30 +376,16 @@ fn round_trip(t_s: f64) -> Vec<[f64; 3]> {
 fn an_object_that_returns_to_where_it_rested_is_kept() {
     let mut stream = Stream::new(1.0);
     let mut filter = EgoMotionFilter::new(Some(stream.home), 640, 480);
-    let (mut pending, mut out) = (
-        Vec::new(),
-        EventPacket::from_events(0, (0, 0), (640, 480), &[]),
-    );
+    let mut out = EventPacket::from_events(0, (0, 0), (640, 480), &[]);
     let (mut seen, mut kept) = (0usize, 0usize);
     for r in 1..=1_000u64 {
-        let t_ns = r * RENDER_NS;
-        let t_s = t_ns as f64 * 1e-9;
+        let t_s = (r * RENDER_NS) as f64 * 1e-9;
         let ego = stream.turn(t_s);
         filter.set_ego_rotation(ego);
-        stream.scene_events(ego.as_ref(), &mut pending);
-        Stream::events_of(
-            &stream.home,
-            ego.as_ref(),
-            &round_trip(t_s),
-            &mut stream.object_px,
-            Source::Object,
-            &mut pending,
-        );
-        if r % RENDERS_PER_PACKET != 0 {
+        let Some((unique, packet)) = stream.render(r, ego.as_ref(), &round_trip(t_s)) else {
             continue;
-        }
-        let unique: BTreeSet<Event> = pending.drain(..).map(|e| (t_ns, e)).collect();
-        filter.filter(&packet_of(&unique, r, t_ns), &mut out);
+        };
+        filter.filter(&packet, &mut out);
         if !(9.0..=10.0).contains(&t_s) {
             continue;
         }
@@ -417,24 +411,15 @@ fn an_object_that_returns_to_where_it_rested_is_kept() {
 /// The receiver judges closure there, as the segmenter judges symbols, and acquires.
 #[test]
 fn a_sweep_seen_while_the_observer_leans_further_is_acquired() {
-    use perception::events::{EventReceiver, EventReceiverConfig};
-    use proto::Rectification;
-
     let mut stream = Stream::new(0.0);
     stream.scene.clear();
     stream.scene_px.clear();
-    let mut config = EventReceiverConfig::paper();
-    config.segmenter = config
-        .segmenter
-        .rectified(stream.home, Rectification::Pitched);
-    let mut receiver = EventReceiver::new(config).unwrap();
+    let mut receiver = stream.receiver();
     // The lean grows from 0 to 4° while the object sweeps (6–10 s), then holds.
+    let home_q = stream.home_q;
     let lean = |t_s: f64| {
         let a = 4.0_f64.to_radians() * ((t_s - 6.0) / 4.0).clamp(0.0, 1.0);
-        EgoRotation::between(
-            stream.home_q,
-            product(about([0.4, 0.9, 0.2], a), stream.home_q),
-        )
+        EgoRotation::between(home_q, product(about([0.4, 0.9, 0.2], a), home_q))
     };
     // A 3 cm nudge out and back (3–4 s) that the tracker confirms and is too small to acquire
     // on, a rest, then 25 cm along +x by 8 s and back by 10 s.
@@ -448,12 +433,8 @@ fn a_sweep_seen_while_the_observer_leans_further_is_acquired() {
             .map(|p| [p[0] + away_m, p[1], p[2]])
             .collect::<Vec<_>>()
     };
-    let mut pending = Vec::new();
-    let identity = EgoRotation {
-        world_from_home: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-    };
     let raw_px = |t_s: f64, ego: Option<&EgoRotation>| {
-        turned_px(&stream.home, ego.unwrap_or(&identity), sweep(t_s)[36]).unwrap()
+        turned_px(&stream.home, ego.unwrap_or(&IDENTITY), sweep(t_s)[36]).unwrap()
     };
     let (start_px, end_px) = (raw_px(6.0, None), raw_px(10.0, lean(10.0).as_ref()));
     let shift_px = (end_px[0] - start_px[0]).hypot(end_px[1] - start_px[1]);
@@ -466,19 +447,9 @@ fn a_sweep_seen_while_the_observer_leans_further_is_acquired() {
         let t_s = t_ns as f64 * 1e-9;
         let ego = lean(t_s);
         receiver.set_ego_rotation(ego);
-        Stream::events_of(
-            &stream.home,
-            ego.as_ref(),
-            &sweep(t_s),
-            &mut stream.object_px,
-            Source::Object,
-            &mut pending,
-        );
-        if r % RENDERS_PER_PACKET != 0 {
-            continue;
+        if let Some((_, packet)) = stream.render(r, ego.as_ref(), &sweep(t_s)) {
+            receiver.push_packet(&packet);
         }
-        let unique: BTreeSet<_> = pending.drain(..).map(|e| (t_ns, e)).collect();
-        receiver.push_packet(&packet_of(&unique, r, t_ns));
     }
     let acquired_ns = receiver.status().acquired_ns;
     // Measured: acquired at 11.52 s (closure 0.006 of a 90 px span); judged in the raw
