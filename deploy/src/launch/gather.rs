@@ -3,6 +3,7 @@
 //! classified by the one key grammar ([`proto::Keys::parse`]).
 
 use std::collections::BTreeMap;
+use std::path::PathBuf;
 use std::time::Instant;
 
 use bus::Rejects;
@@ -13,8 +14,8 @@ use proto::{
     RejectReport, Role, SessionEvent, SessionTick, SimContacts, SimState, TokenEvent,
 };
 
-use crate::run_dir::ObserverRecord;
 use crate::run_dir::session::SessionRecorder;
+use crate::run_dir::track_spool::SpooledRecord;
 use run_eval::summary::ns_s;
 
 /// The keys the launcher subscribes to for `observers`.
@@ -48,7 +49,9 @@ pub struct Gathered {
     pub tick: u64,
     pub clock_started: Option<Instant>,
     pub last_tick_at: Option<Instant>,
-    pub records: BTreeMap<ObserverId, ObserverRecord>,
+    /// Each observer's output; track samples wait on disk in `spool_dir` (track_spool).
+    pub records: BTreeMap<ObserverId, SpooledRecord>,
+    pub spool_dir: PathBuf,
     pub missing: BTreeMap<ObserverId, u64>,
     pub phase: String,
     pub report: Option<MissionReport>,
@@ -82,10 +85,12 @@ pub struct SeenFault {
 }
 
 impl Gathered {
-    /// Starts gathering for observers whose homes are `homes_m`.
-    pub fn new(homes_m: BTreeMap<String, [f64; 3]>) -> Self {
+    /// Starts gathering for observers whose homes are `homes_m`, spooling their tracks into
+    /// `spool_dir` (the run directory: unnamed files, gone when the launcher ends).
+    pub fn new(homes_m: BTreeMap<String, [f64; 3]>, spool_dir: PathBuf) -> Self {
         Self {
             session: SessionRecorder::new(homes_m.clone()),
+            spool_dir,
             homes_m,
             ..Self::default()
         }
@@ -231,7 +236,7 @@ impl Gathered {
                 if let Some(t) = rejects.decode::<ObserverTrack>(key, payload)
                     && !mismatch(&t.observer, rejects)
                 {
-                    self.record(&t.observer).track.extend(t.samples);
+                    self.record(&t.observer).extend_track(t.samples);
                 }
             }
             Key::ObserverStatus(_) => {
@@ -309,8 +314,11 @@ impl Gathered {
         out
     }
 
-    fn record(&mut self, o: &ObserverId) -> &mut ObserverRecord {
-        self.records.entry(o.clone()).or_default()
+    fn record(&mut self, o: &ObserverId) -> &mut SpooledRecord {
+        let dir = &self.spool_dir;
+        self.records
+            .entry(o.clone())
+            .or_insert_with(|| SpooledRecord::new_in(dir))
     }
 
     fn clock(&mut self, c: ClockTick) {

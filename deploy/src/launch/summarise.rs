@@ -13,15 +13,15 @@ use super::supervise::Supervised;
 use crate::case::Case;
 use crate::fault::Injected;
 use crate::run_dir::session::SessionRecord;
-use crate::run_dir::{
-    CameraRenders, MissionSummary, ObserverRecord, ObserverSummary, ProcessFigures, RunSummary,
-};
+use crate::run_dir::track_spool::SpooledRecord;
+use crate::run_dir::{CameraRenders, MissionSummary, ObserverSummary, ProcessFigures, RunSummary};
 use run_eval::summary::{check_expected, ns_s, provenance_violations};
 
 /// What a run writes into its directory.
 pub struct RunOutputs {
     pub summary: RunSummary,
-    pub observers: BTreeMap<String, ObserverRecord>,
+    /// Serialise as `observers.json`'s records, their tracks read back from disk.
+    pub observers: BTreeMap<String, SpooledRecord>,
     pub session: SessionRecord,
 }
 
@@ -178,7 +178,7 @@ fn observer_records(
     g: &mut Gathered,
     report: &Option<MissionReport>,
 ) -> (
-    BTreeMap<String, ObserverRecord>,
+    BTreeMap<String, SpooledRecord>,
     BTreeMap<String, ObserverSummary>,
     Vec<String>,
 ) {
@@ -192,11 +192,12 @@ fn observer_records(
     let mut violations = Vec::new();
     for i in 0..n {
         let id = ObserverId::from_index(i);
-        let mut rec = g.records.remove(&id).unwrap_or_default();
+        let mut rec = g
+            .records
+            .remove(&id)
+            .unwrap_or_else(|| SpooledRecord::new_in(&g.spool_dir));
         rec.tokens.sort_by_key(|t| t.seq);
         rec.frames.sort_by_key(|f| f.seq);
-        rec.track.sort_by_key(|t| t.stamp_ns);
-        rec.track.dedup_by_key(|t| t.stamp_ns);
         let services = report
             .as_ref()
             .and_then(|r| r.services.get(&id).cloned())

@@ -68,6 +68,8 @@ pub struct Supervisor<'a> {
     pub duty: Duty,
     /// `--rss-every-s`: samples every process's resident memory (a measurement only).
     pub rss: Option<RssSampler>,
+    /// Where the observers' tracks wait until `observers.json` is written (the run directory).
+    pub spool_dir: &'a std::path::Path,
 }
 
 /// What a supervised run gathered.
@@ -106,7 +108,7 @@ impl Supervisor<'_> {
         let homes_m: BTreeMap<String, [f64; 3]> = (0..self.case.observers)
             .map(|i| (observer_name(i), observer_home_m(i, self.case.observers)))
             .collect();
-        let mut g = Gathered::new(homes_m);
+        let mut g = Gathered::new(homes_m, self.spool_dir.to_path_buf());
         let outcome = self.mission(&mut g, &mut fault_log, &bar);
         if outcome.is_err() {
             bar.finish_and_clear();

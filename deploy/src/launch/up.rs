@@ -217,6 +217,7 @@ pub fn up(compose: &Compose, secrets: Option<&SessionSecrets>, opts: &UpOptions)
                 Duty::Host
             },
             rss,
+            spool_dir: &place.out_dir,
         }
         .run()
     });

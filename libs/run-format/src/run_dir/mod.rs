@@ -11,6 +11,7 @@
 pub mod audit;
 pub mod lock;
 pub mod session;
+pub mod track_spool;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -383,26 +384,24 @@ impl RunFiles {
         })
     }
 
-    /// Writes the three files into `dir` (pretty JSON, the on-disk format).
-    pub fn write(
+    /// Writes the three files into `dir` (pretty JSON, the on-disk format). `observers` is a
+    /// map of [`ObserverRecord`]s or of anything that serialises as one (the launcher's
+    /// [`track_spool::SpooledRecord`]); each file is streamed, never built in memory whole.
+    pub fn write<R: Serialize>(
         dir: &Path,
         summary: &RunSummary,
-        observers: &BTreeMap<String, ObserverRecord>,
+        observers: &BTreeMap<String, R>,
         session: &SessionRecord,
     ) -> Result<(), RunDirError> {
-        std::fs::write(
-            dir.join(SUMMARY_FILE),
-            serde_json::to_string_pretty(summary)?,
-        )?;
-        std::fs::write(
-            dir.join(OBSERVERS_FILE),
-            serde_json::to_string_pretty(observers)?,
-        )?;
-        std::fs::write(
-            dir.join(SESSION_FILE),
-            serde_json::to_string_pretty(session)?,
-        )?;
-        Ok(())
+        fn stream(path: PathBuf, value: &impl Serialize) -> Result<(), RunDirError> {
+            let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+            serde_json::to_writer_pretty(&mut w, value)?;
+            std::io::Write::flush(&mut w)?;
+            Ok(())
+        }
+        stream(dir.join(SUMMARY_FILE), summary)?;
+        stream(dir.join(OBSERVERS_FILE), observers)?;
+        stream(dir.join(SESSION_FILE), session)
     }
 }
 
