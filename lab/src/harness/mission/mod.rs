@@ -78,7 +78,7 @@ pub fn fly_case_with(
     modality: Receiver,
     opts: &MissionOptions,
 ) -> Result<Option<MissionRun>> {
-    opts.check()?;
+    opts.check(modality)?;
     if let Some(r) = opts
         .receivers
         .iter()

@@ -11,6 +11,7 @@ use perturb::Perturbation;
 use proto::RenderPath;
 
 use commands::Policy;
+use proto::Receiver;
 use receiver_plugin::ObserverPlugin;
 
 /// How a mission is flown beyond its case: allocation policy, perturbation and its seed.
@@ -29,8 +30,10 @@ pub struct MissionOptions {
 }
 
 impl MissionOptions {
-    /// Refuses perturbation terms a whole mission does not model (yet), naming them.
-    pub fn check(&self) -> Result<()> {
+    /// Refuses perturbation terms a whole mission on `modality`'s cameras does not model (yet),
+    /// naming them. Light needing an RGB exposure longer than a frame's render is refused only
+    /// when the observers fly RGB cameras: event cameras take every light level.
+    pub fn check(&self, modality: Receiver) -> Result<()> {
         self.perturbation.check()?;
         for key in [
             "geometry.position_sigma_m",
@@ -46,15 +49,48 @@ impl MissionOptions {
                 );
             }
         }
-        if self.perturbation.rgb().blur_renders > 1 {
+        if modality == Receiver::Rgb && self.perturbation.rgb().blur_renders > 1 {
             bail!(
                 "light.lux = {} lx needs a {} ms RGB exposure (motion blur), modelled in link \
-                 trials (--link) only, not in whole missions: blur needs 100 Hz renders of RGB \
-                 cameras",
+                 trials (--link) only, not in whole missions with RGB cameras: blur needs 100 Hz \
+                 renders of RGB cameras (event cameras take this light level in missions)",
                 self.perturbation.lux(),
                 10 * self.perturbation.rgb().blur_renders
             );
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn under(terms: &[&str]) -> MissionOptions {
+        MissionOptions {
+            perturbation: Perturbation::parse(terms).unwrap(),
+            ..MissionOptions::default()
+        }
+    }
+
+    #[test]
+    fn dim_light_is_refused_only_for_rgb_cameras() {
+        let dim = under(&["light.lux=5"]);
+        let why = dim.check(Receiver::Rgb).unwrap_err().to_string();
+        assert!(why.contains("light.lux = 5 lx"), "{why}");
+        dim.check(Receiver::Events).unwrap();
+        dim.check(Receiver::Ideal).unwrap();
+        under(&["light.lux=3000"]).check(Receiver::Rgb).unwrap();
+    }
+
+    #[test]
+    fn link_only_terms_are_refused_for_every_camera() {
+        for receiver in [Receiver::Ideal, Receiver::Rgb, Receiver::Events] {
+            let why = under(&["geometry.yaw_sigma_deg=2"])
+                .check(receiver)
+                .unwrap_err()
+                .to_string();
+            assert!(why.starts_with("geometry.yaw_sigma_deg"), "{why}");
+        }
     }
 }

@@ -142,7 +142,7 @@ pub fn run_mission_trials_on(
         perturbation: opts.perturbation.clone(),
         ..MissionOptions::default()
     }
-    .check()?;
+    .check(opts.modality)?;
     run_pool_on(
         indices,
         opts.jobs,

@@ -149,6 +149,7 @@ impl BaselineStudy {
                 self.vary.len()
             );
         }
+        let mut levels = vec![p.clone()];
         if let Some(vary) = self.vary.first() {
             if vary.levels.is_empty() {
                 bail!("vary.levels must not be empty");
@@ -157,13 +158,20 @@ impl BaselineStudy {
                 let mut at = p.clone();
                 at.set(&vary.key, level).context("vary")?;
                 at.check().context("vary")?;
+                levels.push(at);
             }
         }
-        MissionOptions {
-            perturbation: p.clone(),
-            ..MissionOptions::default()
+        for arm in &self.arms {
+            let (receiver, _) = arm.receiver_and_policy();
+            for perturbation in &levels {
+                MissionOptions {
+                    perturbation: perturbation.clone(),
+                    ..MissionOptions::default()
+                }
+                .check(receiver)
+                .with_context(|| format!("arm {arm:?}"))?;
+            }
         }
-        .check()?;
         for c in &self.cases {
             let case = Case::load(c).with_context(|| format!("cases: {c}"))?;
             for arm in &self.arms {
