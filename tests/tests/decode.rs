@@ -3,7 +3,8 @@
 //! Round trip: `waggle link --events-raw` writes each observer's events as Prophesee EVT 3.0;
 //! decoding the file from the same viewpoint gives exactly the live link's tokens, frames and
 //! payloads (a viewpoint and payload no other test uses), with the frame check it was flown
-//! with. Bad input is refused naming it.
+//! with. Bad input is refused naming it. A whole mission's cameras are written the same way
+//! (`waggle mission --events-raw`), and its recording decodes to the messages it released.
 
 mod common;
 use common::{link, payloads};
@@ -114,4 +115,45 @@ fn bad_recordings_and_viewpoints_are_refused_naming_them() {
     let err = refusal(&file, "O9");
     assert!(err.contains("O9"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_missions_written_events_decode_to_the_messages_it_released() {
+    let dir = std::env::temp_dir().join(format!("waggle-decode-mission-{}", std::process::id()));
+    let dir_s = dir.to_str().unwrap();
+    let out = waggle_tests::succeed(
+        waggle_tests::waggle().args([
+            "mission",
+            "one-observer",
+            "--modality",
+            "events",
+            "--events-raw",
+            dir_s,
+            "--json",
+        ]),
+        "waggle mission one-observer --events-raw",
+    );
+    let live: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON output");
+    let file = dir.join("O1.raw");
+    let decoded = decode(&["--events", file.to_str().unwrap(), "--observer", "O1"]);
+    let _ = std::fs::remove_dir_all(&dir);
+    let released = &live["observers"]["O1"]["payloads"];
+    assert_eq!(released.as_array().map(Vec::len), Some(4), "{live}");
+    assert_eq!(&decoded["decoded"]["payloads"], released, "{decoded}");
+    // Only event cameras have events to write.
+    let out = waggle_tests::waggle()
+        .args([
+            "mission",
+            "one-observer",
+            "--modality",
+            "rgb",
+            "--events-raw",
+            dir_s,
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--events-raw") && err.contains("Rgb"), "{err}");
+    assert!(!dir.exists(), "a refused mission wrote {}", dir.display());
 }

@@ -28,7 +28,14 @@ pub fn run(args: MissionArgs) -> Result<()> {
         stop: None,
         receivers: args.receivers.checked()?,
         plugin_time_limit: args.receivers.time_limit(),
+        keep_events: args.events_raw.is_some(),
     };
+    if args.events_raw.is_some() && args.modality != Receiver::Events {
+        bail!(
+            "--events-raw writes event cameras' events; the {:?} modality has none",
+            args.modality
+        );
+    }
     for r in &opts.receivers {
         receiver_plugin::worker::check_loads(&r.plugin, opts.plugin_time_limit)
             .with_context(|| format!("{}'s receiver {}", r.observer.as_str(), r.plugin))?;
@@ -38,8 +45,13 @@ pub fn run(args: MissionArgs) -> Result<()> {
         metrics,
         observers,
         receiver_failures,
+        events,
         ..
     } = fly_case_with(&case, args.modality, &opts)?.context("the mission was interrupted")?;
+    if let Some(dir) = &args.events_raw {
+        let names: Vec<String> = events.keys().cloned().collect();
+        crate::harness::link::write_raws(dir, &names, events.values().map(Vec::as_slice))?;
+    }
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let path = dir.join(SUMMARY_FILE);

@@ -31,6 +31,11 @@ pub struct MissionArgs {
     /// sample, as `waggle run` writes it) and DIR/metrics.json here.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Events modality: write each observer's events, as its camera produced them (before the
+    /// sensor link's loss), to DIR/<observer>.raw (Prophesee EVT 3.0, readable by Metavision
+    /// tools, `waggle decode --events` and the perception crate's `event_symbols` example).
+    #[arg(long, value_name = "DIR")]
+    pub events_raw: Option<PathBuf>,
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,

@@ -58,6 +58,8 @@ pub struct MissionRun {
     pub receiver_failures: BTreeMap<String, String>,
     /// What became of the offers flown to each observer.
     pub receptions: BTreeMap<String, OfferReception>,
+    /// With [`MissionOptions::keep_events`]: each event camera's events, by observer.
+    pub events: BTreeMap<String, Vec<event_camera::Event>>,
 }
 
 /// Flies `case` with every observer on `modality`'s receiver, in one process.
@@ -112,17 +114,21 @@ pub fn fly_case_with(
         .iter()
         .filter_map(|o| Some((o.name.clone(), o.receiver_failure()?)))
         .collect();
-    let observers = mission
-        .observers
-        .into_iter()
-        .map(|o| (o.name, o.record))
-        .collect();
+    let mut events = BTreeMap::new();
+    let mut observers = BTreeMap::new();
+    for o in mission.observers {
+        if let Some(kept) = o.events {
+            events.insert(o.name.clone(), kept);
+        }
+        observers.insert(o.name, o.record);
+    }
     Ok(Some(MissionRun {
         summary,
         metrics,
         observers,
         receiver_failures,
         receptions,
+        events,
     }))
 }
 

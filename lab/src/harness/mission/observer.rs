@@ -59,6 +59,8 @@ pub struct MissionObserver {
     attitude: Option<AttitudeError>,
     /// What it published, as `observers.json` holds it.
     pub record: ObserverRecord,
+    /// Every event its camera produced, when the mission keeps them (`--events-raw`).
+    pub events: Option<Vec<event_camera::Event>>,
 }
 
 impl MissionObserver {
@@ -129,6 +131,7 @@ impl MissionObserver {
             home_wxyz,
             attitude: opts.perturbation.attitude_error_of(opts.seed, i),
             record: ObserverRecord::default(),
+            events: (opts.keep_events && modality == Receiver::Events).then(Vec::new),
         })
     }
 
@@ -202,7 +205,12 @@ impl MissionObserver {
                     }
                     f.into()
                 }
-                SensorOutput::Events(p) => p.into(),
+                SensorOutput::Events(p) => {
+                    if let Some(events) = self.events.as_mut() {
+                        crate::harness::flight::raw::packet_events(&p, events);
+                    }
+                    p.into()
+                }
             };
             if self.link.0.keeps(&mut self.link.1) {
                 let (tick, _) = self.core.packet(packet);

@@ -27,6 +27,9 @@ pub struct MissionOptions {
     pub receivers: Vec<ObserverPlugin>,
     /// The wall-clock time a plug-in may take over the whole mission (`None`: no limit).
     pub plugin_time_limit: Option<Duration>,
+    /// Keep every event each observer's camera produced, before the sensor link's loss
+    /// (`waggle mission --events-raw`), in [`super::MissionRun::events`].
+    pub keep_events: bool,
 }
 
 impl MissionOptions {

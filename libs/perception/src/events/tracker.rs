@@ -32,7 +32,18 @@
 //! not. So a confirmed one-sided window holds the track and takes back its confirmation: it must
 //! be located twice again within [`EventTrackerConfig::unconfirmed_hold_packets`], as a new track
 //! must (M-of-N confirmation), or it is dropped then as a one-sided interruption with the
-//! window's figures.
+//! window's figures — unless it was answered in place. A target that stops and settles (a
+//! flown drone overshoots by a fraction of a pixel and creeps back) fires the opposite polarity
+//! where it was held; one that left fires nothing there. So from the first doubt on, the local
+//! events of the doubting window and of every packet after it are counted, across later doubts,
+//! until the target is located twice again: when the hold runs out and the polarity opposite to
+//! the window's has fired at least a tenth as many events as the window had, the track is
+//! confirmed again and held, not dropped. A settle can take both halves of a doubt's hold, the
+//! target even located in place between them, so the count is kept until it is located twice
+//! more than [`EventTrackerConfig::settle_px`] from where it was held: moving on. A settling edge is a line of a few pixels firing again and again, never
+//! support, so unsupported packets count too; at rest the noise filter passes almost nothing
+//! into the local window (a median of 0 events a packet under 10 Hz of shot noise), far below a
+//! tenth of a target's change.
 
 use std::collections::VecDeque;
 
@@ -74,6 +85,11 @@ pub struct EventTrackerConfig {
     /// after it have not located it again: it is dropped, not held (0: every track is held,
     /// even one a one-sided window doubted).
     pub unconfirmed_hold_packets: u32,
+    /// A doubted target located again within this distance of where it was held is still
+    /// settling in place, not moving on: half the drone's image height at 1.3 m. It settles
+    /// within a pixel, but the support of its sparse settling packets puts the estimate up to
+    /// a few pixels off; a stroke moves it up to 8 px a packet.
+    pub settle_px: f64,
 }
 
 impl EventTrackerConfig {
@@ -96,6 +112,7 @@ impl EventTrackerConfig {
             broad_cell_min_events: 4,
             broad_active_cells: 40,
             unconfirmed_hold_packets: 12,
+            settle_px: 6.0,
         }
     }
 
@@ -119,6 +136,9 @@ impl EventTrackerConfig {
                 "one_sided_fraction",
                 format!("{} is outside (0.5, 1]", self.one_sided_fraction),
             );
+        }
+        if !(self.settle_px.is_finite() && self.settle_px >= 0.0) {
+            return bad("settle_px", format!("{} is not a distance", self.settle_px));
         }
         if !positive(self.search_half_px) {
             return bad(
@@ -234,6 +254,19 @@ impl Observation {
 /// Local ON / OFF event counts.
 type Counts = [u64; 2];
 
+/// The local events since a track was first put in doubt: kept across later doubts and
+/// relocations in place, until the target is located twice more than
+/// [`EventTrackerConfig::settle_px`] from where it was held.
+#[derive(Debug, Clone, Copy)]
+struct Presence {
+    /// The estimate when the first doubt came.
+    at_px: [f64; 2],
+    /// Counts of the doubting window.
+    window: Counts,
+    /// Counts of every packet after it.
+    after: Counts,
+}
+
 /// Event-support tracker for one sensor.
 #[derive(Debug, Clone)]
 pub struct SupportTracker {
@@ -249,6 +282,8 @@ pub struct SupportTracker {
     /// The confirmed one-sided window that doubted the current track, reported if the track is
     /// dropped before it is confirmed again.
     doubted_by: Option<TrackFault>,
+    /// What has fired where the track was first doubted since it last moved on.
+    presence: Option<Presence>,
     /// Packets that located the current track (saturating) and packets since the last one.
     located_packets: u32,
     held_packets: u32,
@@ -280,6 +315,7 @@ impl SupportTracker {
             context: VecDeque::with_capacity(config.polarity_context_packets + 1),
             pending: None,
             doubted_by: None,
+            presence: None,
             located_packets: 0,
             held_packets: 0,
             centre: Centre::PercentileMidpoint,
@@ -335,6 +371,7 @@ impl SupportTracker {
         self.context.clear();
         self.pending = None;
         self.doubted_by = None;
+        self.presence = None;
         self.located_packets = 0;
         self.held_packets = 0;
     }
@@ -364,6 +401,20 @@ impl SupportTracker {
         limit > 0 && self.located_packets < 2 && self.held_packets >= limit
     }
 
+    /// True when the polarity opposite to the first doubt's window has fired locally since,
+    /// at least the minority share a balanced window may have of that window's events.
+    fn answered(&self) -> bool {
+        self.presence.is_some_and(|Presence { window, after, .. }| {
+            let opposite = if window[0] >= window[1] {
+                after[1]
+            } else {
+                after[0]
+            };
+            let events = (window[0] + window[1]) as f64;
+            opposite > 0 && opposite as f64 >= (1.0 - self.config.one_sided_fraction) * events
+        })
+    }
+
     /// Reads one consistent packet of this sensor's size.
     pub fn observe(&mut self, packet: &EventPacket) -> Observation {
         if !packet.is_empty() {
@@ -382,6 +433,8 @@ impl SupportTracker {
         }
         let evidence = gather_centred(packet, self.window(), self.centre, &mut self.scratch);
         let counts = [evidence.on_events as u64, evidence.off_events() as u64];
+        // This packet joins the presence count unless a window that already holds it starts it.
+        let mut counted = false;
         if let Some(pending) = self.pending.take() {
             let window = [pending[0] + counts[0], pending[1] + counts[1]];
             let events = window[0] + window[1];
@@ -397,7 +450,24 @@ impl SupportTracker {
                         events,
                     });
                 }
+                if let (None, Some(at_px)) = (self.presence, self.estimate_px) {
+                    self.presence = Some(Presence {
+                        at_px,
+                        window,
+                        after: [0, 0],
+                    });
+                    counted = true;
+                }
             }
+        }
+        // Every local event counts, supported or not: a settling edge is a line of a few
+        // pixels firing again and again, never support. What the noise filter lets through at
+        // rest is too little to answer a change of a target's size (module docs).
+        if let Some(presence) = self.presence.as_mut()
+            && !counted
+        {
+            presence.after[0] += counts[0];
+            presence.after[1] += counts[1];
         }
         let observation = match support_first(&evidence, &self.config) {
             Judgement::Locate(centre_px) => {
@@ -414,6 +484,14 @@ impl SupportTracker {
                 self.held_packets = 0;
                 if self.located_packets >= 2 {
                     self.doubted_by = None;
+                    // Located twice where it was held is a target still settling, whose other
+                    // half of the settle may follow; located away from it, it has moved on.
+                    let settle_px = self.config.settle_px;
+                    if self.presence.is_some_and(|p| {
+                        (point_px[0] - p.at_px[0]).hypot(point_px[1] - p.at_px[1]) > settle_px
+                    }) {
+                        self.presence = None;
+                    }
                 }
                 Observation::Located {
                     point_px,
@@ -430,7 +508,15 @@ impl SupportTracker {
                     }
                     self.pending = Some(window);
                 }
-                let blip = self.estimate_px.is_some() && self.unconfirmed();
+                let mut blip = self.estimate_px.is_some() && self.unconfirmed();
+                if blip && self.doubted_by.is_some() && self.answered() {
+                    // The one-sided change was answered in place by the opposite polarity: a
+                    // target that stopped and settles, not one that left. Confirmed again.
+                    blip = false;
+                    self.doubted_by = None;
+                    self.located_packets = 2;
+                    self.held_packets = 0;
+                }
                 match self.estimate_px {
                     Some(_) if blip => {
                         let fault = self.doubted_by.unwrap_or(TrackFault::Unconfirmed {
@@ -690,6 +776,115 @@ mod tests {
     }
 
     #[test]
+    fn a_stopped_target_that_settles_back_in_place_keeps_its_track() {
+        let limit = EventTrackerConfig::paper().unconfirmed_hold_packets;
+        let mut t = tracker();
+        let held_at = confirmed_then_one_sided(&mut t);
+        // It settles back where it stopped: its lower edge, a line, fires the opposite
+        // polarity, as many events as the change had (a line is never support).
+        let obs = t.observe(&packet(&edge(576, Polarity::Off)));
+        assert!(matches!(obs, Observation::Held { .. }), "{obs:?}");
+        // Rest long past the hold: the doubt is answered, never a drop.
+        for _ in 0..2 * limit {
+            let obs = t.observe(&packet(&[]));
+            assert!(matches!(obs, Observation::Held { .. }), "{obs:?}");
+        }
+        assert!(!t.polarity_doubted());
+        // Its creep's last packets doubt it again; the answer already seen still stands.
+        let mut tail = footprint(320, 240, Polarity::On);
+        tail.truncate(288);
+        t.observe(&packet(&tail));
+        t.observe(&packet(&[]));
+        assert!(t.polarity_doubted());
+        for _ in 0..2 * limit {
+            let obs = t.observe(&packet(&[]));
+            assert!(matches!(obs, Observation::Held { .. }), "{obs:?}");
+        }
+        assert_eq!(t.estimate_px(), Some(held_at));
+    }
+
+    /// A lower-edge line of `n` events at y = 245 around x = 320, one polarity.
+    fn edge(n: usize, polarity: Polarity) -> Vec<(u16, u16, Polarity)> {
+        (0..n)
+            .map(|i| (296 + (i % 48) as u16, 245, polarity))
+            .collect()
+    }
+
+    #[test]
+    fn a_settle_split_by_locations_in_place_is_still_answered() {
+        let limit = EventTrackerConfig::paper().unconfirmed_hold_packets;
+        let mut t = tracker();
+        let held_at = confirmed_then_one_sided(&mut t);
+        // Located twice where it was held: confirmed, still settling.
+        t.observe(&packet(&moving_bar(319, 240)));
+        t.observe(&packet(&moving_bar(319, 240)));
+        assert!(!t.polarity_doubted());
+        let p = t.estimate_px().unwrap();
+        assert!(
+            (p[0] - held_at[0]).hypot(p[1] - held_at[1]) < 2.0,
+            "{p:?} {held_at:?}"
+        );
+        // The settle's other half, doubted on its own, is the answer to the first.
+        t.observe(&packet(&[]));
+        t.observe(&packet(&footprint(320, 240, Polarity::Off)));
+        t.observe(&packet(&[]));
+        assert!(t.polarity_doubted());
+        for _ in 0..2 * limit {
+            let obs = t.observe(&packet(&[]));
+            assert!(matches!(obs, Observation::Held { .. }), "{obs:?}");
+        }
+    }
+
+    #[test]
+    fn a_target_that_moved_on_must_be_answered_afresh() {
+        let limit = EventTrackerConfig::paper().unconfirmed_hold_packets;
+        let mut t = tracker();
+        confirmed_then_one_sided(&mut t);
+        // It moves on, located well away from where it was held...
+        for cx in [326, 334, 342] {
+            t.observe(&packet(&moving_bar(cx, 240)));
+        }
+        // ...and vanishes there: what fired at the first place answers nothing here.
+        t.observe(&packet(&footprint(342, 240, Polarity::Off)));
+        t.observe(&packet(&[]));
+        assert!(t.polarity_doubted());
+        let mut dropped = false;
+        for _ in 2..=limit {
+            if let Observation::Interrupted(fault) = t.observe(&packet(&[])) {
+                assert!(
+                    matches!(fault, TrackFault::OneSidedPolarity { .. }),
+                    "{fault:?}"
+                );
+                dropped = true;
+                break;
+            }
+        }
+        assert!(dropped);
+    }
+
+    #[test]
+    fn a_trickle_of_opposite_events_does_not_answer_a_doubt() {
+        let limit = EventTrackerConfig::paper().unconfirmed_hold_packets;
+        let mut t = tracker();
+        confirmed_then_one_sided(&mut t);
+        // Four OFF events in place each packet, far more than the noise filter passes at rest:
+        // less than a tenth of the change, no answer.
+        let mut dropped = false;
+        for _ in 2..=limit {
+            let speck: Vec<_> = (0..4).map(|i| (318 + i, 240, Polarity::Off)).collect();
+            if let Observation::Interrupted(fault) = t.observe(&packet(&speck)) {
+                assert!(
+                    matches!(fault, TrackFault::OneSidedPolarity { .. }),
+                    "{fault:?}"
+                );
+                dropped = true;
+                break;
+            }
+        }
+        assert!(dropped);
+    }
+
+    #[test]
     fn a_scene_that_stays_one_sided_cannot_keep_a_doubted_track() {
         let limit = EventTrackerConfig::paper().unconfirmed_hold_packets;
         let mut t = tracker();
@@ -769,6 +964,9 @@ mod tests {
         assert!(SupportTracker::new(c, 640, 480).is_err());
         let mut c = EventTrackerConfig::paper();
         c.one_sided_fraction = 0.4;
+        assert!(c.validate().is_err());
+        let mut c = EventTrackerConfig::paper();
+        c.settle_px = f64::NAN;
         assert!(c.validate().is_err());
         assert!(SupportTracker::new(EventTrackerConfig::paper(), 0, 480).is_err());
     }
