@@ -848,18 +848,7 @@ mod tests {
         t.observe(&packet(&footprint(342, 240, Polarity::Off)));
         t.observe(&packet(&[]));
         assert!(t.polarity_doubted());
-        let mut dropped = false;
-        for _ in 2..=limit {
-            if let Observation::Interrupted(fault) = t.observe(&packet(&[])) {
-                assert!(
-                    matches!(fault, TrackFault::OneSidedPolarity { .. }),
-                    "{fault:?}"
-                );
-                dropped = true;
-                break;
-            }
-        }
-        assert!(dropped);
+        assert_dropped_one_sided(&mut t, limit - 1, &[]);
     }
 
     #[test]
@@ -869,19 +858,26 @@ mod tests {
         confirmed_then_one_sided(&mut t);
         // Four OFF events in place each packet, far more than the noise filter passes at rest:
         // less than a tenth of the change, no answer.
-        let mut dropped = false;
-        for _ in 2..=limit {
-            let speck: Vec<_> = (0..4).map(|i| (318 + i, 240, Polarity::Off)).collect();
-            if let Observation::Interrupted(fault) = t.observe(&packet(&speck)) {
+        let speck: Vec<_> = (0..4).map(|i| (318 + i, 240, Polarity::Off)).collect();
+        assert_dropped_one_sided(&mut t, limit - 1, &speck);
+    }
+
+    /// Feeds `events` at most `packets` times: the track must be dropped as one-sided.
+    fn assert_dropped_one_sided(
+        t: &mut SupportTracker,
+        packets: u32,
+        events: &[(u16, u16, Polarity)],
+    ) {
+        for _ in 0..packets {
+            if let Observation::Interrupted(fault) = t.observe(&packet(events)) {
                 assert!(
                     matches!(fault, TrackFault::OneSidedPolarity { .. }),
                     "{fault:?}"
                 );
-                dropped = true;
-                break;
+                return;
             }
         }
-        assert!(dropped);
+        panic!("held after {packets} packets");
     }
 
     #[test]
