@@ -32,18 +32,19 @@
 //! not. So a confirmed one-sided window holds the track and takes back its confirmation: it must
 //! be located twice again within [`EventTrackerConfig::unconfirmed_hold_packets`], as a new track
 //! must (M-of-N confirmation), or it is dropped then as a one-sided interruption with the
-//! window's figures — unless it was answered in place. A target that stops and settles (a
-//! flown drone overshoots by a fraction of a pixel and creeps back) fires the opposite polarity
-//! where it was held; one that left fires nothing there. So from the first doubt on, the local
-//! events of the doubting window and of every packet after it are counted, across later doubts,
-//! until the target is located twice again: when the hold runs out and the polarity opposite to
-//! the window's has fired at least a tenth as many events as the window had, the track is
-//! confirmed again and held, not dropped. A settle can take both halves of a doubt's hold, the
-//! target even located in place between them, so the count is kept until it is located twice
-//! more than [`EventTrackerConfig::settle_px`] from where it was held: moving on. A settling edge is a line of a few pixels firing again and again, never
-//! support, so unsupported packets count too; at rest the noise filter passes almost nothing
-//! into the local window (a median of 0 events a packet under 10 Hz of shot noise), far below a
-//! tenth of a target's change.
+//! window's figures — unless it was answered in place.
+//!
+//! **A doubt is answered in place.** A target that stops and settles (a flown drone overshoots
+//! by a fraction of a pixel and creeps back) fires the opposite polarity where it was held; one
+//! that left fires nothing there. So from the first doubt on, the local events of the doubting
+//! window and of every packet after it are counted, across later doubts: when a hold runs out
+//! and the polarity opposite to the window's has fired at least a tenth as many events as the
+//! window had, the track is confirmed again and held, not dropped. A settle can outlast a hold
+//! and be split by locations in place, so the count is kept until the target is located twice
+//! more than [`EventTrackerConfig::settle_px`] from where it was held (it moved on). A settling
+//! edge is a line of a few pixels firing again and again, never support, so unsupported packets
+//! count too; at rest the noise filter passes almost nothing into the local window (a median of
+//! 0 events a packet under 10 Hz of shot noise), far below a tenth of a target's change.
 
 use std::collections::VecDeque;
 
